@@ -1,0 +1,1 @@
+"""boxbox: Python robots for TORCS."""

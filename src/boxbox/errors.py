@@ -1,0 +1,25 @@
+"""boxbox's errors: each maps to a one-line message and an exit status."""
+
+
+class BoxboxError(Exception):
+    """Base class: `str(err)` is the one line shown to the user."""
+
+    exit_code = 1
+
+
+class UsageError(BoxboxError):
+    """Bad input (unknown track, car, robot; invalid numbers): exit 2, before TORCS starts."""
+
+    exit_code = 2
+
+
+class SetupError(BoxboxError):
+    """TORCS, its headers or the bridge could not be set up."""
+
+    exit_code = 3
+
+
+class RaceError(BoxboxError):
+    """The race did not finish properly: a robot fault, TORCS dying, a timeout."""
+
+    exit_code = 4

@@ -1,0 +1,270 @@
+"""Setting up TORCS for boxbox, idempotently: packages, headers, the bridge, the overlay.
+
+Nothing under /usr is changed apart from installing Debian's packages: our robot lives in an
+overlay (folders of symlinks to the system TORCS plus our own `drivers/boxbox/`).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import shutil
+import subprocess
+import tarfile
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable
+
+from boxbox.errors import SetupError
+from boxbox.torcs import wire
+from boxbox.torcs.paths import (BRIDGE_SOURCE, HEADER_MEMBERS, ROBOT_MODULE, TorcsInstall, cache_dir,
+                                system_torcs)
+
+Report = Callable[[str], None]
+PACKAGES = ["torcs", "libplib-dev"]
+
+
+@dataclass(frozen=True)
+class Overlay:
+    """The directories a race runs TORCS with."""
+
+    torcs: TorcsInstall
+    lib_dir: Path
+    data_dir: Path
+    bridge: Path
+
+
+def _quiet(msg: str) -> None:
+    pass
+
+
+def _run(cmd: list[str], log: Path, what: str, cwd: Path | None = None) -> None:
+    log.parent.mkdir(parents=True, exist_ok=True)
+    with open(log, "ab") as out:
+        proc = subprocess.run(cmd, stdout=out, stderr=subprocess.STDOUT, cwd=cwd, stdin=subprocess.DEVNULL)
+    if proc.returncode != 0:
+        tail = log.read_text(errors="replace").strip().splitlines()[-1:] or [""]
+        raise SetupError(f"{what} failed ({' '.join(cmd)}): {tail[0]}; full log: {log}")
+
+
+def _privileged(cmd: list[str]) -> list[str]:
+    if os.geteuid() == 0:
+        return cmd
+    if shutil.which("sudo"):
+        return ["sudo", "-n", *cmd]
+    raise SetupError(f"`{' '.join(cmd)}` needs root: run it as root or install sudo")
+
+
+def packages_missing() -> list[str]:
+    missing = []
+    if not system_torcs().binary.exists():
+        missing.append("torcs")
+    if not Path("/usr/include/plib/sg.h").exists():
+        missing.append("libplib-dev")
+    return missing
+
+
+def install_packages(report: Report = _quiet) -> None:
+    missing = packages_missing()
+    if not missing:
+        return
+    if not shutil.which("apt-get"):
+        raise SetupError(f"Debian packages {', '.join(missing)} are missing and apt-get is not available")
+    log = cache_dir() / "logs" / "apt.log"
+    report(f"installing Debian packages: {', '.join(missing)} (log: {log})")
+    env_cmd = ["env", "DEBIAN_FRONTEND=noninteractive"]
+    _run(_privileged([*env_cmd, "apt-get", "update"]), log, "apt-get update")
+    _run(_privileged([*env_cmd, "apt-get", "install", "-y", "--no-install-recommends", *missing]), log,
+         "apt-get install")
+    still = packages_missing()
+    if still:
+        raise SetupError(f"apt-get did not install {', '.join(still)}; see {log}")
+
+
+def _deb_src_stanzas() -> str:
+    """deb-src entries mirroring the machine's deb entries (same URIs and suites)."""
+    stanzas = []
+    for path in sorted(Path("/etc/apt/sources.list.d").glob("*.sources")):
+        for block in path.read_text().split("\n\n"):
+            fields = {}
+            for line in block.splitlines():
+                if ":" in line and not line.startswith("#"):
+                    key, value = line.split(":", 1)
+                    fields[key.strip()] = value.strip()
+            if fields.get("Types", "").split() == ["deb"] and "debian" in fields.get("URIs", ""):
+                lines = [f"Types: deb-src"] + [f"{k}: {v}" for k, v in fields.items() if k != "Types"]
+                stanzas.append("\n".join(lines))
+    sources_list = Path("/etc/apt/sources.list")
+    if sources_list.exists():
+        for line in sources_list.read_text().splitlines():
+            if line.startswith("deb ") and "debian" in line:
+                stanzas.append(line.replace("deb ", "deb-src ", 1))
+    return "\n\n".join(stanzas) + "\n"
+
+
+def headers_dir(report: Report = _quiet) -> Path:
+    """TORCS headers: $TORCS_SRC (a source tree) or extracted once from Debian's source package."""
+    if env := os.environ.get("TORCS_SRC"):
+        src = Path(env)
+        if not (src / "src" / "interfaces" / "robot.h").exists():
+            raise SetupError(f"TORCS_SRC={src} has no src/interfaces/robot.h; point it at a TORCS source tree")
+        return _include_tree(src, cache_dir() / "headers-from-TORCS_SRC")
+    root = cache_dir() / "torcs-headers"
+    include = root / "include"
+    if (include / "robot.h").exists():
+        return include
+    log = cache_dir() / "logs" / "headers.log"
+    with tempfile.TemporaryDirectory(prefix="boxbox-src-") as tmp:
+        tarball = _download_source(Path(tmp), log, report)
+        report("extracting the TORCS headers from the source package")
+        src = Path(tmp) / "src-tree"
+        _extract_headers(tarball, src)
+        staging = root.with_name("torcs-headers.partial")
+        shutil.rmtree(staging, ignore_errors=True)
+        _include_tree(src, staging / "include")
+        shutil.rmtree(root, ignore_errors=True)
+        staging.rename(root)
+    return include
+
+
+def _download_source(tmp: Path, log: Path, report: Report) -> Path:
+    if not shutil.which("apt-get"):
+        raise SetupError("the TORCS headers need apt-get (or set TORCS_SRC to a TORCS source tree)")
+    report(f"downloading Debian's torcs source package for its headers (log: {log})")
+    src_list = Path("/etc/apt/sources.list.d/boxbox-deb-src.sources")
+    if not src_list.exists():
+        stanzas = _deb_src_stanzas()
+        if not stanzas.strip():
+            raise SetupError("no Debian apt source found to derive a deb-src entry from; set TORCS_SRC")
+        tmp_list = tmp / "boxbox-deb-src.sources"
+        tmp_list.write_text(stanzas)
+        _run(_privileged(["cp", str(tmp_list), str(src_list)]), log, "adding a deb-src entry")
+        _run(_privileged(["apt-get", "update"]), log, "apt-get update")
+    dl = tmp / "download"
+    dl.mkdir()
+    os.chmod(tmp, 0o755)
+    os.chmod(dl, 0o777)  # apt's sandbox user writes here
+    _run(["apt-get", "source", "--download-only", "torcs"], log, "apt-get source", cwd=dl)
+    tarballs = sorted(dl.glob("torcs_*.orig.tar.*"))
+    if not tarballs:
+        raise SetupError(f"apt-get source gave no torcs orig tarball; see {log}")
+    return tarballs[0]
+
+
+def _extract_headers(tarball: Path, dest: Path) -> None:
+    import fnmatch
+
+    dest.mkdir(parents=True)
+    # Decompress with the xz tool when present (much faster than Python's lzma for 390 MB).
+    cmd = ["tar", "-xf", str(tarball), "-C", str(dest), "--strip-components=1", "--wildcards",
+           *[f"*/{m}" for m in HEADER_MEMBERS]]
+    if shutil.which("tar") and subprocess.run(cmd, capture_output=True).returncode == 0:
+        return
+    with tarfile.open(tarball) as tar:
+        for member in tar:
+            rel = member.name.split("/", 1)[-1]
+            if member.isfile() and any(fnmatch.fnmatch(rel, m) for m in HEADER_MEMBERS):
+                member.name = rel
+                tar.extract(member, dest, filter="data")
+
+
+def _include_tree(src: Path, include: Path) -> Path:
+    """Flatten the needed headers into one include dir (math headers as <tmath/...>)."""
+    include.mkdir(parents=True, exist_ok=True)
+    (include / "tmath").mkdir(exist_ok=True)
+    for pattern in HEADER_MEMBERS:
+        for header in src.glob(pattern):
+            target = include / "tmath" if "/math/" in str(header) else include
+            shutil.copy2(header, target / header.name)
+    if not (include / "robot.h").exists():
+        raise SetupError(f"no robot.h found under {src}")
+    return include
+
+
+def bridge_fingerprint() -> str:
+    digest = hashlib.sha256(BRIDGE_SOURCE.read_bytes() + wire.c_header().encode()).hexdigest()
+    return digest[:16]
+
+
+def build_bridge(include: Path, torcs: TorcsInstall, report: Report = _quiet) -> Path:
+    out_dir = cache_dir() / "bridge" / bridge_fingerprint()
+    module = out_dir / f"{ROBOT_MODULE}.so"
+    if module.exists():
+        return module
+    if not shutil.which("g++"):
+        raise SetupError("g++ is needed to build the bridge: apt-get install g++")
+    report("compiling the bridge module")
+    out_dir.mkdir(parents=True, exist_ok=True)
+    (out_dir / "bb_wire.h").write_text(wire.c_header())
+    tmp = out_dir / f"{ROBOT_MODULE}.so.tmp"
+    cmd = ["g++", "-O2", "-shared", "-fPIC", "-Wall", "-o", str(tmp), str(BRIDGE_SOURCE),
+           f"-I{out_dir}", f"-I{include}", f"-L{torcs.shared_lib_dir}", "-lrobottools", "-ltgf",
+           f"-Wl,-rpath,{torcs.shared_lib_dir}"]
+    proc = subprocess.run(cmd, capture_output=True, text=True)
+    if proc.returncode != 0:
+        first = next((ln for ln in proc.stderr.splitlines() if "error" in ln), proc.stderr.strip()[:300])
+        raise SetupError(f"compiling the bridge failed: {first}")
+    tmp.rename(module)
+    return module
+
+
+def _mirror(src: Path, dest: Path, real_subdir: str) -> None:
+    """dest/* -> symlinks to src/*, except real_subdir, which is a real dir of symlinks."""
+    dest.mkdir(parents=True, exist_ok=True)
+    for entry in src.iterdir():
+        link = dest / entry.name
+        if entry.name == real_subdir:
+            link.mkdir(exist_ok=True)
+            for sub in entry.iterdir():
+                if not (link / sub.name).exists():
+                    (link / sub.name).symlink_to(sub)
+        elif not link.exists():
+            link.symlink_to(entry)
+
+
+def build_overlay(bridge: Path, torcs: TorcsInstall) -> Overlay:
+    root = cache_dir() / "overlay" / bridge.parent.name
+    lib, data = root / "lib", root / "data"
+    if not (lib / "drivers" / ROBOT_MODULE / f"{ROBOT_MODULE}.so").exists():
+        tmp = root.with_name(root.name + ".partial")
+        shutil.rmtree(tmp, ignore_errors=True)
+        _mirror(torcs.lib_dir, tmp / "lib", "drivers")
+        _mirror(torcs.data_dir, tmp / "data", "drivers")
+        mod_dir = tmp / "lib" / "drivers" / ROBOT_MODULE
+        mod_dir.mkdir()
+        shutil.copy2(bridge, mod_dir / f"{ROBOT_MODULE}.so")
+        (tmp / "data" / "drivers" / ROBOT_MODULE).mkdir()
+        shutil.rmtree(root, ignore_errors=True)
+        tmp.rename(root)
+    return Overlay(torcs=torcs, lib_dir=lib, data_dir=data, bridge=lib / "drivers" / ROBOT_MODULE / f"{ROBOT_MODULE}.so")
+
+
+def ensure_ready(report: Report = _quiet) -> Overlay:
+    """Do whatever setup is missing; fast when everything is in place."""
+    torcs = system_torcs()
+    install_packages(report)
+    if not torcs.binary.exists():
+        raise SetupError(f"TORCS binary not found at {torcs.binary}; install Debian's torcs package")
+    include = headers_dir(report)
+    bridge = build_bridge(include, torcs, report)
+    return build_overlay(bridge, torcs)
+
+
+def doctor() -> list[tuple[str, bool, str]]:
+    """(component, present, detail) for `boxbox doctor`."""
+    torcs = system_torcs()
+    rows = [
+        ("TORCS binary", torcs.binary.exists(), str(torcs.binary)),
+        ("TORCS data", (torcs.data_dir / "tracks").exists(), str(torcs.data_dir)),
+        ("plib headers (libplib-dev)", Path("/usr/include/plib/sg.h").exists(), "/usr/include/plib"),
+        ("g++", shutil.which("g++") is not None, shutil.which("g++") or "apt-get install g++"),
+    ]
+    include = Path(os.environ["TORCS_SRC"]) if os.environ.get("TORCS_SRC") else cache_dir() / "torcs-headers" / "include"
+    rows.append(("TORCS headers", (include / "robot.h").exists() or (include / "src/interfaces/robot.h").exists(),
+                 str(include)))
+    module = cache_dir() / "bridge" / bridge_fingerprint() / f"{ROBOT_MODULE}.so"
+    rows.append(("bridge module", module.exists(), str(module)))
+    overlay = cache_dir() / "overlay" / bridge_fingerprint()
+    rows.append(("overlay", (overlay / "lib" / "drivers" / ROBOT_MODULE).exists(), str(overlay)))
+    return rows

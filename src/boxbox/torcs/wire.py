@@ -1,0 +1,136 @@
+"""The bridge's wire format: the one definition both sides use.
+
+Every message is a 16-byte header of four little-endian int32 (kind, robot index, step, count)
+followed by a payload of float64 records.  Each record layout below is a list of field names;
+the C++ bridge gets the same layouts as a generated header (`c_header()`), so the two sides
+cannot drift apart.  All numbers travel as doubles: no padding, no per-field types to keep in sync.
+
+Message flow (bridge -> host, host answers each with one message unless noted):
+  HELLO       payload: HELLO record                      -> HELLO  (protocol check)
+  NEW_TRACK   chunks of TRACK + count x SEGMENT + HANDLE  -> FUEL   (after the last chunk)
+  NEW_RACE    CAR record                                  -> ACK
+  DRIVE       STATE + count x OPPONENT                    -> CONTROLS
+  PIT_CMD     STATE                                       -> PIT_ORDER
+  END_RACE    STATE                                       -> ACK
+  SHUTDOWN    nothing                                     (no answer)
+A reply's header carries the same kind, robot index and step; its `count` holds FLAG_* bits.
+"""
+
+from __future__ import annotations
+
+import struct
+
+PROTOCOL_VERSION = 3
+
+# message kinds
+HELLO, NEW_TRACK, NEW_RACE, DRIVE, PIT_CMD, END_RACE, SHUTDOWN, FUEL, ACK, CONTROLS, PIT_ORDER = range(1, 12)
+
+FLAG_FAULT = 1  # reply flag: the robot failed; the bridge brakes this car and stops asking
+
+HEADER = struct.Struct("<iiii")
+MAX_MESSAGE_BYTES = 60_000  # SOCK_SEQPACKET message limit we stay under (chunked above it)
+MAX_OPPONENTS = 40
+MAX_GEARS = 10
+
+HELLO_FIELDS = ["protocol_version", "car_struct_bytes", "pid"]
+
+TRACK_FIELDS = [
+    "length_m", "width_m", "n_segments",
+    "pit_type", "pit_side", "pit_entry_seg", "pit_start_seg", "pit_end_seg", "pit_exit_seg",
+    "pit_width_m", "pit_box_length_m", "pit_speed_limit_mps", "pit_count",
+]
+
+SEGMENT_FIELDS = [
+    "id", "type", "length_m", "width_m", "start_width_m", "end_width_m", "start_dist_m",
+    "radius_m", "radius_right_m", "radius_left_m", "arc_rad",
+    "center_x", "center_y",
+    "start_left_x", "start_left_y", "start_right_x", "start_right_y",
+    "end_left_x", "end_left_y", "end_right_x", "end_right_y",
+    "start_z_m", "end_z_m", "start_angle_rad",
+    "friction", "roll_resistance", "roughness", "race_info",
+    "left_side_width_m", "right_side_width_m", "left_side_friction", "right_side_friction",
+    "banking_start_rad", "banking_end_rad",
+]
+
+# car constants readable from the car's parameter file at NEW_TRACK time
+HANDLE_FIELDS = [
+    "mass_kg", "tank_l", "initial_fuel_l",
+    "front_wing_area_m2", "front_wing_angle_rad", "rear_wing_area_m2", "rear_wing_angle_rad",
+    "front_clift", "rear_clift", "cx", "front_area_m2",
+    "ride_height_fr_m", "ride_height_fl_m", "ride_height_rr_m", "ride_height_rl_m",
+    "mu_fr", "mu_fl", "mu_rr", "mu_rl",
+    "drivetrain",  # 0 RWD, 1 FWD, 2 4WD
+    "fuel_cons_factor", "brake_pressure_max", "brake_front_rear",
+]
+
+# car constants known once the car exists (NEW_RACE), plus this car's own pit
+CAR_FIELDS = [
+    "car_index", "gear_count", "gear_offset",
+    *[f"gear_ratio_{i}" for i in range(MAX_GEARS)],
+    "rpm_redline", "rpm_max", "rpm_max_torque", "rpm_max_power", "max_torque_nm", "max_power_w",
+    "wheel_radius_fr_m", "wheel_radius_fl_m", "wheel_radius_rr_m", "wheel_radius_rl_m",
+    "steer_lock_rad", "length_m", "width_m", "height_m", "tank_l",
+    "pit_seg", "pit_to_start", "pit_to_middle_m", "pit_lmin_m", "pit_lmax_m",
+    "start_rank", "race_laps",
+]
+
+STATE_FIELDS = [
+    "sim_time_s", "x_m", "y_m", "z_m", "yaw_rad", "roll_rad", "pitch_rad",
+    "speed_x_mps", "speed_y_mps", "speed_z_mps", "yaw_rate_rps", "accel_x_mps2", "accel_y_mps2",
+    "seg_id", "to_start", "to_right_m", "to_middle_m", "to_left_m", "angle_rad",
+    "dist_from_start_m", "dist_raced_m",
+    "gear", "rpm", "spin_fr_rps", "spin_fl_rps", "spin_rr_rps", "spin_rl_rps",
+    "fuel_l", "damage", "laps", "remaining_laps", "total_laps", "position",
+    "cur_lap_time_s", "last_lap_time_s", "best_lap_time_s", "race_time_s",
+    "car_state", "pit_stops", "penalty_time_s", "top_speed_mps", "n_opponents",
+]
+
+OPPONENT_FIELDS = [
+    "car_index", "x_m", "y_m", "yaw_rad", "speed_x_mps", "speed_y_mps", "speed_mps",
+    "seg_id", "to_start", "to_middle_m", "dist_from_start_m", "dist_raced_m",
+    "laps", "last_lap_time_s", "best_lap_time_s", "car_state", "damage", "length_m", "width_m",
+]
+
+CONTROLS_FIELDS = ["steer", "accel", "brake", "clutch", "gear", "pit_request"]
+PIT_ORDER_FIELDS = ["fuel_l", "repair"]
+FUEL_FIELDS = ["initial_fuel_l"]
+
+RECORDS = {
+    "HELLO": HELLO_FIELDS, "TRACK": TRACK_FIELDS, "SEGMENT": SEGMENT_FIELDS, "HANDLE": HANDLE_FIELDS,
+    "CAR": CAR_FIELDS, "STATE": STATE_FIELDS, "OPPONENT": OPPONENT_FIELDS,
+    "CONTROLS": CONTROLS_FIELDS, "PIT_ORDER": PIT_ORDER_FIELDS, "FUEL": FUEL_FIELDS,
+}
+
+
+def record(fields: list[str]) -> struct.Struct:
+    return struct.Struct("<%dd" % len(fields))
+
+
+HELLO_REC = record(HELLO_FIELDS)
+TRACK_REC = record(TRACK_FIELDS)
+SEGMENT_REC = record(SEGMENT_FIELDS)
+HANDLE_REC = record(HANDLE_FIELDS)
+CAR_REC = record(CAR_FIELDS)
+STATE_REC = record(STATE_FIELDS)
+OPPONENT_REC = record(OPPONENT_FIELDS)
+CONTROLS_REC = record(CONTROLS_FIELDS)
+PIT_ORDER_REC = record(PIT_ORDER_FIELDS)
+FUEL_REC = record(FUEL_FIELDS)
+
+_KINDS = ["HELLO", "NEW_TRACK", "NEW_RACE", "DRIVE", "PIT_CMD", "END_RACE", "SHUTDOWN",
+          "FUEL", "ACK", "CONTROLS", "PIT_ORDER"]
+
+
+def c_header() -> str:
+    """The C++ side of this module: structs of doubles with the same field order."""
+    out = ["// Generated from boxbox/torcs/wire.py; do not edit.", "#pragma once", "#include <stdint.h>",
+           f"#define BB_PROTOCOL_VERSION {PROTOCOL_VERSION}",
+           f"#define BB_MAX_MESSAGE_BYTES {MAX_MESSAGE_BYTES}",
+           f"#define BB_MAX_OPPONENTS {MAX_OPPONENTS}",
+           f"#define BB_FLAG_FAULT {FLAG_FAULT}"]
+    out += [f"#define BB_{name} {i}" for i, name in enumerate(_KINDS, start=1)]
+    out.append("typedef struct { int32_t kind, robot, step, count; } bb_header;")
+    for name, fields in RECORDS.items():
+        body = " ".join(f"double {f};" for f in fields)
+        out.append(f"typedef struct {{ {body} }} bb_{name.lower()};")
+    return "\n".join(out) + "\n"
