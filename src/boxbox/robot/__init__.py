@@ -1,0 +1,1 @@
+"""Robots: the interface, the loader and the built-in robots."""

@@ -380,9 +380,10 @@ static int initFuncPt(int index, void *pt) {
 extern "C" int boxbox(tModInfo *modInfo) {
     memset(modInfo, 0, BB_MAX_ROBOTS * sizeof(tModInfo));
     for (int i = 0; i < BB_MAX_ROBOTS; i++) {
+        // TORCS frees name and desc when it unloads the module: they must be heap copies.
         snprintf(g_names[i], sizeof g_names[i], "boxbox %d", i + 1);
-        modInfo[i].name = g_names[i];
-        modInfo[i].desc = "Python robot driven through the boxbox bridge";
+        modInfo[i].name = strdup(g_names[i]);
+        modInfo[i].desc = strdup("Python robot driven through the boxbox bridge");
         modInfo[i].fctInit = initFuncPt;
         modInfo[i].gfId = ROB_IDENT;
         modInfo[i].index = i;

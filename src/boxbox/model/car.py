@@ -1,0 +1,71 @@
+"""The car's constants, from its parameter file and from TORCS's car structure."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+RWD, FWD, AWD = 0, 1, 2
+DRIVETRAIN_NAMES = {RWD: "RWD", FWD: "FWD", AWD: "4WD"}
+
+
+@dataclass
+class Car:
+    name: str = ""
+    # from the car's parameter file (known when the track is loaded)
+    mass_kg: float = 1000.0  # without fuel
+    tank_l: float = 100.0
+    initial_fuel_l: float = 100.0
+    front_wing_area_m2: float = 0.0
+    front_wing_angle_rad: float = 0.0
+    rear_wing_area_m2: float = 0.0
+    rear_wing_angle_rad: float = 0.0
+    front_clift: float = 0.0
+    rear_clift: float = 0.0
+    cx: float = 0.0
+    front_area_m2: float = 0.0
+    ride_height_fr_m: float = 0.2
+    ride_height_fl_m: float = 0.2
+    ride_height_rr_m: float = 0.2
+    ride_height_rl_m: float = 0.2
+    mu_fr: float = 1.0
+    mu_fl: float = 1.0
+    mu_rr: float = 1.0
+    mu_rl: float = 1.0
+    drivetrain: int = RWD
+    fuel_cons_factor: float = 1.0
+    brake_pressure_max: float = 0.0
+    brake_front_rear: float = 0.5
+    # from the car structure (known when the race starts)
+    car_index: int = 0
+    gear_count: int = 0  # including reverse and neutral
+    gear_offset: int = 1  # gear_ratios[gear + gear_offset] is the ratio of `gear`
+    gear_ratios: tuple[float, ...] = field(default_factory=tuple)  # including the final drive
+    rpm_redline: float = 0.0  # rad/s
+    rpm_max: float = 0.0
+    rpm_max_torque: float = 0.0
+    rpm_max_power: float = 0.0
+    max_torque_nm: float = 0.0
+    max_power_w: float = 0.0
+    wheel_radius_fr_m: float = 0.3
+    wheel_radius_fl_m: float = 0.3
+    wheel_radius_rr_m: float = 0.3
+    wheel_radius_rl_m: float = 0.3
+    steer_lock_rad: float = 0.5
+    length_m: float = 4.5
+    width_m: float = 1.9
+    height_m: float = 1.2
+    start_rank: int = 0
+    race_laps: int = 0
+    # this car's own pit box (None without pits)
+    pit_seg: int = -1
+    pit_to_start: float = 0.0
+    pit_to_middle_m: float = 0.0
+    pit_lmin_m: float = 0.0
+    pit_lmax_m: float = 0.0
+
+    @property
+    def max_gear(self) -> int:
+        return max(1, self.gear_count - 1 - self.gear_offset) if self.gear_count else 6
+
+    def gear_ratio(self, gear: int) -> float:
+        return self.gear_ratios[gear + self.gear_offset]

@@ -1,0 +1,56 @@
+"""What a robot answers: the driving controls each step, the pit order at a stop."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+
+@dataclass(slots=True)
+class Controls:
+    """One drive step's commands.  Ranges are checked by the host; out of range is a robot fault."""
+
+    steer: float = 0.0  # [-1, 1], + turns left; 1 = full steer lock
+    accel: float = 0.0  # [0, 1]
+    brake: float = 0.0  # [0, 1]
+    clutch: float = 0.0  # [0, 1], 1 = fully disengaged
+    gear: int = 1  # -1 reverse, 0 neutral, 1.. forward
+    pit_request: bool = False  # ask the race engine for a pit stop
+
+    def problem(self, max_gear: int) -> str | None:
+        """Why these controls are invalid, or None when they are fine."""
+        try:  # fast path: one chained comparison per field (NaN fails every comparison)
+            if (-1.0 <= self.steer <= 1.0 and 0.0 <= self.accel <= 1.0 and 0.0 <= self.brake <= 1.0
+                    and 0.0 <= self.clutch <= 1.0 and type(self.gear) is int and -1 <= self.gear <= max_gear
+                    and type(self.steer) is not bool):
+                return None
+        except TypeError:
+            pass
+        for name, lo in (("steer", -1.0), ("accel", 0.0), ("brake", 0.0), ("clutch", 0.0)):
+            value = getattr(self, name)
+            if type(value) not in (float, int) or not lo <= value <= 1.0:
+                if isinstance(value, (float, int)) and not isinstance(value, bool):
+                    if math.isnan(value) or math.isinf(value):
+                        return f"{name} is {value}"
+                    return f"{name}={value} is outside [{lo:g}, 1]"
+                return f"{name} must be a number, got {type(value).__name__}"
+        if type(self.gear) is not int or not -1 <= self.gear <= max_gear:
+            return f"gear={self.gear!r} must be an int in [-1, {max_gear}]"
+        return None
+
+
+@dataclass(slots=True)
+class PitOrder:
+    """What to do at a pit stop: litres to add and damage points to repair."""
+
+    fuel_l: float = 0.0
+    repair: float = 0.0
+
+    def problem(self) -> str | None:
+        for name in ("fuel_l", "repair"):
+            value = getattr(self, name)
+            if not isinstance(value, (int, float)) or isinstance(value, bool):
+                return f"{name} must be a number, got {type(value).__name__}"
+            if not 0.0 <= value < math.inf:
+                return f"{name}={value} must be finite and >= 0"
+        return None

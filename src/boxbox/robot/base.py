@@ -1,0 +1,54 @@
+"""The interface a Python robot implements.  TORCS calls reach these methods through the bridge."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from boxbox.model import Car, Controls, PitOrder, State, Track
+
+
+@dataclass
+class RaceOptions:
+    """What the race asks of a robot beyond driving (from `boxbox race` options)."""
+
+    fuel_laps: float | None = None  # start with fuel for this many laps (None: the car's default)
+    pit_laps: tuple[int, ...] = ()  # laps on which to stop in the pit
+    pit_mode: str = "constant-decel"
+    robot_args: dict[str, str] = field(default_factory=dict)
+
+
+class Robot:
+    """Subclass this and override `drive`; everything else has a sensible default.
+
+    Call order: `initial_fuel_l` (track known, car gears not yet), `on_track` (everything known),
+    `drive` every 0.02 s of simulated time, `pit_stop` when captured in the pit, `on_race_end`.
+    """
+
+    name = "robot"
+
+    def __init__(self, options: RaceOptions | None = None) -> None:
+        self.options = options or RaceOptions()
+        self.track: Track | None = None
+        self.car: Car | None = None
+
+    def initial_fuel_l(self, track: Track, car: Car) -> float | None:
+        """Litres to start with, or None for the car's default."""
+        return None
+
+    def on_track(self, track: Track, car: Car) -> None:
+        """Called once before the race with the whole track and the car's constants."""
+        self.track, self.car = track, car
+
+    def drive(self, state: State) -> Controls:
+        raise NotImplementedError
+
+    def pit_stop(self, state: State) -> PitOrder:
+        """Called when TORCS has captured the car in its pit: how much fuel and repair to take."""
+        return PitOrder(fuel_l=0.0, repair=0.0)
+
+    def on_race_end(self, state: State) -> None:
+        pass
+
+    def signals(self) -> dict[str, float]:
+        """Named values to record in telemetry this step (override to add your own)."""
+        return {}

@@ -1,0 +1,56 @@
+"""Find a robot class from `--robot NAME | path/file.py:Class | module:Class`."""
+
+from __future__ import annotations
+
+import difflib
+import importlib
+import importlib.util
+import sys
+from pathlib import Path
+
+from boxbox.errors import UsageError
+from boxbox.robot.base import Robot
+
+# built-in robots by name; the first is the default
+BUILTIN = {
+    "boxbox": "boxbox.robot.tutorial:TutorialRobot",
+    "middle": "boxbox.robot.simple:MiddleRobot",
+}
+DEFAULT_ROBOT = "boxbox"
+
+
+def load_robot_class(spec: str) -> type[Robot]:
+    """The Robot subclass named by spec; a UsageError with a one-line hint otherwise."""
+    target = BUILTIN.get(spec, spec)
+    if ":" not in target:
+        near = difflib.get_close_matches(spec, BUILTIN, n=3)
+        hint = f" (did you mean {', '.join(near)}?)" if near else ""
+        raise UsageError(f"unknown robot '{spec}'{hint}; use one of {', '.join(BUILTIN)}, "
+                         "path/file.py:Class or module:Class")
+    where, _, cls_name = target.rpartition(":")
+    if where.endswith(".py") or "/" in where:
+        path = Path(where)
+        if not path.is_file():
+            raise UsageError(f"robot file '{where}' does not exist")
+        mod_name = f"boxbox_user_robot_{abs(hash(str(path.resolve())))}"
+        module_spec = importlib.util.spec_from_file_location(mod_name, path)
+        module = importlib.util.module_from_spec(module_spec)
+        sys.modules[mod_name] = module
+        try:
+            module_spec.loader.exec_module(module)
+        except Exception as exc:
+            raise UsageError(f"robot file '{where}' failed to import: {type(exc).__name__}: {exc}") from exc
+    else:
+        try:
+            module = importlib.import_module(where)
+        except Exception as exc:
+            raise UsageError(f"robot module '{where}' failed to import: {type(exc).__name__}: {exc}") from exc
+    cls = getattr(module, cls_name, None)
+    if cls is None:
+        names = [n for n, v in vars(module).items() if isinstance(v, type) and issubclass(v, Robot) and v is not Robot]
+        near = difflib.get_close_matches(cls_name, names, n=3) or names[:3]
+        hint = f" (robots there: {', '.join(near)})" if near else ""
+        raise UsageError(f"'{where}' has no class '{cls_name}'{hint}")
+    if not (isinstance(cls, type) and issubclass(cls, Robot)):
+        raise UsageError(f"'{target}' is not a boxbox.Robot subclass")
+    return cls

@@ -1,0 +1,298 @@
+"""The robot host: the Python process that answers the bridge's messages with robot calls.
+
+Started by the race launcher as `python -m boxbox.torcs.host SPEC.json` with the listening
+socket inherited.  One host serves every Python car of a race.  A robot that raises or returns
+bad values is a fault: the host writes `fault.json` (with the traceback) and tells the bridge,
+which brakes the car and ends the race.  SIGUSR1 dumps the current traceback (for hangs).
+"""
+
+from __future__ import annotations
+
+import faulthandler
+import json
+import math
+import signal
+import socket
+import sys
+import traceback
+from array import array
+from dataclasses import dataclass, field
+from pathlib import Path
+from time import perf_counter_ns
+
+import numpy as np
+
+from boxbox.model import Car, Controls, Opponent, PitLane, PitOrder, State, Track
+from boxbox.robot.base import RaceOptions, Robot
+from boxbox.robot.loader import load_robot_class
+from boxbox.torcs import wire
+
+STATE_SIZE = wire.STATE_REC.size
+OPP_SIZE = wire.OPPONENT_REC.size
+
+
+@dataclass
+class Slot:
+    """One Python car: its robot and what the host tracks for it."""
+
+    robot: Robot
+    spec: str
+    name: str
+    car: Car | None = None
+    track: Track | None = None
+    max_gear: int = 6
+    laps_seen: int = 0
+    lap_times: list[float] = field(default_factory=list)
+    step_ns: array = field(default_factory=lambda: array("q"))
+    chunks: list[bytes] = field(default_factory=list)
+    last_state: State | None = None
+
+
+class RobotFault(Exception):
+    def __init__(self, kind: str, message: str, tb: str = "") -> None:
+        super().__init__(message)
+        self.kind, self.message, self.tb = kind, message, tb
+
+
+def decode_track(blob: bytes, name: str, category: str) -> tuple[Track, Car]:
+    t = dict(zip(wire.TRACK_FIELDS, wire.TRACK_REC.unpack_from(blob, 0)))
+    n = int(t["n_segments"])
+    off = wire.TRACK_REC.size
+    seg_rows = np.frombuffer(blob, dtype="<f8", count=n * len(wire.SEGMENT_FIELDS), offset=off)
+    seg_rows = seg_rows.reshape(n, len(wire.SEGMENT_FIELDS))
+    seg = {f: seg_rows[:, i].copy() for i, f in enumerate(wire.SEGMENT_FIELDS)}
+    seg["type"] = seg["type"].astype(int)
+    seg["race_info"] = seg["race_info"].astype(int)
+    off += wire.SEGMENT_REC.size * n
+    handle = dict(zip(wire.HANDLE_FIELDS, wire.HANDLE_REC.unpack_from(blob, off)))
+    pit = None
+    if int(t["pit_type"]) != 0 and t["pit_entry_seg"] >= 0:
+        pit = PitLane(side=int(t["pit_side"]), entry_seg=int(t["pit_entry_seg"]), start_seg=int(t["pit_start_seg"]),
+                      end_seg=int(t["pit_end_seg"]), exit_seg=int(t["pit_exit_seg"]), width_m=t["pit_width_m"],
+                      box_length_m=t["pit_box_length_m"], speed_limit_mps=t["pit_speed_limit_mps"],
+                      count=int(t["pit_count"]))
+    track = Track(name=name, category=category, length_m=t["length_m"], width_m=t["width_m"], seg=seg, pit=pit)
+    handle["drivetrain"] = int(handle["drivetrain"])
+    return track, Car(**handle)
+
+
+def complete_car(car: Car, payload: bytes) -> None:
+    r = dict(zip(wire.CAR_FIELDS, wire.CAR_REC.unpack_from(payload, 0)))
+    ints = {"car_index", "gear_count", "gear_offset", "pit_seg", "start_rank", "race_laps"}
+    for key, value in r.items():
+        if key.startswith("gear_ratio_"):
+            continue
+        setattr(car, key, int(value) if key in ints else value)
+    car.gear_ratios = tuple(r[f"gear_ratio_{i}"] for i in range(car.gear_count))
+
+
+class Host:
+    def __init__(self, spec: dict) -> None:
+        self.spec = spec
+        self.run_dir = Path(spec["run_dir"])
+        options = RaceOptions(**spec.get("options", {}))
+        self.slots: list[Slot] = []
+        for entry in spec["robots"]:
+            cls = load_robot_class(entry["spec"])
+            self.slots.append(Slot(robot=cls(options), spec=entry["spec"], name=entry["name"]))
+        self.other_laps: dict[int, list[float]] = {}
+        self._other_seen: dict[int, int] = {}
+        self.fault: RobotFault | None = None
+        self.out = bytearray(wire.HEADER.size + 64)
+
+    # --- replies -------------------------------------------------------------------------
+    def _reply(self, conn: socket.socket, kind: int, robot: int, step: int, rec=None, values=(), flags=0) -> None:
+        wire.HEADER.pack_into(self.out, 0, kind, robot, step, flags)
+        n = wire.HEADER.size
+        if rec is not None:
+            rec.pack_into(self.out, n, *values)
+            n += rec.size
+        conn.send(memoryview(self.out)[:n])
+
+    def _record_fault(self, slot: Slot | None, robot: int, step: int, where: str, fault: RobotFault) -> None:
+        if self.fault is None:
+            self.fault = fault
+            info = {"kind": fault.kind, "message": fault.message, "traceback": fault.tb, "robot_index": robot,
+                    "robot": slot.spec if slot else "", "name": slot.name if slot else "", "where": where,
+                    "step": step, "sim_time_s": slot.last_state.sim_time_s if slot and slot.last_state else 0.0}
+            (self.run_dir / "fault.json").write_text(json.dumps(info, indent=1))
+
+    def _call(self, slot: Slot, robot: int, step: int, where: str, fn, *args):
+        try:
+            return fn(*args)
+        except Exception as exc:
+            tb = traceback.format_exc()
+            raise RobotFault("exception", f"{type(exc).__name__}: {exc} (in {where})", tb) from exc
+
+    # --- the loop ------------------------------------------------------------------------
+    def serve(self, conn: socket.socket) -> None:
+        buf = bytearray(wire.MAX_MESSAGE_BYTES + 64)
+        header = wire.HEADER.unpack_from
+        state_rec = wire.STATE_REC.unpack_from
+        opp_rec = wire.OPPONENT_REC.unpack_from
+        controls_rec = wire.CONTROLS_REC.pack_into
+        make_state = State._make
+        make_opp = Opponent._make
+        out = self.out
+        out_view = memoryview(out)[: wire.HEADER.size + wire.CONTROLS_REC.size]
+        pack_header = wire.HEADER.pack_into
+        hsize = wire.HEADER.size
+        slots = self.slots
+        while True:
+            try:
+                n = conn.recv_into(buf)
+            except ConnectionResetError:
+                n = 0
+            if n == 0:
+                return
+            kind, robot, step, count = header(buf, 0)
+            if kind == wire.DRIVE:
+                t0 = perf_counter_ns()
+                slot = slots[robot]
+                vals = state_rec(buf, hsize)
+                if count:
+                    base = hsize + STATE_SIZE
+                    opps = tuple([make_opp(opp_rec(buf, base + i * OPP_SIZE)) for i in range(count)])
+                    self._track_other_laps(opps)
+                else:
+                    opps = ()
+                state = make_state(vals + (opps,))
+                slot.last_state = state
+                if vals[29] != slot.laps_seen:  # laps
+                    self._lap(slot, state)
+                try:
+                    c = slot.robot.drive(state)
+                    problem = c.problem(slot.max_gear) if type(c) is Controls else f"drive() returned {type(c).__name__}, not Controls"
+                    if problem:
+                        raise RobotFault("invalid-controls", f"drive() returned invalid controls: {problem} "
+                                                             f"(step {step}, t={state.sim_time_s:.2f} s)")
+                except RobotFault as fault:
+                    self._fail(conn, slot, robot, step, "drive", fault, wire.CONTROLS)
+                    continue
+                except Exception as exc:
+                    fault = RobotFault("exception", f"{type(exc).__name__}: {exc} (in drive, step {step}, "
+                                                    f"t={state.sim_time_s:.2f} s)", traceback.format_exc())
+                    self._fail(conn, slot, robot, step, "drive", fault, wire.CONTROLS)
+                    continue
+                pack_header(out, 0, wire.CONTROLS, robot, step, 0)
+                controls_rec(out, hsize, c.steer, c.accel, c.brake, c.clutch, c.gear, 1.0 if c.pit_request else 0.0)
+                conn.send(out_view)
+                slot.step_ns.append(perf_counter_ns() - t0)
+            elif kind == wire.NEW_TRACK:
+                slot = slots[robot]
+                slot.chunks.append(bytes(buf[hsize:n]))
+                if step + 1 < count:
+                    continue  # more chunks follow
+                blob = b"".join(slot.chunks)
+                slot.chunks = []
+                try:
+                    slot.track, slot.car = decode_track(blob, self.spec["track"], self.spec["category"])
+                    slot.car.name = self.spec["car"]
+                    fuel = self._call(slot, robot, step, "initial_fuel_l", slot.robot.initial_fuel_l, slot.track, slot.car)
+                    if fuel is not None and not (isinstance(fuel, (int, float)) and 0 <= fuel < math.inf):
+                        raise RobotFault("invalid-value", f"initial_fuel_l() returned {fuel!r}; expected litres >= 0 or None")
+                except RobotFault as fault:
+                    self._fail(conn, slot, robot, step, "initial_fuel_l", fault, wire.FUEL)
+                    continue
+                self._reply(conn, wire.FUEL, robot, step, wire.FUEL_REC, (-1.0 if fuel is None else float(fuel),))
+            elif kind == wire.NEW_RACE:
+                slot = slots[robot]
+                complete_car(slot.car, bytes(buf[hsize:n]))
+                slot.max_gear = slot.car.max_gear
+                try:
+                    self._call(slot, robot, step, "on_track", slot.robot.on_track, slot.track, slot.car)
+                except RobotFault as fault:
+                    self._fail(conn, slot, robot, step, "on_track", fault, wire.ACK)
+                    continue
+                self._reply(conn, wire.ACK, robot, step)
+            elif kind == wire.PIT_CMD:
+                slot = slots[robot]
+                state = make_state(state_rec(buf, hsize) + ((),))
+                try:
+                    order = self._call(slot, robot, step, "pit_stop", slot.robot.pit_stop, state)
+                    problem = order.problem() if type(order) is PitOrder else f"pit_stop() returned {type(order).__name__}, not PitOrder"
+                    if problem:
+                        raise RobotFault("invalid-value", f"pit_stop() returned an invalid order: {problem}")
+                except RobotFault as fault:
+                    self._fail(conn, slot, robot, step, "pit_stop", fault, wire.PIT_ORDER)
+                    continue
+                self._reply(conn, wire.PIT_ORDER, robot, step, wire.PIT_ORDER_REC, (float(order.fuel_l), float(order.repair)))
+            elif kind == wire.END_RACE:
+                slot = slots[robot]
+                state = make_state(state_rec(buf, hsize) + ((),))
+                self._lap(slot, state)
+                try:
+                    self._call(slot, robot, step, "on_race_end", slot.robot.on_race_end, state)
+                except RobotFault as fault:
+                    self._fail(conn, slot, robot, step, "on_race_end", fault, wire.ACK)
+                    continue
+                self._reply(conn, wire.ACK, robot, step)
+            elif kind == wire.HELLO:
+                self._reply(conn, wire.HELLO, robot, step, wire.HELLO_REC, (wire.PROTOCOL_VERSION, 0.0, 0.0))
+            elif kind == wire.SHUTDOWN:
+                continue
+
+    def _fail(self, conn, slot, robot, step, where, fault: RobotFault, reply_kind: int) -> None:
+        self._record_fault(slot, robot, step, where, fault)
+        self._reply(conn, reply_kind, robot, step, flags=wire.FLAG_FAULT)
+
+    def _lap(self, slot: Slot, state: State) -> None:
+        laps = int(state.laps)
+        if laps > slot.laps_seen and slot.laps_seen >= 1 and state.last_lap_time_s > 0:
+            slot.lap_times.append(state.last_lap_time_s)
+        slot.laps_seen = max(slot.laps_seen, laps)
+
+    def _track_other_laps(self, opps: tuple[Opponent, ...]) -> None:
+        seen = self._other_seen
+        for o in opps:
+            idx = int(o.car_index)
+            laps = int(o.laps)
+            before = seen.get(idx, 0)
+            if laps > before:
+                if before >= 1 and o.last_lap_time_s > 0:
+                    self.other_laps.setdefault(idx, []).append(o.last_lap_time_s)
+                seen[idx] = laps
+
+    def summary(self) -> dict:
+        cars = []
+        for i, slot in enumerate(self.slots):
+            ns = sorted(slot.step_ns)
+            cars.append({
+                "robot_index": i, "robot": slot.spec, "name": slot.name,
+                "car_index": slot.car.car_index if slot.car else None,
+                "lap_times": slot.lap_times, "steps": len(ns),
+                "step_us_median": ns[len(ns) // 2] / 1000 if ns else None,
+                "step_us_p99": ns[min(len(ns) - 1, int(len(ns) * 0.99))] / 1000 if ns else None,
+            })
+        return {"cars": cars, "other_lap_times": {str(k): v for k, v in self.other_laps.items()}}
+
+
+def main(argv: list[str]) -> int:
+    spec = json.loads(Path(argv[0]).read_text())
+    run_dir = Path(spec["run_dir"])
+    hang_file = open(run_dir / "hang-traceback.txt", "w")
+    faulthandler.register(signal.SIGUSR1, file=hang_file, all_threads=False)
+    listener = socket.socket(fileno=int(spec["listen_fd"]))
+    try:
+        host = Host(spec)
+    except Exception as exc:  # robot import or constructor failed
+        (run_dir / "fault.json").write_text(json.dumps({
+            "kind": "exception", "message": f"{type(exc).__name__}: {exc} (creating the robot)",
+            "traceback": traceback.format_exc(), "robot_index": -1, "robot": "", "name": "", "where": "__init__",
+            "step": 0, "sim_time_s": 0.0}))
+        return 1
+    listener.settimeout(float(spec.get("connect_timeout_s", 60)))
+    try:
+        conn, _ = listener.accept()
+    except socket.timeout:
+        return 2
+    conn.settimeout(None)
+    try:
+        host.serve(conn)
+    finally:
+        (run_dir / "host.json").write_text(json.dumps(host.summary()))
+    return 1 if host.fault else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))

@@ -1,0 +1,304 @@
+"""Running one race: files, processes, supervision, results.
+
+Each race gets its own run directory (TORCS local dir, race file, logs, socket), so races never
+collide.  Two children: TORCS in console mode and, when Python cars race, the robot host.  Both
+are pinned to one core (they strictly alternate, so this costs nothing and makes the socket round
+trip ~15x cheaper), die with us (PR_SET_PDEATHSIG), and are killed by process group on the way out.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import json
+import os
+import re
+import selectors
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
+
+from boxbox.errors import RaceError
+from boxbox.robot.base import RaceOptions
+from boxbox.torcs import catalog
+from boxbox.torcs.paths import MAX_PYTHON_CARS, ROBOT_MODULE, cache_dir
+from boxbox.torcs.racefile import Entry, race_xml, robot_xml
+from boxbox.torcs.results import (DriverResult, RaceResult, driver_from_rank, find_results_file,
+                                  leader_lap_times, parse_results_file)
+from boxbox.torcs.setup import Overlay
+
+PROGRESS_LINE = re.compile(r"Sim Time:\s*([\d.]+)\s*\[s\], Leader Laps:\s*(\d+)")
+FAULT_LINE = re.compile(r"BOXBOX-FAULT (\S+) robot=(-?\d+) step=(\d+)")
+Progress = Callable[[int, float], None]  # (leader laps done, sim time)
+
+
+@dataclass
+class RaceConfig:
+    track: str
+    category: str
+    car: str = "car1-trb1"
+    laps: int = 3
+    robots: list[str] = field(default_factory=lambda: ["boxbox"])  # Python robot specs
+    robot_names: list[str] = field(default_factory=list)
+    opponents: list[tuple[str, int]] = field(default_factory=list)  # TORCS robots (module, idx)
+    options: RaceOptions = field(default_factory=RaceOptions)
+    step_budget_ms: int = 200
+    setup_budget_ms: int = 30_000
+    wall_timeout_s: float | None = None  # default: generous, from the number of laps
+    cpu: int | None = None
+    run_dir: Path | None = None
+
+
+def _child_setup(cpu: int | None) -> Callable[[], None]:
+    def setup() -> None:
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG: never outlive the launcher
+        if cpu is not None:
+            os.sched_setaffinity(0, {cpu})
+    return setup
+
+
+def _pick_cpu() -> int | None:
+    cpus = sorted(os.sched_getaffinity(0))
+    return cpus[os.getpid() % len(cpus)] if cpus else None
+
+
+def new_run_dir() -> Path:
+    root = cache_dir() / "runs"
+    root.mkdir(parents=True, exist_ok=True)
+    return Path(tempfile.mkdtemp(prefix=time.strftime("%Y%m%d-%H%M%S-"), dir=root))
+
+
+def prepare_local_dir(run_dir: Path, overlay: Overlay, cfg: RaceConfig) -> Path:
+    local = run_dir / "local"
+    (local / "config").mkdir(parents=True, exist_ok=True)
+    shutil.copy(overlay.torcs.data_dir / "config" / "raceengine.xml", local / "config" / "raceengine.xml")
+    drivers = local / "drivers" / ROBOT_MODULE
+    drivers.mkdir(parents=True, exist_ok=True)
+    names = cfg.robot_names or [f"boxbox {i + 1}" for i in range(len(cfg.robots))]
+    (drivers / f"{ROBOT_MODULE}.xml").write_text(robot_xml([(n, cfg.car) for n in names]))
+    entries = [Entry(ROBOT_MODULE, i) for i in range(len(cfg.robots))]
+    entries += [Entry(m, i) for m, i in cfg.opponents]
+    race_file = run_dir / "race.xml"
+    race_file.write_text(race_xml(cfg.track, cfg.category, cfg.laps, entries))
+    return local
+
+
+def _kill_group(proc: subprocess.Popen | None) -> None:
+    if proc is None:
+        return
+    try:
+        os.killpg(proc.pid, signal.SIGKILL)
+    except (ProcessLookupError, PermissionError):
+        pass
+    try:
+        proc.wait(timeout=5)
+    except subprocess.TimeoutExpired:
+        pass
+
+
+def run_race(cfg: RaceConfig, overlay: Overlay, progress: Progress | None = None) -> RaceResult:
+    if len(cfg.robots) > MAX_PYTHON_CARS:
+        raise RaceError(f"at most {MAX_PYTHON_CARS} Python cars per race")
+    run_dir = cfg.run_dir or new_run_dir()
+    run_dir.mkdir(parents=True, exist_ok=True)
+    for stale in ("fault.json", "host.json", "hang-traceback.txt"):
+        (run_dir / stale).unlink(missing_ok=True)
+    local = prepare_local_dir(run_dir, overlay, cfg)
+    cpu = cfg.cpu if cfg.cpu is not None else _pick_cpu()
+    wall_limit = cfg.wall_timeout_s or 60.0 + 10.0 * cfg.laps * (1 + len(cfg.opponents) + len(cfg.robots))
+    names = cfg.robot_names or [f"boxbox {i + 1}" for i in range(len(cfg.robots))]
+
+    env = dict(os.environ)
+    env["LD_LIBRARY_PATH"] = str(overlay.torcs.shared_lib_dir)
+    env["BOXBOX_STEP_BUDGET_MS"] = str(cfg.step_budget_ms)
+    env["BOXBOX_SETUP_BUDGET_MS"] = str(cfg.setup_budget_ms)
+    host = torcs = listener = None
+    sock_dir = None
+    started = time.perf_counter()
+    laps_seen: list[tuple[int, float]] = []
+    timed_out = False
+    try:
+        if cfg.robots:
+            sock_dir = tempfile.mkdtemp(prefix="boxbox-sock-")  # short path: sun_path is 108 bytes
+            sock_path = os.path.join(sock_dir, "bridge.sock")
+            listener = socket.socket(socket.AF_UNIX, socket.SOCK_SEQPACKET)
+            listener.bind(sock_path)
+            listener.listen(1)
+            env["BOXBOX_SOCKET"] = sock_path
+            spec = {"run_dir": str(run_dir), "listen_fd": listener.fileno(), "track": cfg.track,
+                    "category": cfg.category, "car": cfg.car,
+                    "robots": [{"spec": s, "name": n} for s, n in zip(cfg.robots, names)],
+                    "options": {"fuel_laps": cfg.options.fuel_laps, "pit_laps": list(cfg.options.pit_laps),
+                                "pit_mode": cfg.options.pit_mode, "robot_args": cfg.options.robot_args},
+                    "connect_timeout_s": wall_limit}
+            (run_dir / "host-spec.json").write_text(json.dumps(spec))
+            with open(run_dir / "host.log", "wb") as log:
+                host = subprocess.Popen([sys.executable, "-m", "boxbox.torcs.host", str(run_dir / "host-spec.json")],
+                                        stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
+                                        pass_fds=[listener.fileno()], preexec_fn=_child_setup(cpu),
+                                        start_new_session=True)
+            listener.close()
+            listener = None
+        cmd = [str(overlay.torcs.binary), "-l", f"{local}/", "-L", f"{overlay.lib_dir}/", "-D",
+               f"{overlay.data_dir}/", "-r", str(run_dir / "race.xml")]
+        if wrapper := os.environ.get("BOXBOX_TORCS_WRAPPER"):  # e.g. "gdb -batch -ex run -ex bt --args"
+            cmd = [*wrapper.split(), *cmd]
+        if shutil.which("stdbuf"):
+            cmd = ["stdbuf", "-oL", *cmd]  # progress lines as they happen, not at exit
+        if not overlay.torcs.binary.exists():
+            raise RaceError(f"TORCS binary missing: {overlay.torcs.binary}; run `boxbox setup`")
+        with open(run_dir / "torcs.err", "wb") as err:
+            torcs = subprocess.Popen(cmd, cwd=overlay.data_dir, env=env, stdout=subprocess.PIPE, stderr=err,
+                                     stdin=subprocess.DEVNULL, preexec_fn=_child_setup(cpu), start_new_session=True)
+        timed_out = _follow(torcs, started + wall_limit, laps_seen, progress, run_dir)
+        if timed_out:
+            _dump_hang(host)
+            _kill_group(torcs)
+        torcs.wait()
+        if host is not None:
+            try:
+                host.wait(timeout=3.0)
+            except subprocess.TimeoutExpired:
+                _dump_hang(host)
+    finally:
+        if listener is not None:
+            listener.close()
+        _kill_group(torcs)
+        _kill_group(host)
+        if sock_dir:
+            shutil.rmtree(sock_dir, ignore_errors=True)
+    wall = time.perf_counter() - started
+    result = _collect(cfg, run_dir, local, names, laps_seen, wall)
+    error = _diagnose(cfg, run_dir, torcs, host, names, timed_out, wall_limit, result)
+    if error:
+        result.error = error
+    (run_dir / "result.json").write_text(json.dumps(result.to_json(), indent=1))
+    return result
+
+
+def _follow(torcs: subprocess.Popen, deadline: float, laps_seen, progress, run_dir: Path) -> bool:
+    """Read TORCS's console until it exits; True when the wall-time limit was hit."""
+    sel = selectors.DefaultSelector()
+    sel.register(torcs.stdout, selectors.EVENT_READ)
+    pending = b""
+    with open(run_dir / "torcs.out", "wb") as out:
+        while True:
+            remaining = deadline - time.perf_counter()
+            if remaining <= 0:
+                return True
+            if not sel.select(timeout=min(remaining, 1.0)):
+                continue
+            chunk = os.read(torcs.stdout.fileno(), 65536)
+            if not chunk:
+                return False
+            out.write(chunk)
+            pending += chunk
+            *lines, pending = pending.split(b"\n")
+            for line in lines:
+                m = PROGRESS_LINE.search(line.decode(errors="replace"))
+                if m:
+                    laps_seen.append((int(m.group(2)), float(m.group(1))))
+                    if progress:
+                        progress(int(m.group(2)), float(m.group(1)))
+
+
+def _dump_hang(host: subprocess.Popen | None) -> None:
+    """Ask a live host to write where it is stuck (faulthandler on SIGUSR1)."""
+    if host is not None and host.poll() is None:
+        try:
+            host.send_signal(signal.SIGUSR1)
+            time.sleep(0.3)
+        except ProcessLookupError:
+            pass
+
+
+def _collect(cfg, run_dir: Path, local: Path, names, laps_seen, wall: float) -> RaceResult:
+    result = RaceResult(track=cfg.track, category=cfg.category, car=cfg.car, laps=cfg.laps, wall_s=round(wall, 3),
+                        run_dir=str(run_dir))
+    host_info = {}
+    if (run_dir / "host.json").exists():
+        host_info = json.loads((run_dir / "host.json").read_text())
+    ours = {c["robot_index"]: c for c in host_info.get("cars", [])}
+    others = {int(k): v for k, v in host_info.get("other_lap_times", {}).items()}
+    results_file = find_results_file(local)
+    entries = parse_results_file(results_file) if results_file else []
+    if entries:
+        drivers = [driver_from_rank(i, e) for i, e in enumerate(entries, start=1)]
+    else:  # no results file (the race was cut short): list every car with what we know
+        drivers = [DriverResult(name=n, module=ROBOT_MODULE, idx=i, car=cfg.car) for i, n in enumerate(names)]
+        for m, idx in cfg.opponents:
+            info = catalog.robot_indices(m).get(idx, {})
+            drivers.append(DriverResult(name=info.get("name", f"{m} {idx}"), module=m, idx=idx, car=info.get("car", "")))
+    for d in drivers:
+        if d.module == ROBOT_MODULE and d.idx in ours:
+            mine = ours[d.idx]
+            d.lap_times = [round(t, 3) for t in mine["lap_times"]]
+            d.step_us_median, d.step_us_p99 = mine["step_us_median"], mine["step_us_p99"]
+            if d.car_index < 0 and mine.get("car_index") is not None:
+                d.car_index = mine["car_index"]
+        elif d.car_index in others:
+            d.lap_times = [round(t, 3) for t in others[d.car_index]]
+        elif len(drivers) == 1:
+            d.lap_times = leader_lap_times(laps_seen)
+        if not entries:
+            d.laps = len(d.lap_times)
+        if d.lap_times and not d.best_lap:
+            d.best_lap = min(d.lap_times)
+    result.drivers = drivers
+    return result
+
+
+def _diagnose(cfg, run_dir: Path, torcs, host, names, timed_out: bool, wall_limit: float,
+              result: RaceResult) -> str | None:
+    """One line saying why the race did not end properly (plus a traceback where there is one)."""
+    err_text = (run_dir / "torcs.err").read_text(errors="replace") if (run_dir / "torcs.err").exists() else ""
+    fault_file = run_dir / "fault.json"
+    hang_tb = (run_dir / "hang-traceback.txt").read_text(errors="replace").strip() \
+        if (run_dir / "hang-traceback.txt").exists() else ""
+    marker = FAULT_LINE.search(err_text)
+    if fault_file.exists():
+        fault = json.loads(fault_file.read_text())
+        who = f"robot '{fault['robot'] or cfg.robots[0]}'" + (f" ({fault['name']})" if fault["name"] else "")
+        line = f"{who} failed: {fault['message']}"
+        return line + ("\n" + fault["traceback"].rstrip() if fault.get("traceback") else "")
+    if marker:
+        kind, robot, step = marker.group(1), int(marker.group(2)), int(marker.group(3))
+        who = f"robot '{cfg.robots[robot]}' ({names[robot]})" if 0 <= robot < len(cfg.robots) else "the robot host"
+        if kind == "timeout":
+            line = f"{who} did not answer within its step budget of {cfg.step_budget_ms} ms (step {step})"
+            return line + ("\n" + hang_tb if hang_tb else "")
+        if kind in ("host-gone", "connect"):
+            how = _exit_text(host.returncode) if host is not None and host.returncode is not None else "ended"
+            log = (run_dir / "host.log").read_text(errors="replace").strip()
+            return f"the robot process {how} during the race (step {step}) while driving {who}" + \
+                (f"\n{log[-2000:]}" if log else "")
+        return f"bridge fault '{kind}' for {who} at step {step}"
+    if timed_out:
+        return f"the race did not finish within {wall_limit:.0f} s of wall time; TORCS was stopped" + \
+            ("\n" + hang_tb if hang_tb else "")
+    if torcs is not None and torcs.returncode not in (0, None):
+        tail = " | ".join(err_text.strip().splitlines()[-3:])
+        return f"TORCS {_exit_text(torcs.returncode)} (log {run_dir / 'torcs.err'}): {tail}"
+    if not find_results_file(run_dir / "local"):
+        tail = " | ".join(err_text.strip().splitlines()[-3:])
+        return f"TORCS wrote no results file (log {run_dir / 'torcs.err'}): {tail}"
+    if host is not None and host.returncode not in (0, None):
+        log = (run_dir / "host.log").read_text(errors="replace").strip()
+        return f"the robot process {_exit_text(host.returncode)}" + (f"\n{log[-2000:]}" if log else "")
+    return None
+
+
+def _exit_text(code: int) -> str:
+    if code < 0:
+        try:
+            return f"was killed by {signal.Signals(-code).name}"
+        except ValueError:
+            return f"was killed by signal {-code}"
+    return f"exited with status {code}"
