@@ -1,0 +1,236 @@
+"""The `boxbox` command line."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import click
+from rich.console import Console
+
+from boxbox.errors import BoxboxError, UsageError
+
+# Errors are one line however narrow the terminal; tables get room when piped.
+console = Console(stderr=True, soft_wrap=True)
+out = Console(width=None if sys.stdout.isatty() else 160)
+
+
+def _ready():
+    """Set up TORCS and the bridge when needed, showing each step."""
+    from boxbox.torcs import setup
+
+    if not setup.packages_missing() and all(ok for _, ok, _ in setup.doctor()):
+        return setup.ensure_ready()
+    with console.status("setting up TORCS for boxbox") as status:
+        def report(msg: str) -> None:
+            status.update(msg)
+            console.print(f"[dim]setup:[/] {msg}")
+        overlay = setup.ensure_ready(report)
+    console.print("[green]setup: ready[/]")
+    return overlay
+
+
+def _parse_laps(text: str) -> int:
+    try:
+        laps = int(text)
+    except ValueError:
+        raise UsageError(f"--laps must be a whole number of laps >= 1, got '{text}'") from None
+    if laps < 1:
+        raise UsageError(f"--laps must be >= 1, got {laps}")
+    return laps
+
+
+def _parse_float(name: str, text: str | None, minimum: float) -> float | None:
+    if text is None:
+        return None
+    try:
+        value = float(text)
+    except ValueError:
+        raise UsageError(f"{name} must be a number, got '{text}'") from None
+    if not value >= minimum or value == float("inf"):
+        raise UsageError(f"{name} must be a finite number >= {minimum:g}, got {text}")
+    return value
+
+
+def _parse_int_list(name: str, text: str | None) -> tuple[int, ...]:
+    if not text:
+        return ()
+    try:
+        values = tuple(sorted({int(x) for x in text.split(",") if x.strip()}))
+    except ValueError:
+        raise UsageError(f"{name} takes lap numbers like 3,7; got '{text}'") from None
+    if any(v < 1 for v in values):
+        raise UsageError(f"{name}: lap numbers start at 1; got '{text}'")
+    return values
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+def main_group() -> None:
+    """boxbox: write TORCS robots in Python and race them in the real TORCS."""
+
+
+@main_group.command()
+@click.option("--track", default="e-track-2", show_default=True, help="Track name (category found automatically).")
+@click.option("--car", default="car1-trb1", show_default=True, help="Car of the Python robots.")
+@click.option("--laps", default="3", show_default=True, help="Race length in laps.")
+@click.option("--robot", "robots", multiple=True,
+              help="Python robot: NAME (boxbox, middle), path/file.py:Class or module:Class. Repeat for more cars.")
+@click.option("--opponents", default="", help="TORCS robots as module:idx, comma separated (e.g. bt:2,berniw:3).")
+@click.option("--fuel-laps", default=None, help="Start with fuel for this many laps.")
+@click.option("--pit-laps", default=None, help="Ask for pit stops on these laps (e.g. 3,7).")
+@click.option("--pit-mode", type=click.Choice(["constant-decel", "bang-bang"]), default="constant-decel",
+              show_default=True, help="How the robot brakes into its pit box.")
+@click.option("--json", "json_file", type=click.Path(dir_okay=False, path_type=Path), help="Write results as JSON.")
+@click.option("--step-budget-ms", default="200", show_default=True,
+              help="Wall time a robot may take per drive step before the race is stopped.")
+@click.option("--quiet", is_flag=True, help="No progress bar.")
+def race(track, car, laps, robots, opponents, fuel_laps, pit_laps, pit_mode, json_file, step_budget_ms, quiet) -> None:
+    """Run one race in TORCS (console mode) and print the results."""
+    from boxbox.report.tables import results_table
+    from boxbox.robot.base import RaceOptions
+    from boxbox.robot.loader import DEFAULT_ROBOT, load_robot_class
+    from boxbox.torcs import catalog, launch
+
+    laps_n = _parse_laps(laps)
+    budget = _parse_float("--step-budget-ms", step_budget_ms, 1)
+    options = RaceOptions(fuel_laps=_parse_float("--fuel-laps", fuel_laps, 0.01),
+                          pit_laps=_parse_int_list("--pit-laps", pit_laps), pit_mode=pit_mode)
+    if options.pit_laps and max(options.pit_laps) >= laps_n:
+        raise UsageError(f"--pit-laps {pit_laps}: a stop must be before the last lap ({laps_n} laps)")
+    specs = list(robots) or [DEFAULT_ROBOT]
+    names = []
+    for i, spec in enumerate(specs):
+        cls = load_robot_class(spec)
+        names.append(f"{cls.name} {i + 1}")
+    if len(specs) > 10:
+        raise UsageError("at most 10 --robot cars per race")
+    category = catalog.check_track(track)
+    catalog.check_car(car)
+    opp = [catalog.parse_opponent(o) for o in opponents.split(",") if o.strip()]
+    if (options.pit_laps or options.fuel_laps) and not _track_has_pits(track, category):
+        if options.pit_laps:
+            raise UsageError(f"track '{track}' has no pit lane; --pit-laps needs one")
+    overlay = _ready()
+    cfg = launch.RaceConfig(track=track, category=category, car=car, laps=laps_n, robots=specs, robot_names=names,
+                            opponents=opp, options=options, step_budget_ms=int(budget))
+    result = _run_with_progress(cfg, overlay, quiet)
+    out.print(results_table(result))
+    if json_file:
+        json_file.write_text(json.dumps(result.to_json(), indent=1))
+    if result.error:
+        raise _race_error(result)
+    for d in result.drivers:
+        if d.step_us_median is not None:
+            console.print(f"[dim]{d.name}: drive step median {d.step_us_median:.1f} us, "
+                          f"p99 {d.step_us_p99:.1f} us; run dir {result.run_dir}[/]")
+
+
+def _race_error(result):
+    from boxbox.errors import RaceError
+
+    first, _, rest = result.error.partition("\n")
+    if rest:
+        console.print(rest, markup=False, highlight=False)
+    return RaceError(first)
+
+
+def _track_has_pits(track: str, category: str) -> bool:
+    from boxbox.torcs.paths import system_torcs
+
+    xml = system_torcs().data_dir / "tracks" / category / track / f"{track}.xml"
+    try:
+        text = xml.read_text(errors="replace")
+    except OSError:
+        return False
+    return 'name="Pits"' in text and 'name="entry"' in text
+
+
+def _run_with_progress(cfg, overlay, quiet: bool):
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from boxbox.torcs import launch
+
+    if quiet:
+        return launch.run_race(cfg, overlay)
+    with Progress(TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(), TextColumn("laps"),
+                  TextColumn("{task.fields[sim]}"), TimeElapsedColumn(), console=console, transient=True) as bar:
+        task = bar.add_task(f"{cfg.track} ({cfg.car})", total=cfg.laps, sim="")
+        result = launch.run_race(cfg, overlay, lambda lap, t: bar.update(task, completed=lap, sim=f"sim {t:.0f} s"))
+    return result
+
+
+@main_group.command()
+def setup() -> None:
+    """Install TORCS and its headers, build the bridge and the overlay (idempotent)."""
+    overlay = _ready()
+    out.print(f"bridge: {overlay.bridge}\noverlay: {overlay.lib_dir.parent}")
+
+
+@main_group.command()
+def doctor() -> None:
+    """Say what is present and what is missing."""
+    from rich.table import Table
+
+    from boxbox.torcs import setup as torcs_setup
+
+    table = Table("component", "status", "where")
+    missing = 0
+    for name, ok, where in torcs_setup.doctor():
+        table.add_row(name, "[green]ok[/]" if ok else "[red]missing[/]", where)
+        missing += not ok
+    out.print(table)
+    if missing:
+        out.print("run `boxbox setup` (or any `boxbox race`) to fix what is missing")
+        sys.exit(1)
+
+
+@main_group.command()
+def tracks() -> None:
+    """List the installed tracks."""
+    from boxbox.torcs import catalog
+
+    for name, category in sorted(catalog.tracks().items(), key=lambda kv: (kv[1], kv[0])):
+        out.print(f"{category:6} {name}")
+
+
+@main_group.command()
+def cars() -> None:
+    """List the installed cars."""
+    from boxbox.torcs import catalog
+
+    for name in catalog.cars():
+        out.print(name)
+
+
+@main_group.command("robots")
+def robots_cmd() -> None:
+    """List boxbox's built-in robots and the installed TORCS robots."""
+    from boxbox.robot.loader import BUILTIN
+    from boxbox.torcs import catalog
+
+    for name, target in BUILTIN.items():
+        out.print(f"python  {name:10} {target}")
+    for module in catalog.robot_modules():
+        for idx, info in sorted(catalog.robot_indices(module).items()):
+            out.print(f"torcs   {module}:{idx:<6} {info['name']} ({info['car']})")
+
+
+def main() -> None:
+    try:
+        main_group.main(standalone_mode=False)
+    except click.exceptions.Exit as exc:
+        sys.exit(exc.exit_code)
+    except click.exceptions.Abort:
+        console.print("boxbox: aborted")
+        sys.exit(130)
+    except click.UsageError as exc:
+        console.print(f"boxbox: error: {exc.format_message()} (see --help)", markup=False, highlight=False)
+        sys.exit(2)
+    except BoxboxError as exc:
+        console.print(f"boxbox: error: {exc}", markup=False, highlight=False)
+        sys.exit(exc.exit_code)
+
+
+if __name__ == "__main__":
+    main()
