@@ -1,1 +1,16 @@
-"""boxbox: Python robots for TORCS."""
+"""boxbox: write TORCS robot drivers in Python and race them in the real TORCS.
+
+    from boxbox import Robot, Controls
+
+    class MyRobot(Robot):
+        def drive(self, state):
+            return Controls(steer=state.angle_rad / self.car.steer_lock_rad, accel=0.5, gear=1)
+
+Race it with `boxbox race --robot my_robot.py:MyRobot`.
+"""
+
+from boxbox.model import Car, Controls, Opponent, PitOrder, State, Track
+from boxbox.robot.base import RaceOptions, Robot
+
+__version__ = "0.1.0"
+__all__ = ["Car", "Controls", "Opponent", "PitOrder", "RaceOptions", "Robot", "State", "Track"]

@@ -84,8 +84,11 @@ def main_group() -> None:
 @click.option("--json", "json_file", type=click.Path(dir_okay=False, path_type=Path), help="Write results as JSON.")
 @click.option("--step-budget-ms", default="200", show_default=True,
               help="Wall time a robot may take per drive step before the race is stopped.")
+@click.option("--run-dir", type=click.Path(file_okay=False, path_type=Path),
+              help="Keep this race's files here (default: a new folder under the cache).")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
-def race(track, car, laps, robots, opponents, fuel_laps, pit_laps, pit_mode, json_file, step_budget_ms, quiet) -> None:
+def race(track, car, laps, robots, opponents, fuel_laps, pit_laps, pit_mode, json_file, step_budget_ms, run_dir,
+         quiet) -> None:
     """Run one race in TORCS (console mode) and print the results."""
     from boxbox.report.tables import results_table
     from boxbox.robot.base import RaceOptions
@@ -113,7 +116,7 @@ def race(track, car, laps, robots, opponents, fuel_laps, pit_laps, pit_mode, jso
             raise UsageError(f"track '{track}' has no pit lane; --pit-laps needs one")
     overlay = _ready()
     cfg = launch.RaceConfig(track=track, category=category, car=car, laps=laps_n, robots=specs, robot_names=names,
-                            opponents=opp, options=options, step_budget_ms=int(budget))
+                            opponents=opp, options=options, step_budget_ms=int(budget), run_dir=run_dir)
     result = _run_with_progress(cfg, overlay, quiet)
     out.print(results_table(result))
     if json_file:
@@ -158,6 +161,21 @@ def _run_with_progress(cfg, overlay, quiet: bool):
         task = bar.add_task(f"{cfg.track} ({cfg.car})", total=cfg.laps, sim="")
         result = launch.run_race(cfg, overlay, lambda lap, t: bar.update(task, completed=lap, sim=f"sim {t:.0f} s"))
     return result
+
+
+@main_group.command("bench-speed")
+@click.option("--track", default="g-track-1", show_default=True)
+@click.option("--laps", default="20", show_default=True)
+@click.option("--runs", default=3, show_default=True, type=click.IntRange(1, 50), help="Races per robot.")
+@click.option("--robot", default="boxbox", show_default=True, help="Python robot to time.")
+@click.option("--against", default="bt:2", show_default=True, help="TORCS robot to compare with.")
+def bench_speed(track, laps, runs, robot, against) -> None:
+    """Wall time of a Python robot's race against a C++ robot's, alternating runs; step times."""
+    from boxbox.report.speed import run_speed_bench
+
+    laps_n = _parse_laps(laps)
+    overlay = _ready()
+    out.print(run_speed_bench(overlay, track, laps_n, runs, robot, against, console))
 
 
 @main_group.command()

@@ -6,6 +6,10 @@ from dataclasses import dataclass, field
 
 from boxbox.model import Car, Controls, PitOrder, State, Track
 
+# Fuel use before anything is measured: litres per metre for a car with fuel cons factor 1
+# (car1-trb1 at racing speed uses about this much; robots refine it lap by lap).
+FUEL_L_PER_M_ESTIMATE = 0.0008
+
 
 @dataclass
 class RaceOptions:
@@ -32,8 +36,11 @@ class Robot:
         self.car: Car | None = None
 
     def initial_fuel_l(self, track: Track, car: Car) -> float | None:
-        """Litres to start with, or None for the car's default."""
-        return None
+        """Litres to start with, or None for the car's default.  Default: honour --fuel-laps."""
+        if self.options.fuel_laps is None:
+            return None
+        per_lap = FUEL_L_PER_M_ESTIMATE * car.fuel_cons_factor * track.length_m
+        return min(car.tank_l, self.options.fuel_laps * per_lap)
 
     def on_track(self, track: Track, car: Car) -> None:
         """Called once before the race with the whole track and the car's constants."""

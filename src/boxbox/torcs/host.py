@@ -46,6 +46,7 @@ class Slot:
     step_ns: array = field(default_factory=lambda: array("q"))
     chunks: list[bytes] = field(default_factory=list)
     last_state: State | None = None
+    start_fuel_l: float | None = None
 
 
 class RobotFault(Exception):
@@ -158,6 +159,8 @@ class Host:
                     opps = ()
                 state = make_state(vals + (opps,))
                 slot.last_state = state
+                if step == 1:
+                    slot.start_fuel_l = state.fuel_l
                 if vals[29] != slot.laps_seen:  # laps
                     self._lap(slot, state)
                 try:
@@ -260,7 +263,7 @@ class Host:
             cars.append({
                 "robot_index": i, "robot": slot.spec, "name": slot.name,
                 "car_index": slot.car.car_index if slot.car else None,
-                "lap_times": slot.lap_times, "steps": len(ns),
+                "lap_times": slot.lap_times, "steps": len(ns), "start_fuel_l": slot.start_fuel_l,
                 "step_us_median": ns[len(ns) // 2] / 1000 if ns else None,
                 "step_us_p99": ns[min(len(ns) - 1, int(len(ns) * 0.99))] / 1000 if ns else None,
             })

@@ -162,6 +162,9 @@ def run_race(cfg: RaceConfig, overlay: Overlay, progress: Progress | None = None
             _dump_hang(host)
             _kill_group(torcs)
         torcs.wait()
+        err_file = run_dir / "torcs.err"
+        if host is not None and err_file.exists() and b"BOXBOX-FAULT timeout" in err_file.read_bytes():
+            _dump_hang(host)  # now, while the robot is still stuck where it hung
         if host is not None:
             try:
                 host.wait(timeout=3.0)
@@ -241,6 +244,7 @@ def _collect(cfg, run_dir: Path, local: Path, names, laps_seen, wall: float) -> 
             mine = ours[d.idx]
             d.lap_times = [round(t, 3) for t in mine["lap_times"]]
             d.step_us_median, d.step_us_p99 = mine["step_us_median"], mine["step_us_p99"]
+            d.start_fuel_l = mine.get("start_fuel_l")
             if d.car_index < 0 and mine.get("car_index") is not None:
                 d.car_index = mine["car_index"]
         elif d.car_index in others:
@@ -273,7 +277,7 @@ def _diagnose(cfg, run_dir: Path, torcs, host, names, timed_out: bool, wall_limi
         who = f"robot '{cfg.robots[robot]}' ({names[robot]})" if 0 <= robot < len(cfg.robots) else "the robot host"
         if kind == "timeout":
             line = f"{who} did not answer within its step budget of {cfg.step_budget_ms} ms (step {step})"
-            return line + ("\n" + hang_tb if hang_tb else "")
+            return line + (f"\nwhere the robot was stuck:\n{hang_tb}" if hang_tb else "")
         if kind in ("host-gone", "connect"):
             how = _exit_text(host.returncode) if host is not None and host.returncode is not None else "ended"
             log = (run_dir / "host.log").read_text(errors="replace").strip()

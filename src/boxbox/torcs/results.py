@@ -23,7 +23,8 @@ class DriverResult:
     penalty_time: float = 0.0
     top_speed: float = 0.0  # m/s
     rank: int = 0
-    step_us_median: float | None = None  # Python robots only
+    start_fuel_l: float | None = None  # Python robots only
+    step_us_median: float | None = None
     step_us_p99: float | None = None
 
 

@@ -197,7 +197,7 @@ static void newTrack(int index, tTrack *track, void *carHandle, void **carParmHa
     t->pit_entry_seg = seg_id(p->pitEntry); t->pit_start_seg = seg_id(p->pitStart);
     t->pit_end_seg = seg_id(p->pitEnd); t->pit_exit_seg = seg_id(p->pitExit);
     t->pit_width_m = p->width; t->pit_box_length_m = p->len; t->pit_speed_limit_mps = p->speedLimit;
-    t->pit_count = p->nPitSeg;
+    t->pit_count = p->nMaxPits;
     bb_segment *segs = (bb_segment *)(blob + sizeof(bb_track));
     tTrackSeg *seg = track->seg->next;  // track->seg is the last segment
     for (size_t i = 0; i < nseg; i++, seg = seg->next) fill_segment(&segs[i], seg);

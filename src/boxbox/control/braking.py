@@ -1,0 +1,87 @@
+"""Braking distances for a point-mass car with downforce and drag.
+
+Model: the tyres give mu * (m g + CA v^2) of braking force and drag adds CW v^2, so
+    dv/dt = -(c + d v^2),  c = mu g,  d = (CA mu + CW) / m.
+`mu` everywhere here is the *total* friction: surface friction times the tyre mu (CarModel.mu).
+Called per drive step, so pure floats and `math` only.
+"""
+
+from __future__ import annotations
+
+import math
+from enum import Enum
+
+from boxbox.control.carmodel import G, CarModel
+
+_MAX_EXP_ARG = 700.0  # exp() overflows a float just above 709
+
+
+class BrakeModel(str, Enum):
+    EXACT = "exact"  # integrates the model above
+    APPROX = "approx"  # the tutorial seed's formula: the lowest deceleration (at v2) over the whole way
+
+
+def _coefficients(mu: float, model: CarModel) -> tuple[float, float]:
+    return mu * G, (model.ca * mu + model.cw) / model.mass_kg
+
+
+def brake_distance_approx(v1_mps: float, v2_mps: float, mu: float, model: CarModel) -> float:
+    """m (v1^2 - v2^2) / (2 (mu g m + v2^2 (CA mu + CW))); 0 when no braking is needed.
+
+    It uses the deceleration at v2, the lowest on the way, so it is never shorter than the exact
+    distance: conservative, more so the stronger the aero and the larger v1 - v2.
+    """
+    if v1_mps <= v2_mps:
+        return 0.0
+    v2_sq = v2_mps * v2_mps
+    m = model.mass_kg
+    denom = 2.0 * (mu * G * m + v2_sq * (model.ca * mu + model.cw))
+    if denom <= 0.0:
+        return math.inf
+    return m * (v1_mps * v1_mps - v2_sq) / denom
+
+
+def brake_distance_exact(v1_mps: float, v2_mps: float, mu: float, model: CarModel) -> float:
+    """Distance to slow from v1 to v2 under the model: ln((c + d v1^2)/(c + d v2^2)) / (2d).
+
+    0 when v1 <= v2; (v1^2 - v2^2) / (2c) when d = 0; inf when nothing slows the car.
+    """
+    if v1_mps <= v2_mps:
+        return 0.0
+    c, d = _coefficients(mu, model)
+    dv_sq = v1_mps * v1_mps - v2_mps * v2_mps
+    if d <= 0.0:
+        return dv_sq / (2.0 * c) if c > 0.0 else math.inf
+    base = c + d * v2_mps * v2_mps
+    if base <= 0.0:  # no friction and v2 = 0: drag alone never stops the car
+        return math.inf
+    # log1p of the ratio minus one avoids cancellation when v1 is close to v2 or d is tiny
+    return math.log1p(d * dv_sq / base) / (2.0 * d)
+
+
+def max_entry_speed(v2_mps: float, dist_m: float, mu: float, model: CarModel) -> float:
+    """Highest speed from which the car slows to v2 within dist_m (inverse of brake_distance_exact).
+
+    v1^2 = v2^2 + (c + d v2^2) (exp(2 d s) - 1) / d, which tends to v2^2 + 2 c s as d -> 0.
+    """
+    if dist_m <= 0.0:
+        return v2_mps
+    c, d = _coefficients(mu, model)
+    v2_sq = v2_mps * v2_mps
+    if d <= 0.0:
+        return math.sqrt(v2_sq + 2.0 * max(c, 0.0) * dist_m)
+    arg = 2.0 * d * dist_m
+    if arg > _MAX_EXP_ARG:
+        return math.inf
+    return math.sqrt(v2_sq + (c + d * v2_sq) * math.expm1(arg) / d)
+
+
+def brake_distance(
+    v1_mps: float, v2_mps: float, mu: float, model: CarModel, method: BrakeModel | str = BrakeModel.EXACT
+) -> float:
+    """Braking distance with the chosen model ("exact" or "approx")."""
+    if method == BrakeModel.EXACT:
+        return brake_distance_exact(v1_mps, v2_mps, mu, model)
+    if method == BrakeModel.APPROX:
+        return brake_distance_approx(v1_mps, v2_mps, mu, model)
+    raise ValueError(f"unknown brake model {method!r}, expected 'exact' or 'approx'")

@@ -1,0 +1,81 @@
+"""The few car constants the speed and braking controllers need: mass, downforce, drag, tyre grip.
+
+The aerodynamic coefficients follow the tutorial robot's estimates (see TORCS.md, "The tutorial
+robot's constants"): forces are CA * v^2 (downforce, N) and CW * v^2 (drag, N) with v in m/s.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+
+from boxbox.model.car import Car
+
+G = 9.81  # m/s^2
+
+AIR_DENSITY = 1.23  # kg/m^3, as used for the wing estimate
+WING_FACTOR = 4.0  # the tutorial's empirical factor on the wing term
+DRAG_FACTOR = 0.645  # the tutorial's empirical factor (about rho / 2) on Cx * front area
+FUEL_KG_PER_L = 1.0  # TORCS counts the fuel load with 1 kg per litre (mass = car mass + fuel)
+
+
+def ground_effect_factor(car: Car) -> float:
+    """h = 2 exp(-3 (1.5 * sum of the four ride heights)^4): body lift helps less when the car rides high."""
+    heights_m = car.ride_height_fr_m + car.ride_height_fl_m + car.ride_height_rr_m + car.ride_height_rl_m
+    return 2.0 * math.exp(-3.0 * (1.5 * heights_m) ** 4)
+
+
+def downforce_coefficient(car: Car, include_front_wing: bool = True) -> float:
+    """CA in N/(m/s)^2: h * (front + rear Clift) + 4 * 1.23 * wing area * sin(wing angle).
+
+    The tutorial counts only the rear wing; a front wing (area > 0) is added the same way unless
+    `include_front_wing` is False.
+    """
+    wing_m2 = car.rear_wing_area_m2 * math.sin(car.rear_wing_angle_rad)
+    if include_front_wing and car.front_wing_area_m2 > 0.0:
+        wing_m2 += car.front_wing_area_m2 * math.sin(car.front_wing_angle_rad)
+    body = ground_effect_factor(car) * (car.front_clift + car.rear_clift)
+    return body + WING_FACTOR * AIR_DENSITY * wing_m2
+
+
+def drag_coefficient(car: Car) -> float:
+    """CW in N/(m/s)^2: 0.645 * Cx * front area."""
+    return DRAG_FACTOR * car.cx * car.front_area_m2
+
+
+def tyre_mu(car: Car) -> float:
+    """The weakest tyre limits the car, so use the smallest of the four."""
+    return min(car.mu_fr, car.mu_fl, car.mu_rr, car.mu_rl)
+
+
+@dataclass(frozen=True)
+class CarModel:
+    """Point-mass car: mass (with fuel), downforce CA, drag CW (both N per (m/s)^2), tyre friction mu.
+
+    `empty_mass_kg` is the mass without fuel (defaults to `mass_kg`), so `with_fuel` can re-derive
+    the mass as the fuel burns.
+    """
+
+    mass_kg: float
+    ca: float
+    cw: float
+    mu: float
+    empty_mass_kg: float = field(default=-1.0, compare=False)
+
+    def __post_init__(self) -> None:
+        if self.empty_mass_kg < 0.0:
+            object.__setattr__(self, "empty_mass_kg", self.mass_kg)
+
+    @classmethod
+    def from_car(cls, car: Car, fuel_l: float = 0.0, include_front_wing: bool = True) -> CarModel:
+        return cls(
+            mass_kg=car.mass_kg + fuel_l * FUEL_KG_PER_L,
+            ca=downforce_coefficient(car, include_front_wing),
+            cw=drag_coefficient(car),
+            mu=tyre_mu(car),
+            empty_mass_kg=car.mass_kg,
+        )
+
+    def with_fuel(self, fuel_l: float) -> CarModel:
+        """The same car carrying `fuel_l` litres (1 kg per litre, as TORCS counts it)."""
+        return replace(self, mass_kg=self.empty_mass_kg + max(0.0, fuel_l) * FUEL_KG_PER_L)

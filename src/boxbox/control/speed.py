@@ -1,0 +1,230 @@
+"""Speed limits: the grip limit in a turn, per-segment limits of a track, and a braking-aware profile.
+
+`mu` is the total friction (surface friction times tyre mu) as in braking.py.
+Per-call functions (`allowed_speed`, `SpeedProfile.speed_at`) use floats and `math` only; numpy is
+used only while building per-track tables.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+from boxbox.control.braking import max_entry_speed
+from boxbox.control.carmodel import G, CarModel
+from boxbox.model.track import STRAIGHT, Track
+
+DEFAULT_MAX_SPEED_MPS = 100.0
+QUARTER_TURN_RAD = math.pi / 2.0
+
+
+def allowed_speed(
+    radius_m: float, mu: float, model: CarModel, max_speed_mps: float = DEFAULT_MAX_SPEED_MPS
+) -> float:
+    """Highest speed through a turn of radius_m: sqrt(mu g r / (1 - min(1, r CA mu / m))).
+
+    Downforce grows with v^2 like the needed side force, so above r = m / (CA mu) any speed holds:
+    then (and for r = inf) the result is max_speed_mps, which also caps every other result
+    (pass math.inf for no cap).
+    """
+    if math.isinf(radius_m):
+        return max_speed_mps
+    denom = 1.0 - min(1.0, radius_m * model.ca * mu / model.mass_kg)
+    if denom <= 0.0:
+        return max_speed_mps
+    return min(max_speed_mps, math.sqrt(max(0.0, mu * G * radius_m) / denom))
+
+
+def _turn_arc_fractions(seg_type: np.ndarray, arc_rad: np.ndarray, full_arc_rad: float) -> np.ndarray:
+    """Per segment: the arc of the whole turn it belongs to / full_arc_rad, at most 1 (1 on straights).
+
+    A turn is a maximal run of consecutive segments turning the same way (radii may differ);
+    runs wrap around the start line.
+    """
+    n = len(seg_type)
+    frac = np.ones(n)
+    if n == 0:
+        return frac
+    # start scanning at a segment whose predecessor differs, so no run is cut by the start line
+    changes = [i for i in range(n) if seg_type[i] != seg_type[i - 1]]
+    first = changes[0] if changes else 0
+    run: list[int] = []
+
+    def close(run: list[int]) -> None:
+        if run and seg_type[run[0]] != STRAIGHT:
+            total = float(sum(arc_rad[k] for k in run))
+            frac[run] = min(1.0, total / full_arc_rad)
+
+    for k in range(n):
+        i = (first + k) % n
+        if run and seg_type[i] != seg_type[run[-1]]:
+            close(run)
+            run = []
+        run.append(i)
+    close(run)
+    return frac
+
+
+def segment_speed_limits(
+    track: Track,
+    model: CarModel,
+    *,
+    mu_scale: float = 1.0,
+    max_speed_mps: float = DEFAULT_MAX_SPEED_MPS,
+    full_arc_rad: float = QUARTER_TURN_RAD,
+    short_turn_exponent: float = 1.0,
+    width_fraction: float = 0.0,
+) -> np.ndarray:
+    """Allowed speed per segment (m/s); straights get max_speed_mps.
+
+    A turn whose total arc is below `full_arc_rad` (a quarter turn) can be cut, so its radius is
+    enlarged: r' = (r + width_fraction * width) / (arc / full_arc_rad) ** short_turn_exponent.
+    Exponent 1 is the shipped tutorial robot's rule (which also adds half the width, i.e.
+    width_fraction = 0.5; the default 0 keeps the middle-line radius). mu per segment is
+    friction * model.mu * mu_scale.
+    """
+    s = track.seg
+    seg_type = np.asarray(s["type"])
+    frac = _turn_arc_fractions(seg_type, np.asarray(s["arc_rad"], dtype=float), full_arc_rad)
+    limits = np.full(len(seg_type), float(max_speed_mps))
+    for i in range(len(seg_type)):
+        if seg_type[i] == STRAIGHT:
+            continue
+        radius_m = float(s["radius_m"][i]) + width_fraction * float(s["width_m"][i])
+        radius_m = radius_m / frac[i] ** short_turn_exponent if frac[i] > 0.0 else math.inf
+        mu = float(s["friction"][i]) * model.mu * mu_scale
+        limits[i] = allowed_speed(radius_m, mu, model, max_speed_mps)
+    return limits
+
+
+class SpeedProfile:
+    """Target speed around a closed lap: below every limit and always reachable by braking.
+
+    Samples are `step_m` apart (sample i at i * step_m, the lap is n * step_m long). The profile
+    is the largest speeds with v[i] <= limit[i] and v[i] <= max_entry_speed(v[i+1], step_m, mu[i])
+    (exact braking model), around the loop: a slow turn just after the start line makes the
+    car brake at the end of the lap.
+    """
+
+    def __init__(
+        self,
+        limit_mps: Sequence[float] | np.ndarray,
+        mu: float | Sequence[float] | np.ndarray,
+        model: CarModel,
+        step_m: float = 2.0,
+        *,
+        max_speed_mps: float = DEFAULT_MAX_SPEED_MPS,
+    ) -> None:
+        limit = np.minimum(np.asarray(limit_mps, dtype=float), max_speed_mps)
+        if limit.ndim != 1 or len(limit) == 0:
+            raise ValueError("limit_mps must be a non-empty 1-d sequence")
+        if step_m <= 0.0:
+            raise ValueError("step_m must be positive")
+        self.model = model
+        self.step_m = float(step_m)
+        self.n_samples = len(limit)
+        self.length_m = self.n_samples * self.step_m
+        self.limits_mps = limit
+        self.mu = np.broadcast_to(np.asarray(mu, dtype=float), limit.shape).copy()
+        speeds = self._backward_pass(limit.tolist(), self.mu.tolist(), model, self.step_m)
+        self._speeds: list[float] = speeds + [speeds[0]]  # one extra so speed_at can wrap without a branch
+        self._inv_step = 1.0 / self.step_m
+        self.target_speeds = np.array(speeds)
+
+    @staticmethod
+    def _backward_pass(limit: list[float], mu: list[float], model: CarModel, step_m: float) -> list[float]:
+        n = len(limit)
+        speeds = list(limit)
+        # The slowest sample can never be forced lower (everything is >= the smallest limit), so a
+        # pass backwards from it settles the loop; the loop repeats only as a safeguard.
+        start = min(range(n), key=limit.__getitem__)
+        for _ in range(n + 1):
+            changed = False
+            for k in range(1, n + 1):
+                i = (start - k) % n
+                v = min(limit[i], max_entry_speed(speeds[(i + 1) % n], step_m, mu[i], model))
+                if v < speeds[i]:
+                    speeds[i] = v
+                    changed = True
+            if not changed:
+                break
+        return speeds
+
+    @property
+    def distances_m(self) -> np.ndarray:
+        return np.arange(self.n_samples) * self.step_m
+
+    def speed_at(self, dist_m: float) -> float:
+        """Target speed at a distance from the start line (any lap), linear between samples."""
+        x = (dist_m % self.length_m) * self._inv_step
+        i = int(x)
+        if i >= self.n_samples:  # float rounding just below the lap length
+            i = self.n_samples - 1
+        v0 = self._speeds[i]
+        return v0 + (self._speeds[i + 1] - v0) * (x - i)
+
+    @classmethod
+    def from_curvature(
+        cls,
+        curvature_1pm: Sequence[float] | np.ndarray,
+        mu: float | Sequence[float] | np.ndarray,
+        model: CarModel,
+        step_m: float = 2.0,
+        *,
+        max_speed_mps: float = DEFAULT_MAX_SPEED_MPS,
+    ) -> SpeedProfile:
+        """Profile of a racing line given by its curvature (1/m, any sign) per sample; mu is total."""
+        k = np.abs(np.asarray(curvature_1pm, dtype=float))
+        mus = np.broadcast_to(np.asarray(mu, dtype=float), k.shape)
+        limit = [
+            allowed_speed(1.0 / ki if ki > 0.0 else math.inf, float(m), model, max_speed_mps)
+            for ki, m in zip(k.tolist(), mus.tolist())
+        ]
+        return cls(limit, mus, model, step_m, max_speed_mps=max_speed_mps)
+
+    @classmethod
+    def from_track(
+        cls,
+        track: Track,
+        model: CarModel,
+        step_m: float = 2.0,
+        *,
+        mu_scale: float = 1.0,
+        max_speed_mps: float = DEFAULT_MAX_SPEED_MPS,
+        **limit_options: float,
+    ) -> SpeedProfile:
+        """Profile from the per-segment limits of `segment_speed_limits` (options passed on).
+
+        The step is adjusted so a whole number of samples fills the lap. Each sample takes the
+        lowest limit and friction of all segments within one step either side, so `speed_at`,
+        interpolating between two samples, respects every segment between them (a turn starting
+        or ending between two samples limits both).
+        """
+        seg_limits = segment_speed_limits(
+            track, model, mu_scale=mu_scale, max_speed_mps=max_speed_mps, **limit_options
+        ).tolist()
+        seg_mu = (np.asarray(track.seg["friction"], dtype=float) * model.mu * mu_scale).tolist()
+        starts = np.asarray(track.seg["start_dist_m"], dtype=float).tolist()
+        n_seg = len(starts)
+        lap_m = track.length_m
+        n = max(1, round(lap_m / step_m))
+        step = lap_m / n
+        limit = [0.0] * n
+        mu = [0.0] * n
+        for i in range(n):
+            # walk the segments overlapping [d - step, d + step], unwrapping across the start line
+            lo_m, hi_m = (i - 1) * step, (i + 1) * step
+            j = track.segment_at(lo_m) + (n_seg if lo_m < 0.0 else 0) - n_seg  # may be negative: last lap
+            v_min, mu_min = math.inf, math.inf
+            while True:
+                k = j % n_seg
+                if starts[k] + (j // n_seg) * lap_m >= hi_m:
+                    break
+                v_min = min(v_min, seg_limits[k])
+                mu_min = min(mu_min, seg_mu[k])
+                j += 1
+            limit[i] = v_min
+            mu[i] = mu_min
+        return cls(limit, mu, model, step, max_speed_mps=max_speed_mps)

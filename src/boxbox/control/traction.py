@@ -1,0 +1,79 @@
+"""ABS and traction control from wheel slip (m/s), with the shipped tutorial robot's numbers.
+
+Wheel tuples are in TORCS order: front right, front left, rear right, rear left; spins in rad/s
+(`wheel_spin_rps`: radians per second, as TORCS reports them), radii in m.
+Called per drive step: floats only.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from boxbox.model.car import AWD, FWD, RWD
+
+Wheels = tuple[float, float, float, float]
+
+
+@dataclass(frozen=True)
+class SlipParams:
+    abs_slip_mps: float = 2.0  # ABS acts above this slip
+    abs_range_mps: float = 5.0  # brake is released fully at abs_slip + abs_range
+    abs_min_speed_mps: float = 3.0  # below this wheel speeds say little: leave the brake alone
+    tcl_slip_mps: float = 2.0
+    tcl_range_mps: float = 10.0
+    tcl_min_speed_mps: float = 3.0
+
+
+DEFAULT_SLIP = SlipParams()
+
+
+def abs_filter(
+    brake: float, speed_mps: float, wheel_spin_rps: Wheels, wheel_radii_m: Wheels, params: SlipParams = DEFAULT_SLIP
+) -> float:
+    """Brake reduced by (slip - 2) / 5 when the wheels turn slower than the car by more than 2 m/s."""
+    if speed_mps < params.abs_min_speed_mps:
+        return brake
+    wheels_mps = (
+        wheel_spin_rps[0] * wheel_radii_m[0]
+        + wheel_spin_rps[1] * wheel_radii_m[1]
+        + wheel_spin_rps[2] * wheel_radii_m[2]
+        + wheel_spin_rps[3] * wheel_radii_m[3]
+    ) * 0.25
+    slip_mps = speed_mps - wheels_mps
+    if slip_mps > params.abs_slip_mps:
+        brake -= (slip_mps - params.abs_slip_mps) / params.abs_range_mps
+        if brake < 0.0:
+            brake = 0.0
+    return brake
+
+
+def driven_wheel_speed_mps(wheel_spin_rps: Wheels, wheel_radii_m: Wheels, drivetrain: int) -> float:
+    """Mean surface speed of the driven wheels: RWD rear, FWD front, AWD all four."""
+    front = (wheel_spin_rps[0] * wheel_radii_m[0] + wheel_spin_rps[1] * wheel_radii_m[1]) * 0.5
+    rear = (wheel_spin_rps[2] * wheel_radii_m[2] + wheel_spin_rps[3] * wheel_radii_m[3]) * 0.5
+    if drivetrain == RWD:
+        return rear
+    if drivetrain == FWD:
+        return front
+    if drivetrain == AWD:
+        return (front + rear) * 0.5
+    raise ValueError(f"unknown drivetrain {drivetrain!r}")
+
+
+def tcl_filter(
+    accel: float,
+    speed_mps: float,
+    wheel_spin_rps: Wheels,
+    wheel_radii_m: Wheels,
+    drivetrain: int,
+    params: SlipParams = DEFAULT_SLIP,
+) -> float:
+    """Throttle reduced by (slip - 2) / 10 when the driven wheels outrun the car by more than 2 m/s."""
+    if speed_mps < params.tcl_min_speed_mps:
+        return accel
+    slip_mps = driven_wheel_speed_mps(wheel_spin_rps, wheel_radii_m, drivetrain) - speed_mps
+    if slip_mps > params.tcl_slip_mps:
+        accel -= (slip_mps - params.tcl_slip_mps) / params.tcl_range_mps
+        if accel < 0.0:
+            accel = 0.0
+    return accel

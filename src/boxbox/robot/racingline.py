@@ -1,0 +1,298 @@
+"""A per-track racing line: the track middle line sampled every few metres, then the lateral offset
+that minimises the curvature of the driven path while staying inside the track.
+
+Computed once per track (`RacingLine(track)`, well under a second for a 7 km track).  While
+driving, `point_at` gives a look-ahead steering target and `curvature_at` feeds the speed profile;
+those lookups are plain Python (lists and one linear interpolation), no numpy per call.
+
+Method: the line is P_i + n_i * N_i (middle point, left normal, offset n_i in metres, + left).
+The curvature at sample i is approximated by the second difference of the line points projected on
+the line's own normal, divided by the local spacing squared.  With the normal and spacing taken from
+the previous estimate this is linear in n, so "sum of squared curvatures, subject to the track
+bounds" is a sparse convex quadratic programme; it is solved by an active-set method on the
+bound constraints, and the linearisation is refreshed a few times (sequential QP).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.interpolate import CubicSpline
+from scipy.ndimage import maximum_filter1d
+from scipy.signal import savgol_filter
+from scipy.sparse.linalg import splu
+
+from boxbox.model.track import LEFT, STRAIGHT, Track
+
+TWO_PI = 2.0 * math.pi
+
+
+@dataclass(frozen=True, eq=False)
+class MiddleLine:
+    """The track middle line at a uniform distance step; every array has n + 1 samples, the last one
+    at dist_m == length_m closing the loop (it should coincide with the first)."""
+
+    length_m: float
+    step_m: float  # actual step: length_m / n, close to the requested one
+    dist_m: np.ndarray
+    x_m: np.ndarray
+    y_m: np.ndarray
+    heading_rad: np.ndarray  # direction of travel, unwrapped (continuous over the lap)
+    half_left_m: np.ndarray  # usable room left of the middle (width / 2 - margin)
+    half_right_m: np.ndarray  # usable room right of the middle, positive
+    friction: np.ndarray
+    seg_id: np.ndarray  # segment holding each sample
+    curvature_1pm: np.ndarray  # exact curvature of the middle line from the segments, + left
+
+    @property
+    def n(self) -> int:
+        """Number of distinct samples (the closing sample excluded)."""
+        return len(self.dist_m) - 1
+
+
+def middle_line(track: Track, step_m: float = 2.0, margin_m: float = 0.0) -> MiddleLine:
+    """Sample the middle line every ~step_m metres from the start line round to the start line."""
+    seg = track.seg
+    length_m = float(track.length_m)
+    n = max(8, int(round(length_m / step_m)))
+    dist_m = np.linspace(0.0, length_m, n + 1)
+
+    starts = seg["start_dist_m"].astype(float)
+    ids = np.clip(np.searchsorted(starts, dist_m, side="right") - 1, 0, len(starts) - 1)
+    local_m = dist_m - starts[ids]
+    # float32 track data: the last segment may end a few cm before/after length_m; clamp the local
+    # distance so no sample is extrapolated past its segment end (except that last tiny bit)
+    seg_len = seg["length_m"].astype(float)[ids]
+    frac = np.clip(local_m / np.where(seg_len > 0, seg_len, 1.0), 0.0, 1.0)
+
+    typ = seg["type"][ids].astype(int)
+    h0 = seg["start_angle_rad"].astype(float)[ids]
+    radius = seg["radius_m"].astype(float)[ids]
+    arc = seg["arc_rad"].astype(float)[ids]
+
+    # straights: linear between the start and end midpoints (the midpoint of the two vertices)
+    sx = 0.5 * (seg["start_left_x"] + seg["start_right_x"])[ids]
+    sy = 0.5 * (seg["start_left_y"] + seg["start_right_y"])[ids]
+    ex = 0.5 * (seg["end_left_x"] + seg["end_right_x"])[ids]
+    ey = 0.5 * (seg["end_left_y"] + seg["end_right_y"])[ids]
+    x = sx + frac * (ex - sx)
+    y = sy + frac * (ey - sy)
+    heading = h0.copy()
+
+    # turns: the middle is an arc of radius_m around the centre; the left normal is (-sin h, cos h),
+    # so a left turn's centre lies at +R * normal (middle = centre + R * (sin h, -cos h)) and a right
+    # turn's at -R * normal; the heading turns by the swept angle
+    turn = typ != STRAIGHT
+    sign = np.where(typ == LEFT, 1.0, -1.0)
+    h = h0 + sign * frac * arc
+    cx, cy = seg["center_x"].astype(float)[ids], seg["center_y"].astype(float)[ids]
+    x = np.where(turn, cx + sign * radius * np.sin(h), x)
+    y = np.where(turn, cy - sign * radius * np.cos(h), y)
+    heading = np.where(turn, h, heading)
+    heading = np.unwrap(heading)
+
+    width = seg["start_width_m"][ids] + frac * (seg["end_width_m"][ids] - seg["start_width_m"][ids])
+    half = np.maximum(0.5 * width.astype(float) - margin_m, 0.0)
+    with np.errstate(divide="ignore"):
+        k = np.where(turn, sign / np.where(radius > 0, radius, math.inf), 0.0)
+    return MiddleLine(length_m=length_m, step_m=length_m / n, dist_m=dist_m, x_m=x, y_m=y,
+                      heading_rad=heading, half_left_m=half, half_right_m=half.copy(),
+                      friction=seg["friction"].astype(float)[ids], seg_id=ids, curvature_1pm=k)
+
+
+def _solve_box_qp(h: sp.csr_matrix, g: np.ndarray, lo: np.ndarray, hi: np.ndarray,
+                  x0: np.ndarray, max_iter: int = 60) -> np.ndarray:
+    """min 1/2 x'Hx + g'x subject to lo <= x <= hi, H sparse positive definite.
+
+    Block active-set pivoting: solve on the free variables with the others held at their bounds,
+    pin every free variable that overshoots, release every pinned one whose gradient points inward,
+    repeat.  For these banded, diagonally heavy matrices it settles in a handful of sparse solves;
+    if it ever cycles, the last iterate is clipped (a valid, near-optimal line)."""
+    n = len(g)
+    x = np.clip(x0, lo, hi)
+    # start with the bounds the warm start touches pinned
+    state = np.zeros(n, dtype=np.int8)  # 0 free, -1 at lo, +1 at hi
+    state[x <= lo] = -1
+    state[x >= hi] = 1
+    h_csc = h.tocsc()
+    scale = float(np.abs(h.diagonal()).max()) or 1.0
+    tol_x, tol_g = 1e-9, 1e-10 * scale
+    for _ in range(max_iter):
+        free = state == 0
+        x = np.where(state < 0, lo, np.where(state > 0, hi, x))
+        fi = np.flatnonzero(free)
+        if len(fi):
+            pinned = np.flatnonzero(~free)
+            rhs = -g[fi]
+            if len(pinned):
+                rhs -= h_csc[fi][:, pinned] @ x[pinned]
+            x[fi] = splu(h_csc[fi][:, fi].tocsc()).solve(rhs)
+        grad = h @ x + g
+        over_lo = free & (x < lo - tol_x)
+        over_hi = free & (x > hi + tol_x)
+        release = ((state < 0) & (grad < -tol_g)) | ((state > 0) & (grad > tol_g))
+        if not (over_lo.any() or over_hi.any() or release.any()):
+            break
+        state[over_lo] = -1
+        state[over_hi] = 1
+        state[release] = 0
+    return np.clip(x, lo, hi)
+
+
+def _closed_curvature(x_m: np.ndarray, y_m: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Signed curvature (+ left), heading (unwrapped) and chord length to the next point for a
+    closed polyline of n distinct points, from a periodic cubic spline through them (parameter:
+    chord length)."""
+    xs = np.append(x_m, x_m[0])
+    ys = np.append(y_m, y_m[0])
+    chord = np.hypot(np.diff(xs), np.diff(ys))
+    s = np.concatenate(([0.0], np.cumsum(np.maximum(chord, 1e-9))))
+    sx = CubicSpline(s, xs, bc_type="periodic")
+    sy = CubicSpline(s, ys, bc_type="periodic")
+    t = s[:-1]
+    dx, dy = sx(t, 1), sy(t, 1)
+    ddx, ddy = sx(t, 2), sy(t, 2)
+    k = (dx * ddy - dy * ddx) / np.power(dx * dx + dy * dy, 1.5)
+    return k, np.unwrap(np.arctan2(dy, dx)), chord
+
+
+class RacingLine:
+    """Minimum-curvature line of one track.
+
+    Arrays (n + 1 samples every `step_m` along the middle line, the last one closing the loop):
+    dist_m, offset_m (to_middle of the line, + left), x_m, y_m, heading_rad, curvature_1pm (signed,
+    + left, smoothed), curvature_raw_1pm (unsmoothed), length_factor (racing-line metres per
+    middle-line metre), and `middle` (the sampled middle line with its bounds).
+
+    blend: 0 = the middle line, 1 = the optimised line, in between a linear mix of the offsets.
+    margin_m: kept from each track edge (car half width ~0.95 m + safety).
+    """
+
+    def __init__(self, track: Track, step_m: float = 2.0, margin_m: float = 1.2, blend: float = 1.0,
+                 iterations: int = 4, smooth_m: float = 14.0, peak_power: float = 2.0) -> None:
+        mid = middle_line(track, step_m, margin_m)
+        self.middle = mid
+        self.blend = float(blend)
+        self.margin_m = float(margin_m)
+        self.step_m = mid.step_m
+        self.length_m = mid.length_m
+        n = mid.n
+        px, py = mid.x_m[:n], mid.y_m[:n]
+        nx, ny = -np.sin(mid.heading_rad[:n]), np.cos(mid.heading_rad[:n])
+        lo, hi = -mid.half_right_m[:n], mid.half_left_m[:n]
+
+        self.optimal_offset_m = self._optimise(px, py, nx, ny, lo, hi, iterations, peak_power)
+        off = np.clip(self.blend * self.optimal_offset_m, lo, hi)
+        x, y = px + off * nx, py + off * ny
+        k_raw, heading, chord = _closed_curvature(x, y)
+        # light peak-preserving smoothing so the speed profile derived from it is not noisy
+        win = max(5, int(round(smooth_m / self.step_m)) | 1)
+        k = savgol_filter(k_raw, win, 3, mode="wrap") if win < n else k_raw
+        factor = 0.5 * (chord + np.roll(chord, 1)) / self.step_m
+
+        def closed(a: np.ndarray, wrap_add: float = 0.0) -> np.ndarray:
+            return np.append(a, a[0] + wrap_add)
+
+        turns = TWO_PI * round((mid.heading_rad[n] - mid.heading_rad[0]) / TWO_PI)
+        self.dist_m = mid.dist_m
+        self.offset_m = closed(off)
+        self.x_m = closed(x)
+        self.y_m = closed(y)
+        self.heading_rad = closed(heading, turns)
+        self.curvature_raw_1pm = closed(k_raw)
+        self.curvature_1pm = closed(k)
+        self.length_factor = closed(factor)
+        self.path_length_m = float(chord.sum())
+
+        # plain lists for the per-step lookups
+        self._n = n
+        self._off = self.offset_m.tolist()
+        self._x = self.x_m.tolist()
+        self._y = self.y_m.tolist()
+        self._h = self.heading_rad.tolist()
+        self._k = self.curvature_1pm.tolist()
+        self._f = self.length_factor.tolist()
+
+    @staticmethod
+    def _optimise(px: np.ndarray, py: np.ndarray, nx: np.ndarray, ny: np.ndarray,
+                  lo: np.ndarray, hi: np.ndarray, iterations: int, peak_power: float = 2.0,
+                  floor: float = 0.05, spread: int = 2) -> np.ndarray:
+        n = len(px)
+        idx = np.arange(n)
+        prv, nxt = np.roll(idx, 1), np.roll(idx, -1)
+        off = np.zeros(n)
+        for it in range(max(1, iterations)):
+            # linearise around the current line: its normal u_i and spacing ds_i
+            x, y = px + off * nx, py + off * ny
+            tx = np.roll(x, -1) - np.roll(x, 1)
+            ty = np.roll(y, -1) - np.roll(y, 1)
+            ds = np.maximum(0.5 * np.hypot(tx, ty), 1e-6)
+            ux, uy = -ty / (2 * ds), tx / (2 * ds)
+            w = 1.0 / (ds * ds)
+            # k_i ~ w_i * u_i . (R_{i+1} - 2 R_i + R_{i-1}),  R_j = P_j + n_j N_j  ->  k = A n + c
+            c = w * (ux * (np.roll(px, -1) - 2 * px + np.roll(px, 1))
+                     + uy * (np.roll(py, -1) - 2 * py + np.roll(py, 1)))
+            a_prev = w * (ux * nx[prv] + uy * ny[prv])
+            a_mid = -2.0 * w * (ux * nx + uy * ny)
+            a_next = w * (ux * nx[nxt] + uy * ny[nxt])
+            if peak_power > 2.0 and it > 0:
+                # iteratively reweighted least squares: weighting each sample by |k|^(p-2) of the
+                # current line turns sum k^2 into ~ sum |k|^p, which presses the peak of every turn
+                # down instead of spreading curvature thinly (the lap time is set by the peaks)
+                k_now = np.abs(a_prev * off[prv] + a_mid * off + a_next * off[nxt] + c)
+                k_now = maximum_filter1d(k_now, 2 * spread + 1, mode="wrap")
+                k_ref = float(k_now.max()) or 1.0
+                rw = np.power(k_now / k_ref + floor, 0.5 * (peak_power - 2.0))
+                c, a_prev, a_mid, a_next = c * rw, a_prev * rw, a_mid * rw, a_next * rw
+            a = sp.csr_matrix((np.concatenate((a_prev, a_mid, a_next)),
+                               (np.tile(idx, 3), np.concatenate((prv, idx, nxt)))), shape=(n, n))
+            h = (a.T @ a).tocsr()
+            # a tiny pull to the middle makes H strictly positive definite (a straight track alone
+            # would leave a free sideways shift) without moving the line measurably
+            h = h + sp.identity(n, format="csr") * (1e-9 * float(h.diagonal().mean()) + 1e-12)
+            g = a.T @ c
+            new = _solve_box_qp(h, g, lo, hi, off)
+            off = new
+        return off
+
+    # ---- per-step lookups: plain Python, linear interpolation between samples -----------------
+
+    def _locate(self, dist_m: float) -> tuple[int, float]:
+        pos = (dist_m % self.length_m) / self.step_m
+        i = int(pos)
+        if i >= self._n:  # dist_m % length_m rounding up to length_m
+            i = self._n - 1
+        return i, pos - i
+
+    def offset_at(self, dist_m: float) -> float:
+        """to_middle (m, + left) of the line at a distance from the start line."""
+        i, f = self._locate(dist_m)
+        a = self._off
+        return a[i] + f * (a[i + 1] - a[i])
+
+    def curvature_at(self, dist_m: float) -> float:
+        """Smoothed signed curvature (1/m, + left) of the line at a distance from the start line."""
+        i, f = self._locate(dist_m)
+        a = self._k
+        return a[i] + f * (a[i + 1] - a[i])
+
+    def point_at(self, dist_m: float) -> tuple[float, float]:
+        """(x_m, y_m) of the line at a distance (along the middle line) from the start line."""
+        i, f = self._locate(dist_m)
+        xs, ys = self._x, self._y
+        return xs[i] + f * (xs[i + 1] - xs[i]), ys[i] + f * (ys[i + 1] - ys[i])
+
+    def heading_at(self, dist_m: float) -> float:
+        """Direction of the line (rad, in [-pi, pi]) at a distance from the start line."""
+        i, f = self._locate(dist_m)
+        a = self._h
+        return math.remainder(a[i] + f * (a[i + 1] - a[i]), TWO_PI)
+
+    def length_factor_at(self, dist_m: float) -> float:
+        """Racing-line metres per middle-line metre (< 1 on the inside of turns)."""
+        i, f = self._locate(dist_m)
+        a = self._f
+        return a[i] + f * (a[i + 1] - a[i])

@@ -1,0 +1,111 @@
+"""Robots that misbehave on purpose, one way each, for the fault tests."""
+
+import os
+import signal
+import time
+
+from boxbox import Controls, PitOrder, Robot
+from boxbox.robot.simple import MiddleRobot
+
+FAULT_STEP = 100  # 2 s into the race
+
+
+class RaisesInDrive(MiddleRobot):
+    def drive(self, state):
+        if state.sim_time_s > 1.0:
+            raise ValueError("deliberate failure in drive")
+        return super().drive(state)
+
+
+class RaisesInOnTrack(MiddleRobot):
+    def on_track(self, track, car):
+        raise RuntimeError("deliberate failure in on_track")
+
+
+class RaisesInInit(MiddleRobot):
+    def __init__(self, options=None):
+        raise RuntimeError("deliberate failure in __init__")
+
+
+class RaisesInPitStop(MiddleRobot):
+    """Asks for a stop right away; fails when TORCS calls pit_stop."""
+
+    def drive(self, state):
+        c = super().drive(state)
+        c.pit_request = True
+        return c
+
+    def pit_stop(self, state):
+        raise KeyError("deliberate failure in pit_stop")
+
+
+class HangsForever(MiddleRobot):
+    def drive(self, state):
+        if state.sim_time_s > 1.0:
+            while True:
+                time.sleep(1)
+        return super().drive(state)
+
+
+class SleepsOnce(MiddleRobot):
+    slept = False
+
+    def drive(self, state):
+        if state.sim_time_s > 1.0 and not self.slept:
+            self.slept = True
+            time.sleep(1.0)
+        return super().drive(state)
+
+
+class KillsItself(MiddleRobot):
+    def drive(self, state):
+        if state.sim_time_s > 1.0:
+            os.kill(os.getpid(), signal.SIGKILL)
+        return super().drive(state)
+
+
+class ReturnsNaN(MiddleRobot):
+    def drive(self, state):
+        c = super().drive(state)
+        if state.sim_time_s > 1.0:
+            c.steer = float("nan")
+        return c
+
+
+class ReturnsInfinity(MiddleRobot):
+    def drive(self, state):
+        c = super().drive(state)
+        if state.sim_time_s > 1.0:
+            c.accel = float("inf")
+        return c
+
+
+class ReturnsOutOfRange(MiddleRobot):
+    def drive(self, state):
+        c = super().drive(state)
+        if state.sim_time_s > 1.0:
+            c.brake = 1.5
+        return c
+
+
+class ReturnsWrongType(MiddleRobot):
+    def drive(self, state):
+        if state.sim_time_s > 1.0:
+            return {"steer": 0.0}
+        return super().drive(state)
+
+
+class ReturnsBadPitOrder(RaisesInPitStop):
+    def pit_stop(self, state):
+        return PitOrder(fuel_l=float("nan"))
+
+
+class NotARobot:
+    pass
+
+
+class Plain(Robot):
+    """The smallest robot: straight ahead in first gear."""
+
+    def drive(self, state):
+        return Controls(steer=0.0, accel=0.3, brake=0.0, clutch=0.0, gear=1)

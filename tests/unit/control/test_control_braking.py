@@ -1,0 +1,123 @@
+import math
+
+import pytest
+
+from boxbox.control.braking import (
+    BrakeModel,
+    brake_distance,
+    brake_distance_approx,
+    brake_distance_exact,
+    max_entry_speed,
+)
+from boxbox.control.carmodel import G, CarModel
+
+RACE_CAR = CarModel(mass_kg=1200.0, ca=2.92, cw=0.43, mu=1.6)
+NO_AERO = CarModel(mass_kg=1000.0, ca=0.0, cw=0.0, mu=1.0)
+BIG_AERO = CarModel(mass_kg=1000.0, ca=10.0, cw=1.0, mu=1.6)
+
+
+def _integrated_distance(v1: float, v2: float, mu: float, model: CarModel, step_m: float = 0.01) -> float:
+    """RK4 in distance of dv/ds = -(c + d v^2) / v until v reaches v2."""
+    c = mu * G
+    d = (model.ca * mu + model.cw) / model.mass_kg
+
+    def f(v: float) -> float:
+        return -(c + d * v * v) / v
+
+    s, v = 0.0, v1
+    while True:
+        k1 = f(v)
+        k2 = f(v + 0.5 * step_m * k1)
+        k3 = f(v + 0.5 * step_m * k2)
+        k4 = f(v + step_m * k3)
+        v_next = v + step_m * (k1 + 2 * k2 + 2 * k3 + k4) / 6
+        if v_next <= v2:
+            return s + step_m * (v - v2) / (v - v_next)
+        s, v = s + step_m, v_next
+
+
+@pytest.mark.parametrize("model", [RACE_CAR, BIG_AERO])
+@pytest.mark.parametrize(("v1", "v2", "mu"), [(80.0, 20.0, 1.6), (60.0, 45.0, 1.0), (95.0, 10.0, 0.8)])
+def test_exact_matches_numerical_integration(model, v1, v2, mu):
+    assert brake_distance_exact(v1, v2, mu, model) == pytest.approx(
+        _integrated_distance(v1, v2, mu, model), rel=0.005)
+
+
+def test_no_aero_by_hand():
+    # v^2 / (2 mu g): 30 m/s on mu 1 -> 45.87 m
+    assert brake_distance_exact(30.0, 0.0, 1.0, NO_AERO) == pytest.approx(900 / (2 * 9.81), rel=1e-12)
+    assert brake_distance_approx(30.0, 0.0, 1.0, NO_AERO) == pytest.approx(900 / (2 * 9.81), rel=1e-12)
+
+
+@pytest.mark.parametrize(("v1", "v2", "mu"), [(30.0, 0.0, 1.0), (80.0, 20.0, 1.6), (50.0, 49.0, 0.5)])
+def test_approx_equals_exact_without_aero(v1, v2, mu):
+    assert brake_distance_approx(v1, v2, mu, NO_AERO) == pytest.approx(brake_distance_exact(v1, v2, mu, NO_AERO),
+                                                                       rel=1e-9)
+
+
+def test_approx_overestimates_with_large_aero():
+    # The approximation brakes with the deceleration at v2 (the lowest), so it is longer.
+    # With x = d (v1^2 - v2^2) / (c + d v2^2) the ratio is x / ln(1 + x).
+    v1, v2, mu = 90.0, 30.0, 1.6
+    exact = brake_distance_exact(v1, v2, mu, BIG_AERO)
+    approx = brake_distance_approx(v1, v2, mu, BIG_AERO)
+    c, d = mu * G, (10.0 * mu + 1.0) / 1000.0
+    x = d * (v1 * v1 - v2 * v2) / (c + d * v2 * v2)
+    assert approx / exact == pytest.approx(x / math.log1p(x), rel=1e-9)
+    assert approx > 2.0 * exact  # about 2.5 times the exact distance here
+    # a small speed drop: nearly the same (ratio about 1 + x/2)
+    small = brake_distance_approx(31.0, 30.0, mu, BIG_AERO) / brake_distance_exact(31.0, 30.0, mu, BIG_AERO)
+    assert 1.0 < small < 1.03
+
+
+def test_approx_on_race_car_from_high_speed():
+    # car1-trb1 (CA 2.92, CW 0.43) braking from 80 to 20 m/s: the approximation is about 60% too long,
+    # from 80 to 70 m/s only about 10%
+    ratio = brake_distance_approx(80.0, 20.0, 1.6, RACE_CAR) / brake_distance_exact(80.0, 20.0, 1.6, RACE_CAR)
+    assert 1.55 < ratio < 1.7
+    ratio = brake_distance_approx(80.0, 70.0, 1.6, RACE_CAR) / brake_distance_exact(80.0, 70.0, 1.6, RACE_CAR)
+    assert 1.05 < ratio < 1.15
+
+
+def test_no_braking_needed_gives_zero():
+    for fn in (brake_distance_exact, brake_distance_approx):
+        assert fn(20.0, 20.0, 1.0, RACE_CAR) == 0.0
+        assert fn(10.0, 20.0, 1.0, RACE_CAR) == 0.0
+
+
+def test_small_d_tends_to_frictional_limit():
+    tiny = CarModel(mass_kg=1e12, ca=1.0, cw=1.0, mu=1.0)  # d = 2e-12
+    assert brake_distance_exact(40.0, 10.0, 1.0, tiny) == pytest.approx((1600 - 100) / (2 * G), rel=1e-6)
+    assert max_entry_speed(10.0, 50.0, 1.0, tiny) == pytest.approx(math.sqrt(100 + 2 * G * 50), rel=1e-6)
+
+
+def test_drag_alone_never_stops():
+    assert brake_distance_exact(30.0, 0.0, 0.0, RACE_CAR) == math.inf
+    # but slows from 30 to 15 in ln(4) / (2 d)
+    d = RACE_CAR.cw / RACE_CAR.mass_kg
+    assert brake_distance_exact(30.0, 15.0, 0.0, RACE_CAR) == pytest.approx(math.log(4) / (2 * d), rel=1e-12)
+
+
+@pytest.mark.parametrize("model", [NO_AERO, RACE_CAR, BIG_AERO])
+@pytest.mark.parametrize("v2", [0.0, 15.0, 40.0])
+@pytest.mark.parametrize("dist_m", [0.5, 2.0, 50.0, 300.0])
+def test_max_entry_speed_inverts_exact(model, v2, dist_m):
+    v1 = max_entry_speed(v2, dist_m, 1.3, model)
+    assert v1 > v2
+    assert brake_distance_exact(v1, v2, 1.3, model) == pytest.approx(dist_m, rel=1e-9)
+    assert max_entry_speed(v2, brake_distance_exact(v1, v2, 1.3, model), 1.3, model) == pytest.approx(v1, rel=1e-9)
+
+
+def test_max_entry_speed_no_distance():
+    assert max_entry_speed(12.0, 0.0, 1.0, RACE_CAR) == 12.0
+
+
+def test_brake_distance_dispatch():
+    exact = brake_distance_exact(70.0, 25.0, 1.2, RACE_CAR)
+    approx = brake_distance_approx(70.0, 25.0, 1.2, RACE_CAR)
+    assert brake_distance(70.0, 25.0, 1.2, RACE_CAR) == exact
+    assert brake_distance(70.0, 25.0, 1.2, RACE_CAR, "exact") == exact
+    assert brake_distance(70.0, 25.0, 1.2, RACE_CAR, BrakeModel.APPROX) == approx
+    assert brake_distance(70.0, 25.0, 1.2, RACE_CAR, "approx") == approx
+    with pytest.raises(ValueError):
+        brake_distance(70.0, 25.0, 1.2, RACE_CAR, "euler")

@@ -1,0 +1,74 @@
+import dataclasses
+import math
+
+import pytest
+from trackdata import load
+
+from boxbox.control.carmodel import G, CarModel, downforce_coefficient, drag_coefficient
+from boxbox.model.car import Car
+
+
+def _car(**kw) -> Car:
+    base = dict(
+        mass_kg=1000.0, front_clift=0.5, rear_clift=0.5, rear_wing_area_m2=1.0, rear_wing_angle_rad=math.pi / 6,
+        front_wing_area_m2=0.0, ride_height_fr_m=0.0, ride_height_fl_m=0.0, ride_height_rr_m=0.0,
+        ride_height_rl_m=0.0, cx=0.4, front_area_m2=2.0,
+    )
+    base.update(kw)
+    return Car(**base)
+
+
+def test_gravity():
+    assert G == 9.81
+
+
+def test_downforce_by_hand_flat_car():
+    # h = 2 at zero ride height: 2 * (0.5 + 0.5) + 4 * 1.23 * 1 * sin(30 deg) = 2 + 2.46
+    assert downforce_coefficient(_car()) == pytest.approx(4.46, rel=1e-12)
+
+
+def test_downforce_ride_height_factor():
+    # 1.5 * sum of heights = 1 -> h = 2 exp(-3)
+    car = _car(ride_height_fr_m=1 / 6, ride_height_fl_m=1 / 6, ride_height_rr_m=1 / 6, ride_height_rl_m=1 / 6,
+               rear_wing_area_m2=0.0)
+    assert downforce_coefficient(car) == pytest.approx(2 * math.exp(-3) * 1.0, rel=1e-12)
+
+
+def test_downforce_front_wing_counted_when_present():
+    car = _car(front_wing_area_m2=0.5, front_wing_angle_rad=math.pi / 2)
+    assert downforce_coefficient(car) == pytest.approx(4.46 + 4 * 1.23 * 0.5, rel=1e-12)
+    assert downforce_coefficient(car, include_front_wing=False) == pytest.approx(4.46, rel=1e-12)
+
+
+def test_downforce_recorded_car():
+    _, car = load("e-track-2")
+    h = 2 * math.exp(-3 * (1.5 * (0.09 + 0.09 + 0.105 + 0.105)) ** 4)
+    expected = (h * (0.69 + 0.70) + 4 * 1.23 * 0.70 * math.sin(math.radians(14))
+                + 4 * 1.23 * 0.25 * math.sin(math.radians(6)))
+    assert downforce_coefficient(car) == pytest.approx(expected, rel=1e-5)
+
+
+def test_drag():
+    assert drag_coefficient(_car()) == pytest.approx(0.645 * 0.4 * 2.0, rel=1e-12)
+
+
+def test_from_car_mass_mu_and_fuel():
+    car = _car(mu_fr=1.5, mu_fl=1.4, mu_rr=1.6, mu_rl=1.7)
+    m = CarModel.from_car(car, fuel_l=30.0)
+    assert m.mass_kg == 1030.0
+    assert m.empty_mass_kg == 1000.0
+    assert m.mu == 1.4
+    assert m.ca == downforce_coefficient(car)
+    assert m.cw == drag_coefficient(car)
+    light = m.with_fuel(5.0)
+    assert light.mass_kg == 1005.0
+    assert (light.ca, light.cw, light.mu) == (m.ca, m.cw, m.mu)
+    assert CarModel.from_car(car).mass_kg == 1000.0
+
+
+def test_plain_constructor_and_frozen():
+    m = CarModel(mass_kg=900.0, ca=1.0, cw=0.5, mu=1.2)
+    assert m.empty_mass_kg == 900.0
+    assert m.with_fuel(10.0).mass_kg == 910.0
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        m.mass_kg = 1.0  # type: ignore[misc]

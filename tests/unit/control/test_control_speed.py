@@ -1,0 +1,225 @@
+import math
+
+import numpy as np
+import pytest
+from trackdata import TRACKS, load
+
+from boxbox.control.braking import brake_distance_exact, max_entry_speed
+from boxbox.control.carmodel import G, CarModel
+from boxbox.control.speed import SpeedProfile, allowed_speed, segment_speed_limits
+from boxbox.model.track import LEFT, RIGHT, STRAIGHT, Track
+
+NO_AERO = CarModel(mass_kg=1000.0, ca=0.0, cw=0.0, mu=1.0)
+AERO = CarModel(mass_kg=1000.0, ca=2.0, cw=0.5, mu=1.5)
+
+
+def _track(segments: list[tuple[int, float, float]], width_m: float = 10.0, friction: float = 1.0) -> Track:
+    """segments: (type, length_m for straights or arc_rad for turns, radius_m)."""
+    types, lengths, radii, arcs = [], [], [], []
+    for kind, size, radius in segments:
+        types.append(kind)
+        radii.append(radius if kind != STRAIGHT else 0.0)
+        arcs.append(size if kind != STRAIGHT else 0.0)
+        lengths.append(size * radius if kind != STRAIGHT else size)
+    lengths_a = np.array(lengths)
+    n = len(types)
+    seg = {
+        "type": np.array(types), "length_m": lengths_a, "radius_m": np.array(radii), "arc_rad": np.array(arcs),
+        "start_dist_m": np.concatenate([[0.0], np.cumsum(lengths_a)[:-1]]),
+        "width_m": np.full(n, width_m), "friction": np.full(n, friction),
+    }
+    return Track(name="test", category="road", length_m=float(lengths_a.sum()), width_m=width_m, seg=seg, pit=None)
+
+
+# --- allowed_speed -------------------------------------------------------------------------------
+
+def test_allowed_speed_without_aero_by_hand():
+    assert allowed_speed(100.0, 1.0, NO_AERO) == pytest.approx(math.sqrt(981.0), rel=1e-12)  # 31.32 m/s
+    assert allowed_speed(25.0, 1.6, NO_AERO) == pytest.approx(math.sqrt(1.6 * 9.81 * 25), rel=1e-12)
+
+
+def test_allowed_speed_with_downforce_by_hand():
+    # r CA mu / m = 100 * 2 * 1.5 / 1000 = 0.3 -> sqrt(1.5 * 9.81 * 100 / 0.7) = 45.85 m/s
+    assert allowed_speed(100.0, 1.5, AERO) == pytest.approx(math.sqrt(1.5 * 9.81 * 100 / 0.7), rel=1e-12)
+    assert allowed_speed(100.0, 1.5, AERO) == pytest.approx(45.849, abs=1e-3)
+
+
+def test_allowed_speed_unlimited_above_critical_radius():
+    # m / (CA mu) = 333.3 m: from there downforce grows as fast as the needed side force
+    assert allowed_speed(334.0, 1.5, AERO) == 100.0
+    assert allowed_speed(334.0, 1.5, AERO, max_speed_mps=math.inf) == math.inf
+    assert allowed_speed(math.inf, 1.5, AERO) == 100.0
+    assert allowed_speed(300.0, 1.5, AERO, max_speed_mps=math.inf) == pytest.approx(
+        math.sqrt(1.5 * G * 300 / (1 - 0.9)), rel=1e-12)
+
+
+def test_allowed_speed_is_capped():
+    assert allowed_speed(1000.0, 1.0, NO_AERO) == pytest.approx(math.sqrt(9810.0))  # 99.05 < 100
+    assert allowed_speed(2000.0, 1.0, NO_AERO) == 100.0
+    assert allowed_speed(2000.0, 1.0, NO_AERO, max_speed_mps=150.0) == pytest.approx(math.sqrt(19620.0))
+
+
+# --- segment_speed_limits ------------------------------------------------------------------------
+
+def test_segment_limits_short_turn_gets_enlarged_radius():
+    track = _track([
+        (STRAIGHT, 100.0, 0), (LEFT, math.pi / 8, 50.0), (LEFT, math.pi / 8, 50.0),  # 45 deg left
+        (STRAIGHT, 100.0, 0), (RIGHT, math.pi / 2, 50.0), (RIGHT, math.pi / 2, 50.0),  # 180 deg right
+        (STRAIGHT, 100.0, 0),
+    ])
+    lim = segment_speed_limits(track, NO_AERO)
+    assert lim[0] == lim[3] == lim[6] == 100.0
+    # half a quarter turn: radius / 0.5
+    assert lim[1] == lim[2] == pytest.approx(allowed_speed(100.0, 1.0, NO_AERO), rel=1e-12)
+    # long turn keeps its radius
+    assert lim[4] == lim[5] == pytest.approx(allowed_speed(50.0, 1.0, NO_AERO), rel=1e-12)
+    # the exponent softens the enlargement: 50 / sqrt(0.5)
+    soft = segment_speed_limits(track, NO_AERO, short_turn_exponent=0.5)
+    assert soft[1] == pytest.approx(allowed_speed(50.0 / math.sqrt(0.5), 1.0, NO_AERO), rel=1e-12)
+    # half the width added to the radius (the shipped robot's choice)
+    wide = segment_speed_limits(track, NO_AERO, width_fraction=0.5)
+    assert wide[4] == pytest.approx(allowed_speed(55.0, 1.0, NO_AERO), rel=1e-12)
+    assert wide[1] == pytest.approx(allowed_speed(110.0, 1.0, NO_AERO), rel=1e-12)
+
+
+def test_segment_limits_turn_across_start_line_is_one_turn():
+    # a 60 deg right turn split by the start line: 30 deg at the end of the lap, 30 deg at the start
+    track = _track([
+        (RIGHT, math.pi / 6, 40.0), (STRAIGHT, 200.0, 0), (LEFT, math.pi, 40.0), (STRAIGHT, 200.0, 0),
+        (RIGHT, math.pi / 6, 40.0),
+    ])
+    lim = segment_speed_limits(track, NO_AERO)
+    expected = allowed_speed(40.0 / (2 / 3), 1.0, NO_AERO)
+    assert lim[0] == pytest.approx(expected, rel=1e-12)
+    assert lim[4] == pytest.approx(expected, rel=1e-12)
+    assert lim[2] == pytest.approx(allowed_speed(40.0, 1.0, NO_AERO), rel=1e-12)
+
+
+def test_segment_limits_use_surface_and_tyre_friction():
+    track = _track([(STRAIGHT, 100.0, 0), (LEFT, math.pi, 60.0)], friction=0.8)
+    model = CarModel(mass_kg=1000.0, ca=0.0, cw=0.0, mu=1.5)
+    lim = segment_speed_limits(track, model, mu_scale=0.9)
+    assert lim[1] == pytest.approx(math.sqrt(0.8 * 1.5 * 0.9 * G * 60.0), rel=1e-12)
+
+
+# --- SpeedProfile --------------------------------------------------------------------------------
+
+def _assert_consistent(profile: SpeedProfile) -> None:
+    v = profile.target_speeds
+    assert np.all(np.isfinite(v))
+    assert np.all(v <= profile.limits_mps + 1e-12)
+    n = len(v)
+    for i in range(n):
+        reachable = max_entry_speed(float(v[(i + 1) % n]), profile.step_m, float(profile.mu[i]), profile.model)
+        assert v[i] <= reachable * (1 + 1e-12)
+        # the profile is the fastest such: each sample is at its limit or on a braking curve
+        assert v[i] == pytest.approx(min(profile.limits_mps[i], reachable), rel=1e-12)
+
+
+def test_profile_constant_limits_unchanged():
+    p = SpeedProfile([50.0] * 100, 1.0, AERO)
+    assert np.all(p.target_speeds == 50.0)
+    assert p.length_m == 200.0
+
+
+def test_profile_brakes_before_slow_section():
+    limit = [80.0] * 500
+    limit[300:310] = [20.0] * 10
+    p = SpeedProfile(limit, 1.2, AERO, step_m=2.0)
+    _assert_consistent(p)
+    v = p.target_speeds
+    assert v[300] == 20.0
+    # the braking zone is as long as the exact braking distance from 80 to 20 m/s
+    first_braking = int(np.argmax(v < 80.0))
+    zone_m = (300 - first_braking) * 2.0
+    assert zone_m == pytest.approx(brake_distance_exact(80.0, 20.0, 1.2, AERO), abs=2.0)
+    assert np.all(np.diff(v[first_braking:301]) <= 0)
+    # after the slow section the profile is not limited by acceleration (braking only)
+    assert v[310] == 80.0
+
+
+def test_profile_wraps_around_start_line():
+    # a slow turn 10 m after the start line forces braking at the end of the lap
+    limit = [90.0] * 1000
+    limit[5:20] = [15.0] * 15
+    p = SpeedProfile(limit, 1.0, AERO, step_m=2.0)
+    _assert_consistent(p)
+    v = p.target_speeds
+    assert v[-1] < 30.0
+    assert v[0] < v[-1] < v[-2]
+    braking_m = brake_distance_exact(90.0, 15.0, 1.0, AERO)
+    assert braking_m > 100.0
+    assert v[1000 - int(braking_m / 2.0) + 10] < 90.0
+    assert v[1000 - int(braking_m / 2.0) - 10] == 90.0
+
+
+def test_profile_lower_friction_brakes_earlier():
+    limit = [80.0] * 400
+    limit[200] = 20.0
+    grippy = SpeedProfile(limit, 1.6, AERO).target_speeds
+    slippery = SpeedProfile(limit, 0.8, AERO).target_speeds
+    assert np.all(slippery <= grippy)
+    assert np.sum(slippery < 80.0) > np.sum(grippy < 80.0)
+
+
+def test_profile_per_sample_friction():
+    limit = [80.0] * 400
+    limit[200] = 20.0
+    mu = np.full(400, 1.0)
+    mu[150:200] = 0.3  # ice just before the turn
+    p = SpeedProfile(limit, mu, AERO)
+    _assert_consistent(p)
+    assert p.target_speeds[150] < SpeedProfile(limit, 1.0, AERO).target_speeds[150]
+
+
+def test_speed_at_lookup_and_interpolation():
+    limit = [80.0] * 100
+    limit[50] = 20.0
+    p = SpeedProfile(limit, 1.0, AERO, step_m=2.0)
+    v = p.target_speeds
+    assert p.speed_at(100.0) == v[50] == 20.0
+    assert p.speed_at(98.0) == pytest.approx(v[49])
+    assert p.speed_at(99.0) == pytest.approx((v[49] + v[50]) / 2)
+    assert p.speed_at(100.0 + 200.0) == 20.0  # next lap
+    assert p.speed_at(-100.0) == 20.0  # before the start line
+    assert p.speed_at(199.0) == pytest.approx((v[99] + v[0]) / 2)  # between last sample and start
+    assert type(p.speed_at(123.4)) is float
+    assert p.distances_m[-1] == 198.0
+
+
+def test_profile_from_curvature():
+    k = np.zeros(200)
+    k[100:120] = -0.02  # right turn, radius 50 m
+    p = SpeedProfile.from_curvature(k, 1.5, AERO, step_m=2.0)
+    assert p.limits_mps[0] == 100.0
+    assert p.limits_mps[110] == pytest.approx(allowed_speed(50.0, 1.5, AERO))
+    _assert_consistent(p)
+
+
+def test_profile_from_track_samples_segment_limits():
+    track = _track([(STRAIGHT, 301.0, 0), (LEFT, math.pi, 30.0), (STRAIGHT, 300.0, 0)])
+    p = SpeedProfile.from_track(track, NO_AERO, step_m=2.0)
+    assert p.length_m == pytest.approx(track.length_m)
+    assert p.step_m == pytest.approx(track.length_m / round(track.length_m / 2.0))
+    turn = allowed_speed(30.0, 1.0, NO_AERO)
+    # the sample whose step reaches into the turn (which starts at 301 m) is already limited
+    i = int(301.0 / p.step_m)
+    assert p.limits_mps[i] == pytest.approx(turn)
+    assert p.limits_mps[i - 1] == 100.0
+    assert p.speed_at(301.0) <= turn + 1e-9
+    assert p.speed_at(301.0 + 30 * math.pi - 0.5) <= turn + 1e-9
+    _assert_consistent(p)
+
+
+@pytest.mark.parametrize("name", TRACKS)
+def test_profile_on_recorded_track_is_plausible(name):
+    track, car = load(name)
+    model = CarModel.from_car(car, fuel_l=car.initial_fuel_l)
+    p = SpeedProfile.from_track(track, model)
+    v = p.target_speeds
+    assert np.all(np.isfinite(v))
+    assert np.all((v >= 5.0) & (v <= 100.0))
+    assert v.min() == pytest.approx(segment_speed_limits(track, model).min())
+    assert v.max() > 50.0  # some straight is long enough to get fast
+    _assert_consistent(p)
+    assert 0.0 < p.speed_at(track.length_m / 3) <= 100.0
