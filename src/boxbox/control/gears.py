@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 from boxbox.model.car import Car
 
 DEFAULT_SHIFT = 0.9  # shift at this fraction of the redline
@@ -27,7 +29,7 @@ class GearBox:
             self.upshift_speed_mps[gear] = car.rpm_redline / ratio * wheel_radius_m * shift
         # shift down from gear g when the speed is below this (g - 1's shift speed minus the margin);
         # never from first gear to neutral
-        self.downshift_speed_mps: list[float] = [-1.0] * (self.top_gear + 1)
+        self.downshift_speed_mps: list[float] = [-math.inf] * (self.top_gear + 1)
         for gear in range(2, self.top_gear + 1):
             self.downshift_speed_mps[gear] = self.upshift_speed_mps[gear - 1] - shift_margin_mps
 

@@ -216,7 +216,7 @@ class SpeedProfile:
         for i in range(n):
             # walk the segments overlapping [d - step, d + step], unwrapping across the start line
             lo_m, hi_m = (i - 1) * step, (i + 1) * step
-            j = track.segment_at(lo_m) + (n_seg if lo_m < 0.0 else 0) - n_seg  # may be negative: last lap
+            j = track.segment_at(lo_m) + math.floor(lo_m / lap_m) * n_seg  # negative: the previous lap
             v_min, mu_min = math.inf, math.inf
             while True:
                 k = j % n_seg

@@ -223,3 +223,17 @@ def test_profile_on_recorded_track_is_plausible(name):
     assert v.max() > 50.0  # some straight is long enough to get fast
     _assert_consistent(p)
     assert 0.0 < p.speed_at(track.length_m / 3) <= 100.0
+    # speed_at between samples never exceeds the limit of the segment at that distance
+    seg_limits = segment_speed_limits(track, model)
+    for dist_m in np.arange(0.0, track.length_m, 0.5).tolist():
+        assert p.speed_at(dist_m) <= seg_limits[track.segment_at(dist_m)] + 1e-9
+
+
+def test_profile_from_track_turn_across_start_line():
+    track = _track([(LEFT, math.pi / 4, 40.0), (STRAIGHT, 500.0, 0), (LEFT, math.pi / 4, 40.0)])
+    p = SpeedProfile.from_track(track, NO_AERO)
+    turn = allowed_speed(40.0, 1.0, NO_AERO)  # 90 deg in total: no enlargement
+    assert p.speed_at(0.0) == pytest.approx(turn)
+    assert p.speed_at(track.length_m - 1.0) == pytest.approx(turn)
+    assert p.speed_at(10 * math.pi + 2.5) > turn  # after the turn, limited only by the straight
+    _assert_consistent(p)

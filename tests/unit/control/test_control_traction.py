@@ -1,0 +1,88 @@
+import dataclasses
+
+import pytest
+
+from boxbox.control.traction import SlipParams, abs_filter, driven_wheel_speed_mps, tcl_filter
+from boxbox.model.car import AWD, FWD, RWD
+
+R = (0.33, 0.33, 0.3, 0.3)  # fr, fl, rr, rl
+
+
+def spins(fr_mps: float, fl_mps: float, rr_mps: float, rl_mps: float) -> tuple[float, float, float, float]:
+    """Wheel spins (rad/s) giving these wheel surface speeds with radii R."""
+    return (fr_mps / R[0], fl_mps / R[1], rr_mps / R[2], rl_mps / R[3])
+
+
+def test_defaults():
+    p = SlipParams()
+    assert (p.abs_slip_mps, p.abs_range_mps, p.abs_min_speed_mps) == (2.0, 5.0, 3.0)
+    assert (p.tcl_slip_mps, p.tcl_range_mps, p.tcl_min_speed_mps) == (2.0, 10.0, 3.0)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        p.abs_slip_mps = 1.0  # type: ignore[misc]
+
+
+# --- ABS ---
+
+def test_abs_rolling_wheels_unchanged():
+    assert abs_filter(0.8, 30.0, spins(30, 30, 30, 30), R) == 0.8
+
+
+def test_abs_below_threshold_unchanged():
+    assert abs_filter(0.8, 30.0, spins(28.5, 28.5, 27.5, 27.5), R) == 0.8  # slip exactly 2
+
+
+def test_abs_below_min_speed_unchanged():
+    assert abs_filter(1.0, 2.9, spins(0, 0, 0, 0), R) == 1.0
+
+
+def test_abs_proportional_reduction():
+    # mean wheel speed 25.5 -> slip 4.5 -> brake - (4.5 - 2) / 5
+    assert abs_filter(0.8, 30.0, spins(26, 26, 25, 25), R) == pytest.approx(0.3, abs=1e-12)
+
+
+def test_abs_locked_wheels_release_fully():
+    assert abs_filter(1.0, 30.0, spins(0, 0, 0, 0), R) == 0.0
+
+
+def test_abs_custom_params():
+    p = SlipParams(abs_slip_mps=1.0, abs_range_mps=2.0)
+    assert abs_filter(1.0, 30.0, spins(28, 28, 28, 28), R, p) == pytest.approx(0.5, abs=1e-12)
+
+
+# --- TCL ---
+
+def test_driven_wheels_per_drivetrain():
+    s = spins(10, 12, 20, 22)
+    assert driven_wheel_speed_mps(s, R, RWD) == pytest.approx(21.0)
+    assert driven_wheel_speed_mps(s, R, FWD) == pytest.approx(11.0)
+    assert driven_wheel_speed_mps(s, R, AWD) == pytest.approx(16.0)
+    with pytest.raises(ValueError):
+        driven_wheel_speed_mps(s, R, 7)
+
+
+def test_tcl_no_slip_unchanged():
+    assert tcl_filter(1.0, 20.0, spins(20, 20, 21.9, 21.9), R, RWD) == 1.0
+
+
+def test_tcl_below_min_speed_unchanged():
+    assert tcl_filter(1.0, 2.0, spins(2, 2, 40, 40), R, RWD) == 1.0
+
+
+def test_tcl_rwd_uses_rear_wheels():
+    # rear slip 7 m/s -> accel - 0.5; spinning fronts do not matter
+    assert tcl_filter(1.0, 20.0, spins(20, 20, 27, 27), R, RWD) == pytest.approx(0.5, abs=1e-12)
+    assert tcl_filter(1.0, 20.0, spins(40, 40, 20, 20), R, RWD) == 1.0
+
+
+def test_tcl_fwd_uses_front_wheels():
+    assert tcl_filter(1.0, 20.0, spins(27, 27, 20, 20), R, FWD) == pytest.approx(0.5, abs=1e-12)
+    assert tcl_filter(1.0, 20.0, spins(20, 20, 40, 40), R, FWD) == 1.0
+
+
+def test_tcl_awd_uses_all_wheels():
+    # mean 27 -> slip 7
+    assert tcl_filter(1.0, 20.0, spins(24, 24, 30, 30), R, AWD) == pytest.approx(0.5, abs=1e-12)
+
+
+def test_tcl_not_below_zero():
+    assert tcl_filter(0.3, 20.0, spins(20, 20, 60, 60), R, RWD) == 0.0
