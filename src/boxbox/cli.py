@@ -84,11 +84,15 @@ def main_group() -> None:
 @click.option("--json", "json_file", type=click.Path(dir_okay=False, path_type=Path), help="Write results as JSON.")
 @click.option("--step-budget-ms", default="200", show_default=True,
               help="Wall time a robot may take per drive step before the race is stopped.")
+@click.option("--set", "settings", multiple=True, metavar="KEY=VALUE",
+              help="Override a parameter of the boxbox robot (see `boxbox params`). Repeatable.")
+@click.option("--learning", type=click.Choice(["on", "off", "fresh"]), default="on", show_default=True,
+              help="Robots' learned data: keep and use it, ignore it, or start from nothing (and keep that).")
 @click.option("--run-dir", type=click.Path(file_okay=False, path_type=Path),
               help="Keep this race's files here (default: a new folder under the cache).")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
-def race(track, car, laps, robots, opponents, fuel_laps, pit_laps, pit_mode, json_file, step_budget_ms, run_dir,
-         quiet) -> None:
+def race(track, car, laps, robots, opponents, fuel_laps, pit_laps, pit_mode, json_file, step_budget_ms, settings,
+         learning, run_dir, quiet) -> None:
     """Run one race in TORCS (console mode) and print the results."""
     from boxbox.report.tables import results_table
     from boxbox.robot.base import RaceOptions
@@ -97,19 +101,24 @@ def race(track, car, laps, robots, opponents, fuel_laps, pit_laps, pit_mode, jso
 
     laps_n = _parse_laps(laps)
     budget = _parse_float("--step-budget-ms", step_budget_ms, 1)
+    from boxbox.robot.params import parse_set
+
     options = RaceOptions(fuel_laps=_parse_float("--fuel-laps", fuel_laps, 0.01),
-                          pit_laps=_parse_int_list("--pit-laps", pit_laps), pit_mode=pit_mode)
+                          pit_laps=_parse_int_list("--pit-laps", pit_laps), pit_mode=pit_mode,
+                          learning_dir=_learning_dir(learning, track, car),
+                          robot_args={"set": parse_set(settings)} if settings else {})
     if options.pit_laps and max(options.pit_laps) >= laps_n:
         raise UsageError(f"--pit-laps {pit_laps}: a stop must be before the last lap ({laps_n} laps)")
     specs = list(robots) or [DEFAULT_ROBOT]
-    names = []
-    for i, spec in enumerate(specs):
-        cls = load_robot_class(spec)
-        names.append(f"{cls.name} {i + 1}")
     if len(specs) > 10:
         raise UsageError("at most 10 --robot cars per race")
     category = catalog.check_track(track)
     catalog.check_car(car)
+    names = []
+    for i, spec in enumerate(specs):
+        cls = load_robot_class(spec)
+        cls.check_setup(options, track, car)
+        names.append(f"{cls.name} {i + 1}")
     opp = [catalog.parse_opponent(o) for o in opponents.split(",") if o.strip()]
     if (options.pit_laps or options.fuel_laps) and not _track_has_pits(track, category):
         if options.pit_laps:
@@ -127,6 +136,19 @@ def race(track, car, laps, robots, opponents, fuel_laps, pit_laps, pit_mode, jso
         if d.step_us_median is not None:
             console.print(f"[dim]{d.name}: drive step median {d.step_us_median:.1f} us, "
                           f"p99 {d.step_us_p99:.1f} us; run dir {result.run_dir}[/]")
+
+
+def _learning_dir(mode: str, track: str, car: str) -> str | None:
+    """on: the shared learning folder; off: none; fresh: a new empty folder for this race."""
+    import tempfile
+
+    from boxbox.torcs.paths import cache_dir
+
+    if mode == "off":
+        return None
+    if mode == "fresh":
+        return tempfile.mkdtemp(prefix="boxbox-learning-")
+    return str(cache_dir() / "learning")
 
 
 def _race_error(result):

@@ -99,6 +99,9 @@ def segment_speed_limits(
     return limits
 
 
+MAX_LATERAL_SHARE = 0.9  # keep at least sqrt(1 - 0.81) = 44% of the braking grip in any turn
+
+
 class SpeedProfile:
     """Target speed around a closed lap: below every limit and always reachable by braking.
 
@@ -116,7 +119,11 @@ class SpeedProfile:
         step_m: float = 2.0,
         *,
         max_speed_mps: float = DEFAULT_MAX_SPEED_MPS,
+        curvature_1pm: Sequence[float] | np.ndarray | None = None,
+        corner_mu: float | Sequence[float] | np.ndarray | None = None,
     ) -> None:
+        """curvature_1pm and corner_mu (optional, per sample): share the tyres' grip between
+        cornering and braking (friction circle), so the car brakes less where it also turns."""
         limit = np.minimum(np.asarray(limit_mps, dtype=float), max_speed_mps)
         if limit.ndim != 1 or len(limit) == 0:
             raise ValueError("limit_mps must be a non-empty 1-d sequence")
@@ -128,14 +135,21 @@ class SpeedProfile:
         self.length_m = self.n_samples * self.step_m
         self.limits_mps = limit
         self.mu = np.broadcast_to(np.asarray(mu, dtype=float), limit.shape).copy()
-        speeds = self._backward_pass(limit.tolist(), self.mu.tolist(), model, self.step_m)
+        lateral = None
+        if curvature_1pm is not None:
+            k = np.abs(np.broadcast_to(np.asarray(curvature_1pm, dtype=float), limit.shape))
+            cmu = np.broadcast_to(np.asarray(self.mu if corner_mu is None else corner_mu, dtype=float), limit.shape)
+            lateral = (k.tolist(), cmu.tolist())
+        speeds = self._backward_pass(limit.tolist(), self.mu.tolist(), model, self.step_m, lateral)
         self._speeds: list[float] = speeds + [speeds[0]]  # one extra so speed_at can wrap without a branch
         self._inv_step = 1.0 / self.step_m
         self.target_speeds = np.array(speeds)
 
     @staticmethod
-    def _backward_pass(limit: list[float], mu: list[float], model: CarModel, step_m: float) -> list[float]:
+    def _backward_pass(limit: list[float], mu: list[float], model: CarModel, step_m: float,
+                       lateral: tuple[list[float], list[float]] | None = None) -> list[float]:
         n = len(limit)
+        ca_per_kg = model.ca / model.mass_kg
         speeds = list(limit)
         # The slowest sample can never be forced lower (everything is >= the smallest limit), so a
         # pass backwards from it settles the loop; the loop repeats only as a safeguard.
@@ -144,7 +158,14 @@ class SpeedProfile:
             changed = False
             for k in range(1, n + 1):
                 i = (start - k) % n
-                v = min(limit[i], max_entry_speed(speeds[(i + 1) % n], step_m, mu[i], model))
+                v_next = speeds[(i + 1) % n]
+                mu_brake = mu[i]
+                if lateral is not None and lateral[0][i] > 0.0:
+                    # grip left for braking once the turn takes its share: sqrt(1 - used^2)
+                    v_sq = v_next * v_next
+                    used = v_sq * lateral[0][i] / (lateral[1][i] * (G + ca_per_kg * v_sq))
+                    mu_brake *= math.sqrt(1.0 - min(used, MAX_LATERAL_SHARE) ** 2)
+                v = min(limit[i], max_entry_speed(v_next, step_m, mu_brake, model))
                 if v < speeds[i]:
                     speeds[i] = v
                     changed = True

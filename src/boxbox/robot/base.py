@@ -18,7 +18,8 @@ class RaceOptions:
     fuel_laps: float | None = None  # start with fuel for this many laps (None: the car's default)
     pit_laps: tuple[int, ...] = ()  # laps on which to stop in the pit
     pit_mode: str = "constant-decel"
-    robot_args: dict[str, str] = field(default_factory=dict)
+    learning_dir: str | None = None  # where robots keep what they learn per track and car
+    robot_args: dict = field(default_factory=dict)  # robot-specific (the tutorial robot: {"set": {...}})
 
 
 class Robot:
@@ -34,6 +35,10 @@ class Robot:
         self.options = options or RaceOptions()
         self.track: Track | None = None
         self.car: Car | None = None
+
+    @classmethod
+    def check_setup(cls, options: RaceOptions, track_name: str, car_name: str) -> None:
+        """Raise boxbox.errors.UsageError for bad robot settings, before TORCS starts."""
 
     def initial_fuel_l(self, track: Track, car: Car) -> float | None:
         """Litres to start with, or None for the car's default.  Default: honour --fuel-laps."""

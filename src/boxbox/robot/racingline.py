@@ -20,14 +20,13 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.interpolate import CubicSpline
-from scipy.ndimage import maximum_filter1d
-from scipy.signal import savgol_filter
+from scipy.ndimage import maximum_filter1d, uniform_filter1d
 from scipy.sparse.linalg import splu
 
 from boxbox.model.track import LEFT, STRAIGHT, Track
 
 TWO_PI = 2.0 * math.pi
+_DEBUG = False
 
 
 @dataclass(frozen=True, eq=False)
@@ -103,23 +102,21 @@ def middle_line(track: Track, step_m: float = 2.0, margin_m: float = 0.0) -> Mid
                       friction=seg["friction"].astype(float)[ids], seg_id=ids, curvature_1pm=k)
 
 
-def _solve_box_qp(h: sp.csr_matrix, g: np.ndarray, lo: np.ndarray, hi: np.ndarray,
-                  x0: np.ndarray, max_iter: int = 60) -> np.ndarray:
-    """min 1/2 x'Hx + g'x subject to lo <= x <= hi, H sparse positive definite.
-
-    Block active-set pivoting: solve on the free variables with the others held at their bounds,
-    pin every free variable that overshoots, release every pinned one whose gradient points inward,
-    repeat.  For these banded, diagonally heavy matrices it settles in a handful of sparse solves;
-    if it ever cycles, the last iterate is clipped (a valid, near-optimal line)."""
+def _pivot_box_qp(h_csc: sp.csc_matrix, g: np.ndarray, lo: np.ndarray, hi: np.ndarray,
+                  x0: np.ndarray, max_iter: int) -> tuple[np.ndarray, bool]:
+    """Block active-set pivoting for min 1/2 x'Hx + g'x, lo <= x <= hi: solve on the free
+    variables with the others held at their bounds, pin every free one that overshoots, release
+    every pinned one whose gradient points inward, repeat.  Usually done in a handful of sparse
+    solves, but it can cycle; returns (x, converged)."""
     n = len(g)
     x = np.clip(x0, lo, hi)
-    # start with the bounds the warm start touches pinned
     state = np.zeros(n, dtype=np.int8)  # 0 free, -1 at lo, +1 at hi
     state[x <= lo] = -1
     state[x >= hi] = 1
-    h_csc = h.tocsc()
-    scale = float(np.abs(h.diagonal()).max()) or 1.0
-    tol_x, tol_g = 1e-9, 1e-10 * scale
+    # loose tolerances: H is ill-conditioned (fourth differences), and flipping variables on
+    # round-off-sized overshoots or gradients is what makes block pivoting cycle
+    tol_x = 1e-6
+    tol_g = 1e-7 * (float(np.abs(h_csc.diagonal()).max()) or 1.0)
     for _ in range(max_iter):
         free = state == 0
         x = np.where(state < 0, lo, np.where(state > 0, hi, x))
@@ -130,33 +127,153 @@ def _solve_box_qp(h: sp.csr_matrix, g: np.ndarray, lo: np.ndarray, hi: np.ndarra
             if len(pinned):
                 rhs -= h_csc[fi][:, pinned] @ x[pinned]
             x[fi] = splu(h_csc[fi][:, fi].tocsc()).solve(rhs)
-        grad = h @ x + g
+        grad = h_csc @ x + g
         over_lo = free & (x < lo - tol_x)
         over_hi = free & (x > hi + tol_x)
         release = ((state < 0) & (grad < -tol_g)) | ((state > 0) & (grad > tol_g))
         if not (over_lo.any() or over_hi.any() or release.any()):
-            break
+            return x, True
+        if _DEBUG:
+            print("  pivot", np.count_nonzero(over_lo), np.count_nonzero(over_hi), np.count_nonzero(release), np.flatnonzero(over_lo | over_hi | release)[:8])
         state[over_lo] = -1
         state[over_hi] = 1
         state[release] = 0
-    return np.clip(x, lo, hi)
+    return np.clip(x, lo, hi), False
+
+
+def _primal_box_qp(h_csc: sp.csc_matrix, g: np.ndarray, lo: np.ndarray, hi: np.ndarray,
+                   x0: np.ndarray, max_iter: int) -> np.ndarray:
+    """Primal active set, the slow but sure way: from a feasible point, Newton step on the free
+    variables; if it leaves the box, go as far as the first bound and pin that variable; else take
+    it and release pinned variables whose gradient points inward.  The cost falls at every step,
+    so it cannot cycle."""
+    x = np.clip(x0, lo, hi)
+    pinned = (x <= lo) | (x >= hi)
+    tol_g = 1e-10 * (float(np.abs(h_csc.diagonal()).max()) or 1.0)
+    for _ in range(max_iter):
+        fi = np.flatnonzero(~pinned)
+        target = x.copy()
+        if len(fi):
+            pi = np.flatnonzero(pinned)
+            rhs = -g[fi]
+            if len(pi):
+                rhs -= h_csc[fi][:, pi] @ x[pi]
+            target[fi] = splu(h_csc[fi][:, fi].tocsc()).solve(rhs)
+        p = target - x
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio = np.where(p < -1e-15, (lo - x) / p, np.where(p > 1e-15, (hi - x) / p, np.inf))
+        alpha = float(ratio.min()) if len(ratio) else np.inf
+        if alpha < 1.0:
+            x = np.clip(x + alpha * p, lo, hi)
+            pinned |= ratio <= alpha * (1.0 + 1e-9) + 1e-15
+            continue
+        x = target
+        grad = h_csc @ x + g
+        at_lo, at_hi = pinned & (x <= lo), pinned & (x >= hi)
+        release = (at_lo & (grad < -tol_g)) | (at_hi & (grad > tol_g))
+        if not release.any():
+            break
+        pinned &= ~release
+    return x
+
+
+def _solve_box_qp(h: sp.csr_matrix, g: np.ndarray, lo: np.ndarray, hi: np.ndarray,
+                  x0: np.ndarray) -> np.ndarray:
+    """min 1/2 x'Hx + g'x subject to lo <= x <= hi, H sparse symmetric positive definite."""
+    h_csc = h.tocsc()
+    x, ok = _pivot_box_qp(h_csc, g, lo, hi, x0, 20)
+    if _DEBUG:
+        print("pivot ok" if ok else "pivot failed")
+    if ok:
+        return x
+    return _primal_box_qp(h_csc, g, lo, hi, x, 2000)
 
 
 def _closed_curvature(x_m: np.ndarray, y_m: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Signed curvature (+ left), heading (unwrapped) and chord length to the next point for a
-    closed polyline of n distinct points, from a periodic cubic spline through them (parameter:
-    chord length)."""
-    xs = np.append(x_m, x_m[0])
-    ys = np.append(y_m, y_m[0])
-    chord = np.hypot(np.diff(xs), np.diff(ys))
-    s = np.concatenate(([0.0], np.cumsum(np.maximum(chord, 1e-9))))
-    sx = CubicSpline(s, xs, bc_type="periodic")
-    sy = CubicSpline(s, ys, bc_type="periodic")
-    t = s[:-1]
-    dx, dy = sx(t, 1), sy(t, 1)
-    ddx, ddy = sx(t, 2), sy(t, 2)
-    k = (dx * ddy - dy * ddx) / np.power(dx * dx + dy * dy, 1.5)
-    return k, np.unwrap(np.arctan2(dy, dx)), chord
+    closed polyline of n distinct points.
+
+    Curvature: the circle through each point and its two neighbours (exact on sampled arcs).  An
+    interpolating cubic spline rings where the track's curvature jumps (straight to turn), giving
+    +-20 % spikes at every turn entry; the three-point circle does not."""
+    ax, ay = np.roll(x_m, 1), np.roll(y_m, 1)
+    bx, by = np.roll(x_m, -1), np.roll(y_m, -1)
+    cross = (x_m - ax) * (by - ay) - (y_m - ay) * (bx - ax)
+    d_in = np.hypot(x_m - ax, y_m - ay)
+    d_out = np.hypot(bx - x_m, by - y_m)
+    d_across = np.hypot(bx - ax, by - ay)
+    k = 2.0 * cross / np.maximum(d_in * d_out * d_across, 1e-12)
+    heading = np.unwrap(np.arctan2(by - ay, bx - ax))
+    return k, heading, d_out
+
+
+def _min_curvature_offsets(mid: MiddleLine, iterations: int, peak_cap: float, cap_window_m: float,
+                           cap_weight: float = 1e3) -> np.ndarray:
+    """Lateral offsets (n samples) of the minimum-curvature line inside the bounds of `mid`.
+
+    Objective: sum of squared curvatures, plus a stiff penalty wherever |k| exceeds
+    peak_cap * (the middle line's largest |k| within +-cap_window_m).  Pure sum-of-squares lines
+    spread curvature into spirals and, in long or S-shaped turns, end up with a sharper apex than
+    the middle line; the cap keeps every corner at least as open as the track's own radius, which
+    is what sets the corner speed.  The middle line itself satisfies the cap when peak_cap >= 1, so
+    the problem is always feasible; below 1 the penalty takes what the track width allows.
+    """
+    n = mid.n
+    px, py = mid.x_m[:n], mid.y_m[:n]
+    nx, ny = -np.sin(mid.heading_rad[:n]), np.cos(mid.heading_rad[:n])
+    lo, hi = -mid.half_right_m[:n], mid.half_left_m[:n]
+    idx = np.arange(n)
+    prv, nxt = np.roll(idx, 1), np.roll(idx, -1)
+    rows = np.tile(idx, 3)
+    cols = np.concatenate((prv, idx, nxt))
+
+    k_mid = np.abs(mid.curvature_1pm[:n])
+    win = 2 * int(round(cap_window_m / mid.step_m)) + 1
+    envelope = maximum_filter1d(k_mid, min(win, n), mode="wrap")
+    # only near turns: long straights stay free so the line can cross the track between corners
+    cap = np.where(envelope > 0.0, peak_cap * envelope, np.inf)
+
+    off = np.zeros(n)
+    over = np.zeros(n, dtype=np.int8)  # +1 / -1 where k is pushed down from above / below
+    for _ in range(max(1, iterations)):
+        # linearise around the current line: its unit normal u_i and spacing ds_i
+        x, y = px + off * nx, py + off * ny
+        tx = np.roll(x, -1) - np.roll(x, 1)
+        ty = np.roll(y, -1) - np.roll(y, 1)
+        ds = np.maximum(0.5 * np.hypot(tx, ty), 1e-6)
+        ux, uy = -ty / (2 * ds), tx / (2 * ds)
+        w = 1.0 / (ds * ds)
+        # k_i ~ w_i u_i . (R_{i+1} - 2 R_i + R_{i-1}) with R_j = P_j + n_j N_j, i.e. k = A n + c
+        c = w * (ux * (np.roll(px, -1) - 2 * px + np.roll(px, 1))
+                 + uy * (np.roll(py, -1) - 2 * py + np.roll(py, 1)))
+        a_prev = w * (ux * nx[prv] + uy * ny[prv])
+        a_mid = -2.0 * w * (ux * nx + uy * ny)
+        a_next = w * (ux * nx[nxt] + uy * ny[nxt])
+        a = sp.csr_matrix((np.concatenate((a_prev, a_mid, a_next)), (rows, cols)), shape=(n, n))
+        k_now = a @ off + c
+        # rows over the cap get penalty weight * (k_i -+ cap_i)^2 (semi-smooth Newton: the set is
+        # refreshed every pass; once penalised a row stays so while it is at or over its cap)
+        was = over.copy()
+        over = np.where(k_now > cap * 0.999, 1, np.where(k_now < -cap * 0.999, -1, 0)).astype(np.int8)
+        over[(was != 0) & (np.abs(k_now) >= cap * 0.98)] = was[(was != 0) & (np.abs(k_now) >= cap * 0.98)]
+        pw = np.where(over != 0, cap_weight, 0.0)
+        target = np.where(over != 0, over * np.where(np.isfinite(cap), cap, 0.0), 0.0)
+        # sum k^2 + sum pw (k - target)^2  ->  H = A'(1 + pw)A,  g = A'((1 + pw) c - pw target)
+        dw = sp.diags(1.0 + pw)
+        h = (a.T @ dw @ a).tocsr()
+        # a tiny pull to the middle makes H strictly positive definite (a straight track alone
+        # would leave a free sideways shift) without moving the line measurably
+        h = h + sp.identity(n, format="csr") * (1e-9 * float(h.diagonal().mean()) + 1e-12)
+        g = a.T @ ((1.0 + pw) * c - pw * target)
+        new = _solve_box_qp(h, g, lo, hi, off)
+        if _DEBUG:
+            print(f"it k_now max {np.abs(k_now).max():.5f} excess {np.max(np.abs(k_now) - cap):.5f} over {np.count_nonzero(over)} change {np.max(np.abs(new - off)):.4f}")
+        done = np.max(np.abs(new - off)) < 2e-3 and np.array_equal(over, was)
+        off = new
+        if done:
+            break
+    return off
+
 
 
 class RacingLine:
@@ -172,7 +289,8 @@ class RacingLine:
     """
 
     def __init__(self, track: Track, step_m: float = 2.0, margin_m: float = 1.2, blend: float = 1.0,
-                 iterations: int = 4, smooth_m: float = 14.0, peak_power: float = 2.0) -> None:
+                 iterations: int = 12, smooth_m: float = 6.0, peak_cap: float = 0.97,
+                 cap_window_m: float = 60.0) -> None:
         mid = middle_line(track, step_m, margin_m)
         self.middle = mid
         self.blend = float(blend)
@@ -184,13 +302,15 @@ class RacingLine:
         nx, ny = -np.sin(mid.heading_rad[:n]), np.cos(mid.heading_rad[:n])
         lo, hi = -mid.half_right_m[:n], mid.half_left_m[:n]
 
-        self.optimal_offset_m = self._optimise(px, py, nx, ny, lo, hi, iterations, peak_power)
+        self.optimal_offset_m = _min_curvature_offsets(mid, iterations, peak_cap, cap_window_m)
         off = np.clip(self.blend * self.optimal_offset_m, lo, hi)
         x, y = px + off * nx, py + off * ny
         k_raw, heading, chord = _closed_curvature(x, y)
-        # light peak-preserving smoothing so the speed profile derived from it is not noisy
-        win = max(5, int(round(smooth_m / self.step_m)) | 1)
-        k = savgol_filter(k_raw, win, 3, mode="wrap") if win < n else k_raw
+        # a short moving average: takes the corners off the curvature steps where straights meet
+        # turns (the speed profile then ramps instead of jumping) without overshoot (savgol rings
+        # at such steps by ~7 %) and without lowering any turn's plateau longer than the window
+        win = max(1, int(round(smooth_m / self.step_m)) | 1)
+        k = uniform_filter1d(k_raw, win, mode="wrap") if 1 < win < n else k_raw
         factor = 0.5 * (chord + np.roll(chord, 1)) / self.step_m
 
         def closed(a: np.ndarray, wrap_add: float = 0.0) -> np.ndarray:
@@ -216,47 +336,6 @@ class RacingLine:
         self._k = self.curvature_1pm.tolist()
         self._f = self.length_factor.tolist()
 
-    @staticmethod
-    def _optimise(px: np.ndarray, py: np.ndarray, nx: np.ndarray, ny: np.ndarray,
-                  lo: np.ndarray, hi: np.ndarray, iterations: int, peak_power: float = 2.0,
-                  floor: float = 0.05, spread: int = 2) -> np.ndarray:
-        n = len(px)
-        idx = np.arange(n)
-        prv, nxt = np.roll(idx, 1), np.roll(idx, -1)
-        off = np.zeros(n)
-        for it in range(max(1, iterations)):
-            # linearise around the current line: its normal u_i and spacing ds_i
-            x, y = px + off * nx, py + off * ny
-            tx = np.roll(x, -1) - np.roll(x, 1)
-            ty = np.roll(y, -1) - np.roll(y, 1)
-            ds = np.maximum(0.5 * np.hypot(tx, ty), 1e-6)
-            ux, uy = -ty / (2 * ds), tx / (2 * ds)
-            w = 1.0 / (ds * ds)
-            # k_i ~ w_i * u_i . (R_{i+1} - 2 R_i + R_{i-1}),  R_j = P_j + n_j N_j  ->  k = A n + c
-            c = w * (ux * (np.roll(px, -1) - 2 * px + np.roll(px, 1))
-                     + uy * (np.roll(py, -1) - 2 * py + np.roll(py, 1)))
-            a_prev = w * (ux * nx[prv] + uy * ny[prv])
-            a_mid = -2.0 * w * (ux * nx + uy * ny)
-            a_next = w * (ux * nx[nxt] + uy * ny[nxt])
-            if peak_power > 2.0 and it > 0:
-                # iteratively reweighted least squares: weighting each sample by |k|^(p-2) of the
-                # current line turns sum k^2 into ~ sum |k|^p, which presses the peak of every turn
-                # down instead of spreading curvature thinly (the lap time is set by the peaks)
-                k_now = np.abs(a_prev * off[prv] + a_mid * off + a_next * off[nxt] + c)
-                k_now = maximum_filter1d(k_now, 2 * spread + 1, mode="wrap")
-                k_ref = float(k_now.max()) or 1.0
-                rw = np.power(k_now / k_ref + floor, 0.5 * (peak_power - 2.0))
-                c, a_prev, a_mid, a_next = c * rw, a_prev * rw, a_mid * rw, a_next * rw
-            a = sp.csr_matrix((np.concatenate((a_prev, a_mid, a_next)),
-                               (np.tile(idx, 3), np.concatenate((prv, idx, nxt)))), shape=(n, n))
-            h = (a.T @ a).tocsr()
-            # a tiny pull to the middle makes H strictly positive definite (a straight track alone
-            # would leave a free sideways shift) without moving the line measurably
-            h = h + sp.identity(n, format="csr") * (1e-9 * float(h.diagonal().mean()) + 1e-12)
-            g = a.T @ c
-            new = _solve_box_qp(h, g, lo, hi, off)
-            off = new
-        return off
 
     # ---- per-step lookups: plain Python, linear interpolation between samples -----------------
 

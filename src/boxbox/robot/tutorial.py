@@ -1,7 +1,211 @@
-"""The default boxbox robot (the TORCS tutorial robot); for now the middle-line robot."""
+"""The default boxbox robot: the TORCS tutorial robot, rebuilt from boxbox's controllers.
 
-from boxbox.robot.simple import MiddleRobot
+Per track (on_track): car model, racing line, speed profile, gear box, learned turn factors.
+Per step (drive): look-ups and a few comparisons, composed as the tutorial's filter chain:
+
+    steer = side_collision(steer_to(line + overtake offset))
+    brake = abs(collision(pit(brake_for(speed profile))))
+    accel = traction_control(accel_for(speed profile))
+    gear  = gear_box.select(gear, speed)
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+from boxbox.control.braking import brake_distance
+from boxbox.control.carmodel import CarModel
+from boxbox.control.gears import GearBox
+from boxbox.control.speed import SpeedProfile, allowed_speed
+from boxbox.control.steering import steer_to_line, steer_to_point
+from boxbox.control.traction import SlipParams, abs_filter, tcl_filter
+from boxbox.model import Car, Controls, PitOrder, State, Track
+from boxbox.robot.base import RaceOptions, Robot
+from boxbox.robot.learning import TurnLearner
+from boxbox.robot.opponents import OpponentParams, collision_brake, nearby, overtake_offset, side_steer
+from boxbox.robot.params import TutorialParams, load_params
+from boxbox.robot.racingline import RacingLine
+
+TWO_PI = 2.0 * math.pi
+CLUTCH_RELEASE_MPS = 8.0  # first gear: clutch fully engaged from this speed on
+STEP_S = 0.02
 
 
-class TutorialRobot(MiddleRobot):
+class TutorialRobot(Robot):
     name = "boxbox"
+
+    def __init__(self, options: RaceOptions | None = None) -> None:
+        super().__init__(options)
+        self.params: TutorialParams | None = None
+        self.learning_file: Path | None = None
+
+    @classmethod
+    def check_setup(cls, options: RaceOptions, track_name: str, car_name: str) -> None:
+        """Fail early (before TORCS starts) on bad parameter files or --set values."""
+        load_params(car_name, track_name, options.robot_args.get("set"))
+
+    # --- per track -----------------------------------------------------------------------------
+    def on_track(self, track: Track, car: Car) -> None:
+        super().on_track(track, car)
+        p, _ = load_params(car.name, track.name, self.options.robot_args.get("set"))
+        self.params = p
+        self.line = RacingLine(track, step_m=2.0, margin_m=p.line_margin_m, blend=p.racing_line)
+        mid = self.line.middle
+        self.step_m = self.line.step_m
+        self.n = mid.n
+        self._normals = [(-math.sin(h), math.cos(h)) for h in mid.heading_rad.tolist()]
+        self._half_left = mid.half_left_m.tolist()
+        self._half_right = mid.half_right_m.tolist()
+        self.tyre_model = CarModel.from_car(car, fuel_l=car.initial_fuel_l)
+        self._friction = [float(f) for f in mid.friction[: self.n]]
+        self._curv = [abs(k) for k in self.line.curvature_1pm[: self.n].tolist()]
+        self.learner = TurnLearner.from_limits(self._limits([1.0] * self.n, self.tyre_model), self.step_m,
+                                               self.line.length_m, p.max_speed_mps, gain=p.learn_gain)
+        if p.learning and self.options.learning_dir:
+            self.learning_file = Path(self.options.learning_dir) / f"{track.name}--{car.name}.json"
+            self.learner.load(self.learning_file)
+        self.fuel_l = car.initial_fuel_l
+        self._build_profile()
+        self.gears = GearBox(car, shift=p.shift, shift_margin_mps=p.shift_margin_mps)
+        self.slip = SlipParams(abs_slip_mps=p.abs_slip_mps, abs_range_mps=p.abs_range_mps,
+                               tcl_slip_mps=p.tcl_slip_mps, tcl_range_mps=p.tcl_range_mps,
+                               abs_min_speed_mps=p.slip_min_speed_mps, tcl_min_speed_mps=p.slip_min_speed_mps)
+        self.radii = (car.wheel_radius_fr_m, car.wheel_radius_fl_m, car.wheel_radius_rr_m, car.wheel_radius_rl_m)
+        self.opp = OpponentParams(front_range_m=p.front_range_m, back_range_m=p.back_range_m,
+                                  length_margin_m=p.length_margin_m, side_margin_m=p.side_margin_m,
+                                  overtake_step_m=p.overtake_step_m)
+        self.offset_m = 0.0
+        self.stuck_steps = 0
+        self.reversing = False
+        self.laps_seen = 0
+        self.last_damage = 0.0
+        self._inv_lock = 1.0 / car.steer_lock_rad
+        self.wheelbase_m = 0.6 * car.length_m  # not in the car's constants; 0.6 x length fits TORCS's cars
+        self._stuck_angle = math.radians(p.stuck_angle_deg)
+
+    def _limits(self, factors: list[float], model: CarModel) -> list[float]:
+        p = self.params
+        out = []
+        for k, f, g in zip(self._curv, self._friction, factors):
+            mu = model.mu * f * p.mu_scale * g
+            out.append(allowed_speed(1.0 / k if k > 1e-9 else math.inf, mu, model, p.max_speed_mps))
+        return out
+
+    def _build_profile(self) -> None:
+        """The speed profile for the current fuel load and learned turn factors."""
+        p = self.params
+        model = self.tyre_model.with_fuel(self.fuel_l)
+        factors = self.learner.factors_per_sample()
+        limits = self._limits(factors, model)
+        brake_mu = [model.mu * f * p.brake_mu_scale for f in self._friction]
+        corner_mu = [model.mu * f * p.mu_scale * g for f, g in zip(self._friction, factors)]
+        self.profile = SpeedProfile(limits, brake_mu, model, self.step_m, max_speed_mps=p.max_speed_mps,
+                                    curvature_1pm=self._curv if p.friction_circle else None, corner_mu=corner_mu)
+        self.model = model
+        method = p.brake_method
+        self._brakedist = lambda v1, v2, mu=model.mu: brake_distance(v1, v2, mu, model, method)
+
+    # --- per step ------------------------------------------------------------------------------
+    def drive(self, s: State) -> Controls:
+        p = self.params
+        v = s.speed_x_mps
+        dist = s.dist_from_start_m
+        if s.laps != self.laps_seen:
+            self._new_lap(s)
+        if self._stuck(s):
+            steer = max(-1.0, min(1.0, -s.angle_rad * self._inv_lock))
+            return Controls(steer=steer, accel=0.6, brake=0.0, clutch=0.0, gear=-1)
+
+        if self.learner.turns:
+            i = int(dist / self.step_m) % self.n
+            half_width = 0.5 * self.car.width_m
+            self.learner.observe(i, min(s.to_left_m, s.to_right_m) - half_width, s.damage > self.last_damage)
+            self.last_damage = s.damage
+
+        cars = nearby(s, self.car.length_m, self.track.length_m, p.back_range_m, p.front_range_m) \
+            if s.opponents else ()
+        if cars:
+            self.offset_m = overtake_offset(self.offset_m, v, s.to_middle_m, cars, 0.5 * self.track.width_m - 1.5,
+                                            self.car.length_m, self.opp)
+        elif self.offset_m:
+            self.offset_m = max(0.0, self.offset_m - p.overtake_step_m) if self.offset_m > 0 \
+                else min(0.0, self.offset_m + p.overtake_step_m)
+
+        # steering
+        if p.steering == "line":
+            ahead = dist + v * p.line_preview_s
+            line_off = self.line.offset_at(dist) + self.offset_m
+            heading_error = self.line.heading_at(ahead) - s.yaw_rad
+            heading_error = (heading_error + math.pi) % TWO_PI - math.pi
+            steer = steer_to_line(heading_error, line_off - s.to_middle_m, self.line.curvature_at(ahead), v,
+                                  s.yaw_rate_rps, self.wheelbase_m, self.car.steer_lock_rad,
+                                  p.line_lateral_gain, p.line_yaw_damping_s)
+        else:
+            target_dist = dist + p.lookahead_m + p.lookahead_s * v
+            tx, ty = self.line.point_at(target_dist)
+            if self.offset_m:
+                j = int(target_dist / self.step_m) % self.n
+                line_off = self.line.offset_at(target_dist)
+                off = max(-self._half_right[j], min(self._half_left[j], line_off + self.offset_m)) - line_off
+                nx, ny = self._normals[j]
+                tx += off * nx
+                ty += off * ny
+            steer = steer_to_point(s.x_m, s.y_m, s.yaw_rad, tx, ty, self.car.steer_lock_rad)
+        if cars:
+            steer = side_steer(steer, cars, self.car.length_m, self.car.width_m, self.car.steer_lock_rad, self.opp)
+
+        # speed: the profile says how fast we may be here
+        target = self.profile.speed_at(dist + v * p.speed_lookahead_s)
+        if v > target:
+            brake = min(1.0, (v - target) / p.brake_band_mps)
+            accel = 0.0
+        else:
+            brake = 0.0
+            margin = target - v
+            accel = 1.0 if margin >= p.full_accel_margin_mps else 0.4 + 0.6 * margin / p.full_accel_margin_mps
+        if cars:
+            brake = collision_brake(brake, v, cars, self.car.width_m, self.opp, self._brakedist)
+        spins = (s.spin_fr_rps, s.spin_fl_rps, s.spin_rr_rps, s.spin_rl_rps)
+        if brake > 0.0:
+            brake = abs_filter(brake, v, spins, self.radii, self.slip)
+            accel = 0.0
+        else:
+            accel = tcl_filter(accel, v, spins, self.radii, self.car.drivetrain, self.slip)
+
+        gear = self.gears.select(int(s.gear), v)
+        clutch = 0.0
+        if gear == 1 and v < CLUTCH_RELEASE_MPS:
+            clutch = min(0.5, 0.5 * (1.0 - v / CLUTCH_RELEASE_MPS))
+        return Controls(steer=steer, accel=accel, brake=brake, clutch=clutch, gear=gear)
+
+    def _stuck(self, s: State) -> bool:
+        """Reverse out after stuck_time_s of being slow, sideways and off the middle."""
+        p = self.params
+        if abs(s.angle_rad) > self._stuck_angle and s.speed_x_mps < p.stuck_speed_mps \
+                and abs(s.to_middle_m) > p.stuck_offset_m and s.angle_rad * s.to_middle_m < 0:
+            self.stuck_steps += 1
+        else:
+            self.stuck_steps = 0
+            self.reversing = False
+        if self.stuck_steps * STEP_S > p.stuck_time_s:
+            self.reversing = True
+        return self.reversing
+
+    def _new_lap(self, s: State) -> None:
+        first = self.laps_seen == 0
+        self.laps_seen = int(s.laps)
+        if first:
+            return
+        self.fuel_l = s.fuel_l
+        if self.params.learning:
+            self.learner.end_lap()
+            if self.learning_file is not None:
+                self.learner.save(self.learning_file, self.track.name, self.car.name)
+        self._build_profile()
+
+    def pit_stop(self, state: State) -> PitOrder:
+        return PitOrder(fuel_l=0.0, repair=0.0)
+
+    def signals(self) -> dict[str, float]:
+        return {"offset_m": self.offset_m}

@@ -91,7 +91,9 @@ class Host:
     def __init__(self, spec: dict) -> None:
         self.spec = spec
         self.run_dir = Path(spec["run_dir"])
-        options = RaceOptions(**spec.get("options", {}))
+        opts = spec.get("options", {})
+        opts["pit_laps"] = tuple(opts.get("pit_laps", ()))
+        options = RaceOptions(**opts)
         self.slots: list[Slot] = []
         for entry in spec["robots"]:
             cls = load_robot_class(entry["spec"])

@@ -9,6 +9,7 @@ trip ~15x cheaper), die with us (PR_SET_PDEATHSIG), and are killed by process gr
 from __future__ import annotations
 
 import ctypes
+import dataclasses
 import json
 import os
 import re
@@ -135,8 +136,7 @@ def run_race(cfg: RaceConfig, overlay: Overlay, progress: Progress | None = None
             spec = {"run_dir": str(run_dir), "listen_fd": listener.fileno(), "track": cfg.track,
                     "category": cfg.category, "car": cfg.car,
                     "robots": [{"spec": s, "name": n} for s, n in zip(cfg.robots, names)],
-                    "options": {"fuel_laps": cfg.options.fuel_laps, "pit_laps": list(cfg.options.pit_laps),
-                                "pit_mode": cfg.options.pit_mode, "robot_args": cfg.options.robot_args},
+                    "options": dataclasses.asdict(cfg.options),
                     "connect_timeout_s": wall_limit}
             (run_dir / "host-spec.json").write_text(json.dumps(spec))
             with open(run_dir / "host.log", "wb") as log:

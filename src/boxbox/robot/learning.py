@@ -1,0 +1,118 @@
+"""Learning turn by turn: grip factors from the margins the car left to the track edge.
+
+The tutorial robot adds the smallest margin it saw in a turn to that turn's radius for the next
+lap.  Here each turn (a stretch where the speed profile is limited by curvature) has a grip
+factor scaling its cornering speed: a lap with room to spare raises it, leaving the track or
+picking up damage in the turn lowers it and caps it there.  Factors are kept per track and car
+in a JSON file, so the next race starts from what the last one learned.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+MIN_FACTOR, MAX_FACTOR = 0.8, 1.5
+
+
+@dataclass
+class Turn:
+    start_m: float
+    end_m: float
+    factor: float = 1.0
+    ceiling: float = MAX_FACTOR  # lowered when the car went off here
+    min_margin_m: float = 1e9  # this lap's smallest distance from the car's side to the edge
+    damaged: bool = False
+
+
+@dataclass
+class TurnLearner:
+    turns: list[Turn]
+    length_m: float
+    gain: float = 0.5
+    sample_index: list[int] = field(default_factory=list)  # turn index per profile sample, -1 outside
+
+    @classmethod
+    def from_limits(cls, limits_mps: list[float], step_m: float, length_m: float, max_speed_mps: float,
+                    gain: float = 0.5) -> "TurnLearner":
+        """Turns are the runs of samples whose limit is below the top speed."""
+        n = len(limits_mps)
+        limited = [v < 0.95 * max_speed_mps for v in limits_mps]
+        turns: list[Turn] = []
+        index = [-1] * n
+        i = 0
+        while i < n:
+            if limited[i]:
+                j = i
+                while j < n and limited[j]:
+                    j += 1
+                turns.append(Turn(start_m=i * step_m, end_m=j * step_m))
+                for k in range(i, j):
+                    index[k] = len(turns) - 1
+                i = j
+            else:
+                i += 1
+        # a turn across the start line is one turn
+        if len(turns) > 1 and limited[0] and limited[-1]:
+            first = turns.pop(0)
+            last = turns[-1]
+            last.end_m = first.end_m + length_m
+            index = [len(turns) - 1 if t == 0 else (t - 1 if t > 0 else -1) for t in index]
+        return cls(turns=turns, length_m=length_m, gain=gain, sample_index=index)
+
+    def factors_per_sample(self) -> list[float]:
+        return [self.turns[t].factor if t >= 0 else 1.0 for t in self.sample_index]
+
+    def observe(self, sample: int, margin_m: float, damage_up: bool) -> None:
+        """One drive step inside the lap: the car's margin to the edge at a profile sample."""
+        t = self.sample_index[sample]
+        if t >= 0:
+            turn = self.turns[t]
+            if margin_m < turn.min_margin_m:
+                turn.min_margin_m = margin_m
+            if damage_up:
+                turn.damaged = True
+
+    def end_lap(self) -> int:
+        """Update every turn from the lap just driven; returns how many factors changed."""
+        changed = 0
+        for turn in self.turns:
+            before = turn.factor
+            if turn.min_margin_m == 1e9:
+                continue  # not driven (pit lane, start)
+            if turn.min_margin_m < 0.0 or turn.damaged:
+                turn.ceiling = max(MIN_FACTOR, turn.factor * 0.98)
+                turn.factor = max(MIN_FACTOR, turn.factor * (0.96 if turn.min_margin_m < -1.0 or turn.damaged else 0.98))
+            else:
+                spare = min(turn.min_margin_m, 2.0)
+                turn.factor = min(turn.ceiling, turn.factor * (1.0 + self.gain * 0.05 * spare))
+            turn.min_margin_m = 1e9
+            turn.damaged = False
+            changed += turn.factor != before
+        return changed
+
+    # --- persistence -------------------------------------------------------------------------
+    def save(self, path: Path, track: str, car: str) -> None:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        data = {"track": track, "car": car,
+                "turns": [{"start_m": round(t.start_m, 1), "end_m": round(t.end_m, 1), "factor": round(t.factor, 4),
+                           "ceiling": round(t.ceiling, 4)} for t in self.turns]}
+        tmp = path.with_suffix(".tmp")
+        tmp.write_text(json.dumps(data, indent=1))
+        tmp.replace(path)
+
+    def load(self, path: Path) -> bool:
+        """Take the factors of turns that start within 10 m of a stored one."""
+        try:
+            data = json.loads(path.read_text())
+        except (OSError, ValueError):
+            return False
+        stored = data.get("turns", [])
+        for turn in self.turns:
+            for s in stored:
+                if abs(s["start_m"] - turn.start_m) < 10.0:
+                    turn.factor = min(MAX_FACTOR, max(MIN_FACTOR, float(s["factor"])))
+                    turn.ceiling = min(MAX_FACTOR, max(MIN_FACTOR, float(s.get("ceiling", MAX_FACTOR))))
+                    break
+        return True

@@ -1,0 +1,99 @@
+"""Opponents: who is where relative to us, and the tutorial's filters that react to them.
+
+- collision brake filter: brake when we could not slow to the speed of a car ahead in the gap;
+- side collision steering filter: steer away from a car alongside;
+- overtaking: move the line sideways towards the free side of a slower car ahead;
+- letting a faster lapping car pass: move aside when it is close behind.
+Everything is per step and cheap: one pass over the opponents in plain Python.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from boxbox.model.state import CAR_STATE_OUT, State
+
+
+@dataclass(slots=True)
+class Nearby:
+    """One opponent relative to us."""
+
+    dist_m: float  # centre to centre along the track, + ahead
+    gap_m: float  # bumper to bumper: dist_m minus a car length (ahead) or plus one (behind)
+    lateral_m: float  # its to_middle minus ours, + to our left
+    speed_mps: float
+    laps_ahead: int  # its laps minus ours: > 0 means it is lapping us
+
+
+@dataclass(frozen=True)
+class OpponentParams:
+    front_range_m: float = 200.0
+    back_range_m: float = 50.0
+    length_margin_m: float = 3.0
+    side_margin_m: float = 1.0
+    overtake_step_m: float = 0.1
+
+
+def nearby(state: State, length_m: float, track_length_m: float, back_range_m: float,
+           front_range_m: float) -> list[Nearby]:
+    out = []
+    half = track_length_m / 2
+    my_dist, my_mid, my_laps = state.dist_from_start_m, state.to_middle_m, state.laps
+    for o in state.opponents:
+        if int(o.car_state) & CAR_STATE_OUT:
+            continue
+        d = o.dist_from_start_m - my_dist
+        if d > half:
+            d -= track_length_m
+        elif d < -half:
+            d += track_length_m
+        gap = d - length_m if d > 0 else d + length_m
+        if -back_range_m < d < front_range_m:
+            out.append(Nearby(d, gap, o.to_middle_m - my_mid, o.speed_mps, int(o.laps - my_laps)))
+    return out
+
+
+def collision_brake(brake: float, speed_mps: float, cars: list[Nearby], width_m: float, p: OpponentParams,
+                    brakedist) -> float:
+    """Full brake when the gap to a slower car in our lane is within our braking distance."""
+    for c in cars:
+        if c.dist_m > 0 and c.speed_mps < speed_mps and abs(c.lateral_m) < width_m + p.side_margin_m:
+            need = brakedist(speed_mps, c.speed_mps)
+            if need + p.length_margin_m > c.gap_m or c.gap_m < p.length_margin_m:
+                return 1.0
+    return brake
+
+
+def side_steer(steer: float, cars: list[Nearby], length_m: float, width_m: float, steer_lock_rad: float,
+               p: OpponentParams) -> float:
+    """Steer away from a car alongside that is closer than the side margin."""
+    for c in cars:
+        if abs(c.dist_m) < length_m:  # alongside
+            free = abs(c.lateral_m) - width_m
+            if free < p.side_margin_m:
+                push = (p.side_margin_m - free) * 0.1 / steer_lock_rad
+                steer += -push if c.lateral_m > 0 else push
+    return max(-1.0, min(1.0, steer))
+
+
+def overtake_offset(offset_m: float, my_speed_mps: float, my_to_middle_m: float, cars: list[Nearby],
+                    half_width_m: float, length_m: float, p: OpponentParams) -> float:
+    """Lateral offset added to the line: towards the free side of a slower car close ahead,
+    aside for a lapping car close behind, else back towards zero."""
+    target = None
+    for c in cars:
+        if c.dist_m > 0 and c.gap_m < max(2.0 * length_m, (my_speed_mps - c.speed_mps) * 2.0) \
+                and c.speed_mps < my_speed_mps:
+            # pass on the side with more room: its position is my_to_middle + lateral
+            other = my_to_middle_m + c.lateral_m
+            target = -half_width_m if other > 0 else half_width_m
+            break
+        if c.laps_ahead > 0 and -4.0 * length_m < c.dist_m < 0:
+            other = my_to_middle_m + c.lateral_m
+            target = -half_width_m if other > 0 else half_width_m
+    if target is None:
+        target = 0.0
+    step = p.overtake_step_m
+    if offset_m < target:
+        return min(target, offset_m + step)
+    return max(target, offset_m - step)

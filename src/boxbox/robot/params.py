@@ -1,0 +1,133 @@
+"""The tutorial robot's parameters: typed, with the tutorial's values as defaults.
+
+Overrides come from TOML files next to the robot, like TORCS setup files, applied in order:
+  setups/default.toml, setups/<car>/default.toml, setups/<car>/<track>.toml
+then `--set key=value` on the command line.  Unknown keys and wrong types are errors.
+`boxbox params --track T --car C` prints the effective values and where each came from.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import tomllib
+from dataclasses import dataclass, fields
+from pathlib import Path
+
+from boxbox.errors import UsageError
+
+SETUPS = Path(__file__).parent / "setups"
+
+
+@dataclass(frozen=True)
+class TutorialParams:
+    # steering: "lookahead" = the tutorial's target point (17 m + 0.33 s x speed ahead);
+    # "line" = follow the racing line (curvature feed-forward + heading and distance corrections)
+    steering: str = "line"
+    lookahead_m: float = 17.0
+    lookahead_s: float = 0.33
+    line_preview_s: float = 0.05  # "line": take heading and curvature this far ahead (actuation lag)
+    line_lateral_gain: float = 2.0
+    line_yaw_damping_s: float = 0.05
+    racing_line: float = 1.0  # 0 = the tutorial's middle line, 1 = the optimised line
+    line_margin_m: float = 1.2  # racing line's distance from the track edge (car centre)
+    # speed
+    mu_scale: float = 0.69  # cornering grip relative to surface x tyre friction (shipped robot: 0.69)
+    brake_mu_scale: float = 0.65  # braking grip, same base (the shipped robot brakes on surface friction alone)
+    brake_method: str = "exact"
+    friction_circle: bool = True  # brake less where the line turns (grip shared with cornering)  # braking distance: "exact" or "approx" (the seed's formula)
+    max_speed_mps: float = 100.0
+    speed_lookahead_s: float = 0.06  # compare speed with the profile this far ahead (latency)
+    full_accel_margin_mps: float = 1.0
+    brake_band_mps: float = 1.0  # brake fully this far above the target speed
+    # gears (gear-changing.txt)
+    shift: float = 0.9
+    shift_margin_mps: float = 4.0
+    # traction control and ABS (slip in m/s)
+    abs_slip_mps: float = 2.0
+    abs_range_mps: float = 5.0
+    tcl_slip_mps: float = 2.0
+    tcl_range_mps: float = 10.0
+    slip_min_speed_mps: float = 3.0
+    # getting unstuck
+    stuck_angle_deg: float = 30.0
+    stuck_speed_mps: float = 5.0
+    stuck_offset_m: float = 3.0
+    stuck_time_s: float = 2.0
+    # opponents
+    front_range_m: float = 200.0
+    back_range_m: float = 50.0
+    length_margin_m: float = 3.0
+    side_margin_m: float = 1.0
+    overtake_step_m: float = 0.1  # lateral offset change per drive step
+    # pit
+    pit_lookahead_m: float = 6.0
+    pit_mu: float = 0.4  # the seed's constant (used with pit_mu_source = "constant")
+    pit_mu_source: str = "surface"  # "surface": the pit lane's own friction; "constant": pit_mu
+    pit_brake_ahead_m: float = 200.0  # the seed's workaround (used with pit_entry_braking = "ahead")
+    pit_entry_braking: str = "computed"  # "computed" from the pit path, or the seed's "ahead"
+    pit_give_up_s: float = 10.0
+    # learning
+    learning: bool = True
+    learn_gain: float = 0.5  # fraction of the spare margin turned into turn-speed grip per lap
+
+
+CHOICES = {"steering": ("line", "lookahead"), "brake_method": ("exact", "approx"), "pit_mu_source": ("surface", "constant"),
+           "pit_entry_braking": ("computed", "ahead")}
+
+
+def _coerce(name: str, value, kind, origin: str):
+    if kind is float and isinstance(value, (int, float)) and not isinstance(value, bool):
+        return float(value)
+    if kind is bool and isinstance(value, bool):
+        return value
+    if kind is str and isinstance(value, str):
+        if name in CHOICES and value not in CHOICES[name]:
+            raise UsageError(f"{origin}: {name} must be one of {', '.join(CHOICES[name])}, got '{value}'")
+        return value
+    raise UsageError(f"{origin}: {name} must be a {kind.__name__}, got {value!r}")
+
+
+def _apply(values: dict, overrides: dict, origin: str, sources: dict) -> None:
+    types = {f.name: type(f.default) for f in fields(TutorialParams)}
+    for key, value in overrides.items():
+        if key not in types:
+            import difflib
+
+            near = difflib.get_close_matches(key, types, n=1)
+            hint = f" (did you mean {near[0]}?)" if near else ""
+            raise UsageError(f"{origin}: unknown parameter '{key}'{hint}; `boxbox params` lists them")
+        values[key] = _coerce(key, value, types[key], origin)
+        sources[key] = origin
+
+
+def parse_set(items: tuple[str, ...] | list[str]) -> dict:
+    """`key=value` strings from the command line, values read as TOML (numbers, true, "text")."""
+    out = {}
+    for item in items:
+        key, sep, text = item.partition("=")
+        if not sep:
+            raise UsageError(f"--set takes key=value, got '{item}'")
+        try:
+            out[key.strip()] = tomllib.loads(f"v = {text}")["v"]
+        except tomllib.TOMLDecodeError:
+            out[key.strip()] = text
+    return out
+
+
+def setup_files(car: str, track: str) -> list[Path]:
+    return [SETUPS / "default.toml", SETUPS / car / "default.toml", SETUPS / car / f"{track}.toml"]
+
+
+def load_params(car: str, track: str, overrides: dict | None = None) -> tuple[TutorialParams, dict[str, str]]:
+    """Effective parameters and, per key, where its value came from."""
+    values = dataclasses.asdict(TutorialParams())
+    sources = {k: "default" for k in values}
+    for path in setup_files(car, track):
+        if path.exists():
+            try:
+                data = tomllib.loads(path.read_text())
+            except tomllib.TOMLDecodeError as exc:
+                raise UsageError(f"{path}: not valid TOML: {exc}") from None
+            _apply(values, data, str(path), sources)
+    _apply(values, overrides or {}, "--set", sources)
+    return TutorialParams(**values), sources

@@ -1,0 +1,158 @@
+"""robot.strategy: fuel arithmetic, stop decisions, orders and the number of stops."""
+
+from __future__ import annotations
+
+import itertools
+import math
+
+import pytest
+
+from boxbox.robot.strategy import (
+    FUEL_PER_M_L, FUEL_RATE_LPS, REPAIR_S_PER_POINT, STOP_BASE_S, PitStrategy, pit_lane_loss_s, plan_stops,
+)
+
+LENGTH_M = 5380.5  # e-track-2
+TANK_L = 94.0
+
+
+def strat(**kw) -> PitStrategy:
+    return PitStrategy(LENGTH_M, TANK_L, **kw)
+
+
+def test_first_estimate_from_fuel_per_metre():
+    st = strat()
+    assert st.fuel_per_lap_l == pytest.approx(FUEL_PER_M_L * LENGTH_M)
+    assert strat(fuel_per_m_l=0.001).fuel_per_lap_l == pytest.approx(5.3805)
+
+
+def test_fuel_per_lap_measured_each_lap():
+    st = strat()
+    st.on_lap(0, 94.0, 0.0)  # race start: the reference
+    assert st.measured_l == []
+    st.on_lap(0, 93.0, 0.0)  # same lap again: nothing
+    st.on_lap(1, 90.0, 0.0)
+    assert st.fuel_per_lap_l == pytest.approx(4.0)
+    st.on_lap(2, 85.5, 0.0)
+    st.on_lap(3, 81.3, 0.0)
+    assert st.measured_l == pytest.approx([4.0, 4.5, 4.2])
+    assert st.fuel_per_lap_l == pytest.approx(4.5)  # the largest: running dry costs the race
+
+
+def test_lap_with_ordered_fuel_is_measured_with_the_fuel_added():
+    st = strat()
+    st.on_lap(0, 94.0, 0.0)
+    st.on_lap(1, 90.0, 0.0)
+    fuel, _ = st.order(remaining_laps=10, fuel_l=88.0, damage=0.0, tank_l=TANK_L)
+    assert fuel == pytest.approx(TANK_L - 88.0)
+    st.on_lap(2, 88.0 + fuel - 2.0, 0.0)  # 4 l used in the lap, 2 before the stop and 2 after
+    assert st.measured_l[-1] == pytest.approx(4.0)
+
+
+def test_unexplained_refuel_and_skipped_laps_are_not_measured():
+    st = strat()
+    st.on_lap(0, 50.0, 0.0)
+    st.on_lap(1, 80.0, 0.0)  # fuel went up without an order
+    st.on_lap(3, 70.0, 0.0)  # two laps at once
+    assert st.measured_l == []
+
+
+def test_wants_stop_for_fuel_needs_both_conditions():
+    st = strat()
+    st.on_lap(0, 94.0, 0.0)
+    st.on_lap(1, 90.0, 0.0)  # 4 l/lap
+    assert not st.wants_stop(1, 10, 30.0, 0.0)  # not enough to finish, but 7.5 laps in the tank
+    assert not st.wants_stop(1, 1, 5.0, 0.0)  # < 1.5 laps left, but enough to finish
+    assert st.wants_stop(1, 10, 5.0, 0.0)  # 1.25 laps left, 10 to go
+    assert not st.wants_stop(1, 0, 0.5, 0.0)  # the race ends here
+
+
+def test_wants_stop_for_damage_and_requested_laps():
+    st = strat(pit_laps=[5])
+    assert st.wants_stop(3, 10, 80.0, 5001.0)
+    assert not st.wants_stop(3, 10, 80.0, 5000.0)
+    assert st.wants_stop(4, 10, 80.0, 0.0)  # driving lap 5
+    assert not st.wants_stop(5, 10, 80.0, 0.0)
+
+
+def test_no_second_stop_in_the_same_lap():
+    st = strat(pit_laps=[5])
+    st.on_lap(4, 80.0, 0.0)
+    assert st.wants_stop(4, 10, 80.0, 0.0)
+    st.order(10, 80.0, 0.0, TANK_L)
+    assert not st.wants_stop(4, 10, 94.0, 0.0)
+
+
+def test_order_refuels_only_what_is_needed_plus_margin():
+    st = strat(margin_laps=0.3)
+    st.on_lap(0, 94.0, 0.0)
+    st.on_lap(1, 90.0, 0.0)  # 4 l/lap
+    fuel, repair = st.order(remaining_laps=5, fuel_l=3.0, damage=0.0, tank_l=TANK_L)
+    assert fuel == pytest.approx(5.3 * 4.0 - 3.0)
+    assert repair == 0.0
+    # enough already: nothing
+    assert st.order(remaining_laps=5, fuel_l=30.0, damage=0.0, tank_l=TANK_L)[0] == 0.0
+
+
+def test_order_bounded_by_tank_and_split_over_stops():
+    st = strat(margin_laps=0.3, pit_loss_s=15.0)
+    st.on_lap(0, 94.0, 0.0)
+    st.on_lap(1, 90.0, 0.0)  # 4 l/lap: a full tank lasts 23 laps
+    fuel, _ = st.order(remaining_laps=40, fuel_l=2.0, damage=0.0, tank_l=TANK_L)
+    # two stints of 20 laps beat a full tank (23) + a short stint: less weight, same stops
+    assert fuel == pytest.approx(20.3 * 4.0 - 2.0)
+    fuel, _ = st.order(remaining_laps=40, fuel_l=2.0, damage=0.0, tank_l=50.0)
+    assert fuel <= 50.0 - 2.0 + 1e-9
+
+
+def test_repair():
+    st = strat()
+    assert st.order(5, 50.0, 800.0, TANK_L)[1] == 0.0  # below the level we keep: not worth 5.6 s
+    assert st.order(5, 50.0, 6000.0, TANK_L)[1] == pytest.approx(5000.0)  # down to 1000
+    # when damage costs lap time, repairing everything pays
+    costly = strat(s_per_lap_per_damage=0.01)
+    assert costly.order(5, 50.0, 6000.0, TANK_L)[1] == pytest.approx(6000.0)
+
+
+def brute_force_time(laps: int, fpl: float, tank: float, stops: int, pit_loss: float, k: float,
+                     margin: float, first_free: bool = True) -> float:
+    """Best time cost over every split of laps into stops + 1 stints (independent of plan_stops)."""
+    best = math.inf
+    for cut in itertools.combinations(range(1, laps), stops):
+        bounds = (0, *cut, laps)
+        stints = [b - a for a, b in zip(bounds, bounds[1:])]
+        if max(stints) + margin > tank / fpl + 1e-9:
+            continue
+        refuel = sum(stints[1:] if first_free else stints) * fpl / FUEL_RATE_LPS
+        weight = sum(n * (n / 2.0 + margin) * fpl * k for n in stints)
+        best = min(best, stops * (pit_loss + STOP_BASE_S) + refuel + weight)
+    return best
+
+
+@pytest.mark.parametrize("laps,fpl,loss,k", [(10, 4.3, 15.0, 0.03), (30, 4.3, 15.0, 0.03),
+                                             (30, 4.3, 2.0, 0.1), (25, 8.0, 20.0, 0.03),
+                                             (12, 10.0, 1.0, 0.2)])
+def test_plan_stops_minimises_time(laps: int, fpl: float, loss: float, k: float):
+    plan = plan_stops(laps, fpl, TANK_L, pit_loss_s=loss, s_per_lap_per_kg=k, margin_laps=0.3)
+    times = {n: brute_force_time(laps, fpl, TANK_L, n, loss, k, 0.3) for n in range(0, 6)}
+    assert plan.time_cost_s == pytest.approx(min(times.values()))
+    assert times[plan.stops] == pytest.approx(min(times.values()))
+    assert plan.fuel_per_stint_l <= TANK_L
+    assert plan.fuel_per_stint_l == pytest.approx((plan.stint_laps + 0.3) * fpl)
+    assert plan.stint_laps * (plan.stops + 1) >= laps
+
+
+def test_plan_stops_cases():
+    assert plan_stops(10, 4.3, TANK_L).stops == 0  # fits in the tank
+    assert plan_stops(30, 4.3, TANK_L).stops == 1  # a full tank lasts 21 laps
+    # a cheap pit lane and a heavy car: more, shorter stints
+    assert plan_stops(30, 4.3, TANK_L, pit_loss_s=0.0, s_per_lap_per_kg=0.2).stops > 1
+    with pytest.raises(ValueError):
+        plan_stops(10, 100.0, TANK_L)
+    assert plan_stops(0, 4.3, TANK_L).stops == 0
+
+
+def test_stop_cost_figures():
+    # TORCS race defaults (TORCS.md): 2 s + fuel / 8 l/s + repair * 0.007 s
+    assert (STOP_BASE_S, FUEL_RATE_LPS, REPAIR_S_PER_POINT) == (2.0, 8.0, 0.007)
+    loss = pit_lane_loss_s(644.0, 24.5, 60.0)
+    assert 644.0 / 24.5 - 644.0 / 60.0 < loss < 40.0
