@@ -201,6 +201,26 @@ def bench_speed(track, laps, runs, robot, against) -> None:
 
 
 @main_group.command()
+@click.option("--track", default="e-track-2", show_default=True)
+@click.option("--car", default="car1-trb1", show_default=True)
+@click.option("--set", "settings", multiple=True, metavar="KEY=VALUE", help="Override, as in `boxbox race --set`.")
+def params(track, car, settings) -> None:
+    """Print the boxbox robot's effective parameters for a track and car, and where each comes from."""
+    from rich.table import Table
+
+    from boxbox.robot.params import load_params, parse_set, setup_files
+
+    values, sources = load_params(car, track, parse_set(settings))
+    table = Table("parameter", "value", "from", title=f"boxbox robot parameters: {track}, {car}")
+    for key, value in vars(values).items():
+        src = sources[key]
+        table.add_row(key, str(value), src if src in ("default", "--set") else Path(src).name)
+    out.print(table)
+    out.print("setup files, in order: " + ", ".join(str(p) + ("" if p.exists() else " (absent)")
+                                                    for p in setup_files(car, track)))
+
+
+@main_group.command()
 def setup() -> None:
     """Install TORCS and its headers, build the bridge and the overlay (idempotent)."""
     overlay = _ready()
@@ -254,6 +274,10 @@ def robots_cmd() -> None:
     for module in catalog.robot_modules():
         for idx, info in sorted(catalog.robot_indices(module).items()):
             out.print(f"torcs   {module}:{idx:<6} {info['name']} ({info['car']})")
+
+
+from boxbox.report.bench_cli import bench
+main_group.add_command(bench)
 
 
 def main() -> None:

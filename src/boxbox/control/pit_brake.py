@@ -95,7 +95,7 @@ class PitBrakeFilter:
         self.pit_mu_factor = pit_mu_factor
         self.entry_mode = entry_mode
         self.brake_ahead_m = brake_ahead_m
-        # only constraints before the box matter; sorted so the scan can stop early
+        # only constraints before the box matter; in path order, so the nearest binding one is reported
         self.entry_constraints = tuple(sorted((float(s), float(v)) for s, v in entry_constraints if s < box_m))
         self.stop_mode = stop_mode
         self.stop_threshold_m = stop_threshold_m
@@ -128,8 +128,11 @@ class PitBrakeFilter:
 
         brake: the robot's own brake; speed_mps: current speed; s_m: position (negative before the
         entry); stop_wanted: a stop is planned and not yet done; on_path: the car drives the pit path;
-        surface_mu: friction under the car (the seed's mu); in_pit: captured by the race engine;
+        surface_mu: friction under the car (the seed's mu); in_pit: captured by the race engine
+        (State.in_pit; pass it, or the give-up timeout counts the standing time of the stop itself);
         dt_s: time since the last call (for the give-up timeout).
+        With stop_mode "constant-decel" the robot should also track target_speed_mps with its
+        throttle (e.g. a SpeedTracker): the stop may ask to creep up to the box.
         """
         if not stop_wanted:
             if self.gave_up or self.standing_s or self.stop.stopping:

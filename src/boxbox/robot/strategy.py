@@ -14,7 +14,8 @@ one long one; `plan_stops` compares the numbers of stops.
 
 Repair: TORCS 1.3.7 puts a car out at 10000 damage; we assume damage does not slow the car
 otherwise (s_per_lap_per_damage = 0), so repairing costs time and buys only safety: repair down to
-repair_keep_damage (1000) unless lap time lost to damage makes a full repair pay.
+repair_keep_damage (1000), or lower when the damage taken per lap so far would reach the damage
+limit again before the finish; everything when lap time lost to damage makes a full repair pay.
 """
 
 from __future__ import annotations
@@ -33,47 +34,58 @@ MIN_FUEL_LAPS = 1.5  # stop for fuel only when less than this many laps are left
 
 @dataclass(frozen=True, slots=True)
 class StopPlan:
-    stops: int  # further stops
-    stint_laps: int  # laps of the longest stint (fuel is sized for it)
-    fuel_per_stint_l: float  # fuel at the start of each stint (stint laps + margin), <= tank
+    stops: int  # number of stops (at a stop: the stops after this one)
+    stint_laps: tuple[int, ...]  # laps of each stint, in order (stops + 1 of them)
+    fuel_per_stint_l: tuple[float, ...]  # fuel at the start of each stint: its laps + margin, <= tank
     time_cost_s: float  # pit time + weight penalty of this plan (comparable between plans only)
 
 
 def plan_stops(race_laps: float, fuel_per_lap_l: float, tank_l: float, *, pit_loss_s: float = 15.0,
                s_per_lap_per_kg: float = 0.03, kg_per_l: float = 1.0, margin_laps: float = 0.3,
                first_stint_fuelled: bool = True, max_extra_stops: int = 3) -> StopPlan:
-    """Number of stops and fuel per stint that minimise time for race_laps laps from a full stop.
+    """Number of stops and fuel per stint that minimise time for race_laps laps still to drive.
 
-    race_laps counts the laps still to drive (from the race start, or from the pit stop being
-    planned; the current stop then is stop 0 and `stops` counts the stops after it).  Stints are equal
-    in whole laps; each starts with stint laps + margin_laps of fuel.  The fewest stops the tank allows
-    is tried, and up to max_extra_stops more.  first_stint_fuelled: the first stint's fuel costs no
-    refuelling time (race start: it is loaded before the start); False when planning at a stop.
+    Cost of a plan: stops * (pit_loss_s + 2 s) + refuelled litres / 8 l/s + weight, where a stint of n
+    laps carries on average (n/2 + margin_laps) laps of fuel at s_per_lap_per_kg per kg and lap.
+    Each stint starts with its laps + margin_laps of fuel (the margin carries over, so it is refuelled
+    once).  first_stint_fuelled: the first stint's fuel costs no refuelling time (race start: loaded
+    before the start), which makes a longer first stint pay; False when planning at a stop, where
+    every stint is refuelled.  From the fewest stops the tank allows, more stops are tried until
+    max_extra_stops past the best so far; for each number, every first-stint length with the rest split evenly (the weight cost is convex,
+    so even is best for the refuelled stints).  Called per stop, not per step.
     """
-    if fuel_per_lap_l <= 0.0 or race_laps <= 0:
-        return StopPlan(0, max(0, math.ceil(race_laps)), max(0.0, margin_laps * fuel_per_lap_l), 0.0)
-    laps = math.ceil(race_laps - 1e-9)
+    laps = max(0, math.ceil(race_laps - 1e-9))
+    if fuel_per_lap_l <= 0.0 or laps == 0:
+        return StopPlan(0, (laps,), (max(0.0, (laps + margin_laps) * fuel_per_lap_l),), 0.0)
     max_stint = math.floor(tank_l / fuel_per_lap_l - margin_laps + 1e-9)
     if max_stint < 1:
         raise ValueError(f"tank of {tank_l} l holds less than one lap (+ margin) at {fuel_per_lap_l} l/lap")
+    weight_k = fuel_per_lap_l * kg_per_l * s_per_lap_per_kg
+
+    def cost(stints: list[int]) -> float:
+        refuelled = sum(stints[1:]) if first_stint_fuelled else sum(stints)
+        weight = sum(n * (n / 2.0 + margin_laps) for n in stints) * weight_k
+        return (len(stints) - 1) * (pit_loss_s + STOP_BASE_S) + refuelled * fuel_per_lap_l / FUEL_RATE_LPS + weight
+
     min_stops = math.ceil(laps / max_stint) - 1
-    best: StopPlan | None = None
-    for stops in range(min_stops, min(min_stops + max_extra_stops, laps - 1) + 1):
-        stints = stops + 1
-        base, extra = divmod(laps, stints)
-        stint_laps = [base + 1] * extra + [base] * (stints - extra)
-        fuel_start = [(n + margin_laps) * fuel_per_lap_l for n in stint_laps]
-        # fuel refuelled: the laps of the refuelled stints (a stint's margin carries over to the next)
-        refuelled = stint_laps[1:] if first_stint_fuelled else stint_laps
-        pit_s = stops * (pit_loss_s + STOP_BASE_S) + sum(refuelled) * fuel_per_lap_l / FUEL_RATE_LPS
-        # weight: a stint of n laps carries on average (n/2 + margin) laps of fuel
-        weight_s = sum(n * (n / 2.0 + margin_laps) * fuel_per_lap_l * kg_per_l * s_per_lap_per_kg
-                       for n in stint_laps)
-        plan = StopPlan(stops, max(stint_laps), max(fuel_start), pit_s + weight_s)
-        if best is None or plan.time_cost_s < best.time_cost_s - 1e-9:
-            best = plan
+    best: tuple[float, list[int]] | None = None
+    stops = min_stops
+    while stops <= laps - 1 and (best is None or stops <= len(best[1]) - 1 + max_extra_stops):
+        firsts = [laps] if stops == 0 else range(1, min(max_stint, laps - stops) + 1)
+        for first in firsts:
+            stints = [first]
+            if stops:
+                base, extra = divmod(laps - first, stops)
+                if base + (1 if extra else 0) > max_stint:
+                    continue
+                stints += [base + 1] * extra + [base] * (stops - extra)
+            c = cost(stints)
+            if best is None or c < best[0] - 1e-9:
+                best = (c, stints)
+        stops += 1
     assert best is not None
-    return best
+    c, stints = best
+    return StopPlan(len(stints) - 1, tuple(stints), tuple((n + margin_laps) * fuel_per_lap_l for n in stints), c)
 
 
 def pit_lane_loss_s(lane_length_m: float, speed_limit_mps: float, race_speed_mps: float,
@@ -118,6 +130,9 @@ class PitStrategy:
         self._lap_start_fuel_l = 0.0
         self._added_l = 0.0  # ordered in the current lap
         self._stopped_in_lap: int | None = None  # laps_done when the last stop was ordered
+        self._lap_start_damage = 0.0
+        self.damage_gained = 0.0  # damage taken in the measured laps (repairs not subtracted)
+        self.damage_laps = 0
 
     @property
     def fuel_per_lap_l(self) -> float:
@@ -135,9 +150,17 @@ class PitStrategy:
             # a lap with a stop the strategy did not order cannot be measured
             if used > 0.0 and (self._added_l > 0.0 or fuel_l <= self._lap_start_fuel_l):
                 self.measured_l.append(used)
+            if damage >= self._lap_start_damage:  # a lap with a repair is skipped
+                self.damage_gained += damage - self._lap_start_damage
+                self.damage_laps += 1
         self._laps_done = laps_done
         self._lap_start_fuel_l = fuel_l
+        self._lap_start_damage = damage
         self._added_l = 0.0
+
+    @property
+    def damage_per_lap(self) -> float:
+        return self.damage_gained / self.damage_laps if self.damage_laps else 0.0
 
     def wants_stop(self, laps_done: int, remaining_laps: float, fuel_l: float, damage: float) -> bool:
         """remaining_laps: laps still to drive after passing the pit this time."""
@@ -161,11 +184,10 @@ class PitStrategy:
 
     def order(self, remaining_laps: float, fuel_l: float, damage: float, tank_l: float) -> tuple[float, float]:
         """(fuel_l, repair) to order at this stop; remaining_laps as in wants_stop."""
-        fpl = self.fuel_per_lap_l
         fuel = 0.0
         if remaining_laps > 0:
-            stint_laps = self.plan(remaining_laps, tank_l, at_stop=True).stint_laps
-            fuel = (stint_laps + self.margin_laps) * fpl - fuel_l
+            next_stint_l = self.plan(remaining_laps, tank_l, at_stop=True).fuel_per_stint_l[0]
+            fuel = next_stint_l - fuel_l
             fuel = min(max(0.0, fuel), max(0.0, tank_l - fuel_l))
         repair = self._repair(remaining_laps, damage)
         self._added_l += fuel
@@ -175,6 +197,10 @@ class PitStrategy:
     def _repair(self, remaining_laps: float, damage: float) -> float:
         if damage <= 0.0:
             return 0.0
-        if self.s_per_lap_per_damage * max(0.0, remaining_laps) > REPAIR_S_PER_POINT:
+        laps = max(0.0, remaining_laps)
+        if self.s_per_lap_per_damage * laps > REPAIR_S_PER_POINT:
             return float(damage)  # damage costs more over the remaining laps than repairing it
-        return max(0.0, float(damage) - self.repair_keep_damage)
+        # keep some damage (repairing costs time), but not so much that the damage taken per lap
+        # so far would force another stop before the finish
+        to_keep = min(self.repair_keep_damage, self.damage_limit - self.damage_per_lap * laps)
+        return min(float(damage), max(0.0, float(damage) - to_keep))

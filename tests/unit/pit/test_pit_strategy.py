@@ -40,11 +40,11 @@ def test_fuel_per_lap_measured_each_lap():
 
 def test_lap_with_ordered_fuel_is_measured_with_the_fuel_added():
     st = strat()
-    st.on_lap(0, 94.0, 0.0)
-    st.on_lap(1, 90.0, 0.0)
-    fuel, _ = st.order(remaining_laps=10, fuel_l=88.0, damage=0.0, tank_l=TANK_L)
-    assert fuel == pytest.approx(TANK_L - 88.0)
-    st.on_lap(2, 88.0 + fuel - 2.0, 0.0)  # 4 l used in the lap, 2 before the stop and 2 after
+    st.on_lap(0, 20.0, 0.0)
+    st.on_lap(1, 16.0, 0.0)  # 4 l/lap
+    fuel, _ = st.order(remaining_laps=30, fuel_l=14.0, damage=0.0, tank_l=TANK_L)  # 2 l used so far
+    assert fuel == pytest.approx(15.3 * 4.0 - 14.0)  # 30 laps in two even stints (23 fit in the tank)
+    st.on_lap(2, 14.0 + fuel - 2.0, 0.0)  # 2 more after the stop
     assert st.measured_l[-1] == pytest.approx(4.0)
 
 
@@ -100,6 +100,7 @@ def test_order_bounded_by_tank_and_split_over_stops():
     fuel, _ = st.order(remaining_laps=40, fuel_l=2.0, damage=0.0, tank_l=TANK_L)
     # two stints of 20 laps beat a full tank (23) + a short stint: less weight, same stops
     assert fuel == pytest.approx(20.3 * 4.0 - 2.0)
+    assert st.plan(40, at_stop=True).stint_laps == (20, 20)
     fuel, _ = st.order(remaining_laps=40, fuel_l=2.0, damage=0.0, tank_l=50.0)
     assert fuel <= 50.0 - 2.0 + 1e-9
 
@@ -111,6 +112,22 @@ def test_repair():
     # when damage costs lap time, repairing everything pays
     costly = strat(s_per_lap_per_damage=0.01)
     assert costly.order(5, 50.0, 6000.0, TANK_L)[1] == pytest.approx(6000.0)
+
+
+def test_repair_enough_to_avoid_a_second_damage_stop():
+    st = strat()
+    st.on_lap(0, 94.0, 0.0)
+    st.on_lap(1, 90.0, 400.0)
+    st.on_lap(2, 86.0, 800.0)  # 400 points a lap
+    assert st.damage_per_lap == pytest.approx(400.0)
+    # 20 laps to go: 8000 more expected -> repair everything (no damage may be kept)
+    assert st.order(20, 50.0, 5500.0, TANK_L)[1] == pytest.approx(5500.0)
+    # 11 laps to go: 4400 more expected -> keep at most 600 (5000 - 4400), not the usual 1000
+    assert st.order(11, 50.0, 5500.0, TANK_L)[1] == pytest.approx(4900.0)
+    assert st.order(2, 50.0, 5500.0, TANK_L)[1] == pytest.approx(4500.0)  # few laps: keep 1000
+    # a lap with a repair does not count as damage taken
+    st.on_lap(3, 82.0, 100.0)
+    assert st.damage_per_lap == pytest.approx(400.0)
 
 
 def brute_force_time(laps: int, fpl: float, tank: float, stops: int, pit_loss: float, k: float,
@@ -129,16 +146,33 @@ def brute_force_time(laps: int, fpl: float, tank: float, stops: int, pit_loss: f
 
 
 @pytest.mark.parametrize("laps,fpl,loss,k", [(10, 4.3, 15.0, 0.03), (30, 4.3, 15.0, 0.03),
-                                             (30, 4.3, 2.0, 0.1), (25, 8.0, 20.0, 0.03),
+                                             (20, 4.3, 3.0, 0.1), (25, 8.0, 20.0, 0.03),
                                              (12, 10.0, 1.0, 0.2)])
 def test_plan_stops_minimises_time(laps: int, fpl: float, loss: float, k: float):
     plan = plan_stops(laps, fpl, TANK_L, pit_loss_s=loss, s_per_lap_per_kg=k, margin_laps=0.3)
-    times = {n: brute_force_time(laps, fpl, TANK_L, n, loss, k, 0.3) for n in range(0, 6)}
+    # every split with up to two stops more than the plan's (a wider search gets slow)
+    times = {n: brute_force_time(laps, fpl, TANK_L, n, loss, k, 0.3) for n in range(0, min(laps, plan.stops + 3))}
     assert plan.time_cost_s == pytest.approx(min(times.values()))
     assert times[plan.stops] == pytest.approx(min(times.values()))
-    assert plan.fuel_per_stint_l <= TANK_L
-    assert plan.fuel_per_stint_l == pytest.approx((plan.stint_laps + 0.3) * fpl)
-    assert plan.stint_laps * (plan.stops + 1) >= laps
+    assert len(plan.stint_laps) == len(plan.fuel_per_stint_l) == plan.stops + 1
+    assert sum(plan.stint_laps) == laps
+    assert max(plan.fuel_per_stint_l) <= TANK_L
+    assert plan.fuel_per_stint_l == pytest.approx([(n + 0.3) * fpl for n in plan.stint_laps])
+
+
+@pytest.mark.parametrize("laps", [30, 45])
+def test_plan_at_a_stop_minimises_time_too(laps: int):
+    plan = plan_stops(laps, 4.3, TANK_L, first_stint_fuelled=False)
+    times = {n: brute_force_time(laps, 4.3, TANK_L, n, 15.0, 0.03, 0.3, first_free=False)
+             for n in range(0, plan.stops + 2)}
+    assert plan.time_cost_s == pytest.approx(min(times.values()))
+    # everything is refuelled: even stints carry the least weight
+    assert max(plan.stint_laps) - min(plan.stint_laps) <= 1
+
+
+def test_first_stint_is_longer_when_its_fuel_is_free():
+    plan = plan_stops(40, 4.0, TANK_L, first_stint_fuelled=True)
+    assert plan.stops == 1 and plan.stint_laps[0] > plan.stint_laps[1]
 
 
 def test_plan_stops_cases():
