@@ -1,0 +1,582 @@
+"""`boxbox bench`: robots x tracks x cars, raced in parallel, cached, compared in one table.
+
+Each robot races alone (one car on the track) unless `together`, when each track x car is one
+race with every robot in it.  TORCS's own robots always drive their own car (bt:2 drives
+car1-trb1 whatever --cars says); the rows say which car they drove.
+
+Results are cached under <cache>/bench-cache/<key>.json.  The key hashes everything the race
+depends on: track, laps, the robots in it and their versions (Python robots: the boxbox package's
+source files plus the robot's own file; TORCS robots: their .so and data files' mtime and size),
+the Python cars' car, --set values and the learning mode.  The simulation is deterministic, so
+a cached race is the race.  Races that did not end properly are never cached.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import csv
+import dataclasses
+import hashlib
+import importlib.util
+import json
+import multiprocessing
+import os
+import queue
+import statistics
+import tempfile
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.table import Table
+
+import boxbox
+from boxbox.errors import UsageError
+from boxbox.report.tables import fmt_time
+from boxbox.robot.base import RaceOptions
+from boxbox.robot.loader import BUILTIN, load_robot_class
+from boxbox.torcs import catalog, launch
+from boxbox.torcs.paths import MAX_PYTHON_CARS, cache_dir, system_torcs
+from boxbox.torcs.results import DriverResult, RaceResult
+from boxbox.torcs.setup import Overlay
+
+CACHE_FORMAT = 1
+LEARNING_MODES = ("fresh", "on", "off")
+ROW_FIELDS = ["track", "car", "robot", "name", "laps", "time", "best_lap", "damage", "pit_stops", "penalty",
+              "wall_s", "error", "cached", "gap_to_best_s", "category", "car_driven", "rank", "run_dir"]
+
+
+# --- inputs ------------------------------------------------------------------------------------
+
+@dataclass
+class BenchSpec:
+    tracks: list[str]
+    cars: list[str]
+    robots: list[str]  # Python robot specs and TORCS robots 'module:idx'
+    laps: int
+    together: bool = False
+    jobs: int = field(default_factory=lambda: os.cpu_count() or 1)
+    use_cache: bool = True  # False: race everything again (and refresh the cache)
+    learning: str = "fresh"  # fresh | on | off, for Python robots
+    settings: dict | None = None  # --set values for Python robots (RaceOptions.robot_args["set"])
+
+
+def parse_list(text: str, all_values: list[str] | None = None, what: str = "value") -> list[str]:
+    """'a,b' -> ['a', 'b'] (duplicates dropped, order kept); 'all' -> all_values."""
+    if text.strip() == "all":
+        if all_values is None:
+            raise UsageError(f"'all' is not accepted for {what}s")
+        return list(all_values)
+    items = list(dict.fromkeys(x.strip() for x in text.split(",") if x.strip()))
+    if not items:
+        raise UsageError(f"no {what} given: use a comma separated list")
+    return items
+
+
+def classify_robot(entry: str) -> tuple[str, str | tuple[str, int]]:
+    """('torcs', (module, idx)) for an installed TORCS robot 'module:idx', else ('python', spec)."""
+    entry = entry.strip()
+    if entry in BUILTIN:
+        return "python", entry
+    if ":" not in entry:
+        if entry in catalog.robot_modules():
+            catalog.parse_opponent(entry)  # raises: a TORCS robot needs its index
+        return "python", entry
+    before, _, after = entry.partition(":")
+    if before in catalog.robot_modules():
+        try:
+            int(after)
+        except ValueError:
+            catalog.parse_opponent(entry)  # raises the UsageError saying what is wrong
+            raise
+        return "torcs", catalog.parse_opponent(entry)  # checks that the index exists
+    return "python", entry
+
+
+def learning_dir(mode: str, run_dir: Path | None = None) -> str | None:
+    """on: the shared learning folder; off: none; fresh: a new empty folder (inside run_dir if given)."""
+    if mode == "off":
+        return None
+    if mode == "fresh":
+        if run_dir is not None:
+            (run_dir / "learning").mkdir(parents=True, exist_ok=True)
+            return str(run_dir / "learning")
+        return tempfile.mkdtemp(prefix="boxbox-learning-")
+    if mode == "on":
+        return str(cache_dir() / "learning")
+    raise UsageError(f"learning must be one of {', '.join(LEARNING_MODES)}, got '{mode}'")
+
+
+# --- versions and cache keys -------------------------------------------------------------------
+
+def _hash_files(paths, h=None, root: Path | None = None):
+    h = h or hashlib.sha256()
+    for p in sorted(paths):
+        h.update(str(p.relative_to(root) if root else p).encode() + b"\0")
+        try:
+            h.update(p.read_bytes())
+        except OSError:
+            h.update(b"<missing>")
+        h.update(b"\0")
+    return h
+
+
+def package_version() -> str:
+    """Hash of the boxbox package's sources (.py, setups .toml, the bridge's C++)."""
+    root = Path(boxbox.__file__).parent
+    files = [p for ext in ("py", "toml", "cpp", "h") for p in root.rglob(f"*.{ext}") if "__pycache__" not in p.parts]
+    return _hash_files(files, root=root).hexdigest()[:16]
+
+
+def _stat(path: Path) -> str:
+    try:
+        st = path.stat()
+        return f"{st.st_mtime_ns}:{st.st_size}"
+    except OSError:
+        return "missing"
+
+
+def python_robot_version(spec: str, package: str | None = None) -> str:
+    """The package hash, plus the robot's own file for 'file.py:Class' or outside-boxbox 'module:Class'."""
+    h = hashlib.sha256((package or package_version()).encode())
+    target = BUILTIN.get(spec, spec)
+    where = target.rpartition(":")[0]
+    own: Path | None = None
+    if where.endswith(".py") or "/" in where:
+        own = Path(where).resolve()
+    elif where and not where.startswith("boxbox."):
+        try:
+            found = importlib.util.find_spec(where)
+            own = Path(found.origin) if found and found.origin else None
+        except (ImportError, ValueError):
+            own = None
+    if own is not None:
+        _hash_files([own], h)
+    return h.hexdigest()[:16]
+
+
+def torcs_robot_version(module: str) -> str:
+    """mtime and size of the robot's .so and of its data files."""
+    torcs = system_torcs()
+    parts = [_stat(torcs.lib_dir / "drivers" / module / f"{module}.so")]
+    data = torcs.data_dir / "drivers" / module
+    if data.is_dir():
+        parts += [f"{p.relative_to(data)}={_stat(p)}" for p in sorted(data.rglob("*")) if p.is_file()]
+    return hashlib.sha256("|".join(parts).encode()).hexdigest()[:16]
+
+
+def _dir_hash(path: Path) -> str:
+    files = [p for p in path.rglob("*") if p.is_file()] if path.is_dir() else []
+    return _hash_files(files, root=path).hexdigest()[:16]
+
+
+def cache_key(track: str, car: str, laps: int, robots: list[dict], settings: dict | None, learning: str) -> str:
+    """sha256 of a race's inputs.  robots: [{"entry", "kind", "version"}] in race order.
+
+    The car, settings and learning mode only count when a Python robot is in the race (TORCS robots
+    drive their own car and know nothing of them)."""
+    has_python = any(r["kind"] == "python" for r in robots)
+    inputs = {"format": CACHE_FORMAT, "track": track, "laps": laps,
+              "robots": [[r["entry"], r["kind"], r["version"]] for r in robots],
+              "car": car if has_python else None,
+              "settings": (settings or {}) if has_python else None,
+              "learning": learning if has_python else None,
+              "torcs": _stat(system_torcs().binary)}
+    if has_python and learning == "on":
+        inputs["learned"] = _dir_hash(cache_dir() / "learning")
+    return hashlib.sha256(json.dumps(inputs, sort_keys=True, default=str).encode()).hexdigest()
+
+
+def cache_path(key: str) -> Path:
+    return cache_dir() / "bench-cache" / f"{key}.json"
+
+
+def _load_cached(key: str) -> RaceResult | None:
+    try:
+        data = json.loads(cache_path(key).read_text())
+        res = dict(data["result"])
+        res["drivers"] = [DriverResult(**d) for d in res.get("drivers", [])]
+        return RaceResult(**res)
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+
+
+def _store(key: str, inputs: dict, result: RaceResult) -> None:
+    path = cache_path(key)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(f".{os.getpid()}.tmp")
+    tmp.write_text(json.dumps({"key": key, "inputs": inputs, "stored": time.strftime("%Y-%m-%d %H:%M:%S"),
+                               "result": result.to_json()}, indent=1))
+    tmp.replace(path)
+
+
+# --- races -------------------------------------------------------------------------------------
+
+@dataclass
+class RaceJob:
+    """One race to run; picklable, for the worker processes."""
+
+    key: str
+    track: str
+    category: str
+    car: str
+    laps: int
+    entries: list[str]  # bench robot entries in this race, Python ones first (their race order)
+    python_specs: list[str]
+    python_names: list[str]
+    opponents: list[tuple[str, int]]
+    options: RaceOptions
+    learning: str
+    inputs: dict
+
+    @property
+    def label(self) -> str:
+        who = ", ".join(self.entries) if len(self.entries) <= 3 else f"{len(self.entries)} robots"
+        return f"{self.track} {who}"
+
+
+_worker: dict = {}
+
+
+def _init_worker(counter, progress_queue) -> None:
+    with counter.get_lock():
+        index = counter.value
+        counter.value += 1
+    cpus = sorted(os.sched_getaffinity(0))
+    _worker.update(cpu=cpus[index % len(cpus)] if cpus else None, queue=progress_queue)
+
+
+def _run_job(job: RaceJob, overlay: Overlay) -> dict:
+    """In a worker: race, never raise; {"result": json or None, "error": text or None}."""
+    q = _worker.get("queue")
+    try:
+        if q is not None:
+            q.put(("start", job.key, 0, 0.0))
+        run_dir = launch.new_run_dir()
+        options = dataclasses.replace(job.options, learning_dir=learning_dir(job.learning, run_dir))
+        cfg = launch.RaceConfig(track=job.track, category=job.category, car=job.car, laps=job.laps,
+                                robots=list(job.python_specs), robot_names=list(job.python_names),
+                                opponents=list(job.opponents), options=options, cpu=_worker.get("cpu"),
+                                run_dir=run_dir)
+
+        def progress(lap: int, sim: float) -> None:
+            if q is not None:
+                q.put(("lap", job.key, lap, sim))
+
+        result = launch.run_race(cfg, overlay, progress)
+        if not result.error:
+            _store(job.key, job.inputs, result)
+        return {"result": result.to_json(), "error": result.error}
+    except Exception as exc:  # anything at all: recorded, the bench goes on
+        return {"result": None, "error": f"{type(exc).__name__}: {exc}"}
+
+
+def _result_from_json(data: dict) -> RaceResult:
+    data = dict(data)
+    data["drivers"] = [DriverResult(**d) for d in data.get("drivers", [])]
+    return RaceResult(**data)
+
+
+# --- results -----------------------------------------------------------------------------------
+
+@dataclass
+class BenchResult:
+    laps: int
+    tracks: list[str]
+    cars: list[str]
+    robots: list[str]
+    rows: list[dict]
+    together: bool = False
+    learning: str = "fresh"
+    settings: dict | None = None
+    wall_s: float = 0.0
+    raced: int = 0
+    cached: int = 0
+
+    def to_json(self) -> dict:
+        return {"laps": self.laps, "tracks": self.tracks, "cars": self.cars, "robots": self.robots,
+                "together": self.together, "learning": self.learning, "settings": self.settings or {},
+                "wall_s": round(self.wall_s, 3), "raced": self.raced, "cached": self.cached, "rows": self.rows}
+
+    def write_json(self, path: Path | str) -> None:
+        Path(path).write_text(json.dumps(self.to_json(), indent=1))
+
+    def write_csv(self, path: Path | str) -> None:
+        with open(path, "w", newline="") as f:
+            writer = csv.DictWriter(f, fieldnames=ROW_FIELDS, extrasaction="ignore")
+            writer.writeheader()
+            for row in self.rows:
+                writer.writerow({k: ("" if row.get(k) is None else row.get(k)) for k in ROW_FIELDS})
+
+    def table(self) -> Table:
+        """One section per track (and car): each robot's time, best lap, damage, gap to the best."""
+        mode = "together" if self.together else "each alone"
+        title = f"bench: {self.laps} lap{'s' if self.laps != 1 else ''}, {mode}, learning {self.learning}"
+        if len(self.cars) == 1:
+            title += f", {self.cars[0]}"
+        if self.settings:
+            title += ", set " + " ".join(f"{k}={v}" for k, v in self.settings.items())
+        cols = ["track"] + (["car"] if len(self.cars) > 1 else []) + ["robot"] + (["pos"] if self.together else [])
+        cols += ["laps", "time", "gap", "best lap", "damage", "pits", "wall s", "note"]
+        table = Table(title=title)
+        for col in cols:
+            # only robot and note give way (wrap) when the terminal is narrow
+            table.add_column(col, justify="left" if col in ("track", "car", "robot", "note") else "right",
+                             no_wrap=col not in ("robot", "note"), max_width=48 if col == "note" else None)
+        groups = _groups(self.rows)
+        for n, ((track, car), rows) in enumerate(groups.items()):
+            for i, r in enumerate(rows):
+                best = r["gap_to_best_s"] == 0.0
+                style = "bold green" if best else ""
+                gap = "-" if r["gap_to_best_s"] is None else ("best" if best else f"+{r['gap_to_best_s']:.3f}")
+                notes = []
+                if r["cached"]:
+                    notes.append("[dim]cached[/]")
+                if r["car_driven"] and r["car_driven"] != car:
+                    notes.append(f"drives {r['car_driven']}")
+                if r["error"]:
+                    notes.append(f"[red]{_escape(_short(r['error'].splitlines()[0], 46))}[/]")
+                elif r["laps"] < self.laps:
+                    notes.append(f"[yellow]{r['laps']}/{self.laps} laps[/]")
+                cells = {"track": track if i == 0 else "", "car": car if i == 0 else "",
+                         "robot": _styled(_escape(_robot_label(r["robot"])), style), "pos": str(r["rank"] or "-"),
+                         "laps": str(r["laps"]), "time": _styled(fmt_time(r["time"]), style),
+                         "gap": _styled(gap, style), "best lap": fmt_time(r["best_lap"]), "damage": str(r["damage"]),
+                         "pits": str(r["pit_stops"]), "wall s": f"{r['wall_s']:.2f}" if r["wall_s"] else "-",
+                         "note": " ".join(notes)}
+                table.add_row(*(cells[c] for c in cols), end_section=i == len(rows) - 1 and n < len(groups) - 1)
+        return table
+
+    def summary_table(self) -> Table:
+        """Per robot (and car) over all tracks: finished races, wins, mean gap to the best."""
+        table = Table(title="per robot, all tracks")
+        for col in ("robot", "car", "finished", "best on", "mean gap s", "mean gap %", "total damage"):
+            table.add_column(col, justify="left" if col in ("robot", "car") else "right")
+        keys = list(dict.fromkeys((r["robot"], r["car"]) for r in self.rows))
+        for robot, car in keys:
+            rows = [r for r in self.rows if (r["robot"], r["car"]) == (robot, car)]
+            done = [r for r in rows if r["gap_to_best_s"] is not None]
+            gaps = [r["gap_to_best_s"] for r in done]
+            pct = [100.0 * r["gap_to_best_s"] / (r["time"] - r["gap_to_best_s"]) for r in done]
+            table.add_row(_escape(_robot_label(robot)), car, f"{len(done)}/{len(rows)}", str(sum(g == 0.0 for g in gaps)),
+                          f"{statistics.mean(gaps):.3f}" if gaps else "-", f"{statistics.mean(pct):.2f}" if pct else "-",
+                          str(sum(r["damage"] for r in rows)))
+        return table
+
+
+def _escape(text: str) -> str:
+    from rich.markup import escape
+
+    return escape(text)
+
+
+def _robot_label(entry: str) -> str:
+    """'some/dir/robot.py:Class' -> 'robot.py:Class'; other entries as they are."""
+    where, sep, cls = entry.rpartition(":")
+    return f"{Path(where).name}:{cls}" if sep and (where.endswith(".py") or "/" in where) else entry
+
+
+def _short(text: str, n: int) -> str:
+    return text if len(text) <= n else text[:n - 1] + "…"
+
+
+def _styled(text: str, style: str) -> str:
+    return f"[{style}]{text}[/]" if style else text
+
+
+def _groups(rows: list[dict]) -> dict[tuple[str, str], list[dict]]:
+    out: dict[tuple[str, str], list[dict]] = {}
+    for r in rows:
+        out.setdefault((r["track"], r["car"]), []).append(r)
+    return out
+
+
+def _set_gaps(rows: list[dict], laps: int) -> None:
+    for group in _groups(rows).values():
+        done = [r for r in group if not r["error"] and r["laps"] >= laps and r["time"] > 0]
+        best = min((r["time"] for r in done), default=None)
+        for r in group:
+            r["gap_to_best_s"] = round(r["time"] - best, 3) if r in done else None
+
+
+# --- the bench ---------------------------------------------------------------------------------
+
+@dataclass
+class _Robot:
+    entry: str
+    kind: str  # python | torcs
+    spec: str = ""  # python
+    name: str = ""  # python: the class's name
+    module: str = ""  # torcs
+    idx: int = 0
+    version: str = ""
+
+
+def _check(spec: BenchSpec) -> tuple[dict[str, str], list[_Robot], RaceOptions]:
+    """Everything checked before anything races: tracks, cars, robots, laps, settings."""
+    if spec.laps < 1:
+        raise UsageError(f"laps must be >= 1, got {spec.laps}")
+    if spec.jobs < 1:
+        raise UsageError(f"jobs must be >= 1, got {spec.jobs}")
+    if spec.learning not in LEARNING_MODES:
+        raise UsageError(f"learning must be one of {', '.join(LEARNING_MODES)}, got '{spec.learning}'")
+    if not spec.tracks or not spec.cars or not spec.robots:
+        raise UsageError("a bench needs at least one track, one car and one robot")
+    categories = {t: catalog.check_track(t) for t in spec.tracks}
+    for car in spec.cars:
+        catalog.check_car(car)
+    options = RaceOptions(robot_args={"set": dict(spec.settings)} if spec.settings else {})
+    package = package_version()
+    robots = []
+    for entry in dict.fromkeys(spec.robots):
+        kind, what = classify_robot(entry)
+        if kind == "torcs":
+            module, idx = what
+            robots.append(_Robot(entry, kind, module=module, idx=idx, version=torcs_robot_version(module)))
+        else:
+            cls = load_robot_class(what)
+            for track in spec.tracks:
+                for car in spec.cars:
+                    cls.check_setup(options, track, car)
+            robots.append(_Robot(entry, kind, spec=what, name=cls.name, version=python_robot_version(what, package)))
+    n_python = sum(r.kind == "python" for r in robots)
+    if spec.together and n_python > MAX_PYTHON_CARS:
+        raise UsageError(f"at most {MAX_PYTHON_CARS} Python robots race together")
+    return categories, robots, options
+
+
+def plan(spec: BenchSpec) -> tuple[list[tuple[str, str, _Robot, RaceJob]], list[_Robot]]:
+    """(track, car, robot, job) per row, in table order; rows may share a job (same key)."""
+    categories, robots, options = _check(spec)
+    jobs: dict[str, RaceJob] = {}
+    rows = []
+    for track in spec.tracks:
+        for car in spec.cars:
+            groups = [robots] if spec.together else [[r] for r in robots]
+            for group in groups:
+                py = [r for r in group if r.kind == "python"]
+                tc = [r for r in group if r.kind == "torcs"]
+                ordered = py + tc
+                described = [{"entry": r.entry, "kind": r.kind, "version": r.version} for r in ordered]
+                key = cache_key(track, car, spec.laps, described, spec.settings, spec.learning)
+                if key not in jobs:
+                    inputs = {"track": track, "car": car if py else None, "laps": spec.laps, "robots": described,
+                              "settings": spec.settings or {}, "learning": spec.learning}
+                    jobs[key] = RaceJob(key=key, track=track, category=categories[track], car=car, laps=spec.laps,
+                                        entries=[r.entry for r in ordered], python_specs=[r.spec for r in py],
+                                        python_names=[f"{r.name} {i + 1}" for i, r in enumerate(py)],
+                                        opponents=[(r.module, r.idx) for r in tc], options=options,
+                                        learning=spec.learning, inputs=inputs)
+                for r in group:
+                    rows.append((track, car, r, jobs[key]))
+    return rows, robots
+
+
+def _driver_for(result: RaceResult, job: RaceJob, robot: _Robot) -> DriverResult | None:
+    if robot.kind == "python":
+        idx = job.entries.index(robot.entry)
+        module = "boxbox"
+    else:
+        module, idx = robot.module, robot.idx
+    return next((d for d in result.drivers if d.module == module and d.idx == idx), None)
+
+
+def _row(track: str, car: str, robot: _Robot, job: RaceJob, result: RaceResult | None, error: str | None,
+         cached: bool) -> dict:
+    d = _driver_for(result, job, robot) if result is not None else None
+    if robot.kind == "torcs":
+        car_driven = (d.car if d and d.car else catalog.robot_indices(robot.module).get(robot.idx, {}).get("car", ""))
+        name = d.name if d else catalog.robot_indices(robot.module).get(robot.idx, {}).get("name", robot.entry)
+    else:
+        car_driven = car
+        name = d.name if d else robot.name
+    return {"track": track, "car": car, "robot": robot.entry, "name": name,
+            "laps": d.laps if d else 0, "time": round(d.time, 3) if d else 0.0,
+            "best_lap": round(d.best_lap, 3) if d else 0.0, "damage": d.damage if d else 0,
+            "pit_stops": d.pit_stops if d else 0, "penalty": d.penalty_time if d else 0.0,
+            "wall_s": result.wall_s if result else 0.0, "error": error, "cached": cached, "gap_to_best_s": None,
+            "category": job.category, "car_driven": car_driven, "rank": d.rank if d else 0,
+            "run_dir": result.run_dir if result else ""}
+
+
+def run_bench(spec: BenchSpec, overlay: Overlay, console: Console | None = None) -> BenchResult:
+    """Check everything, take what the cache has, race the rest in parallel, compare."""
+    console = console or Console(stderr=True)
+    started = time.perf_counter()
+    planned, robots = plan(spec)
+    unique = list({job.key: job for *_, job in planned}.values())
+    outcomes: dict[str, tuple[RaceResult | None, str | None, bool]] = {}
+    if spec.use_cache:
+        for job in unique:
+            hit = _load_cached(job.key)
+            if hit is not None:
+                outcomes[job.key] = (hit, None, True)
+    todo = [job for job in unique if job.key not in outcomes]
+    if todo:
+        outcomes.update(_race_all(todo, overlay, min(spec.jobs, len(todo)), len(unique) - len(todo), console))
+    rows = [_row(track, car, robot, job, *outcomes[job.key]) for track, car, robot, job in planned]
+    _set_gaps(rows, spec.laps)
+    return BenchResult(laps=spec.laps, tracks=list(spec.tracks), cars=list(spec.cars), robots=[r.entry for r in robots],
+                       rows=rows, together=spec.together, learning=spec.learning, settings=spec.settings,
+                       wall_s=time.perf_counter() - started, raced=len(todo), cached=len(unique) - len(todo))
+
+
+def _race_all(todo: list[RaceJob], overlay: Overlay, workers: int, n_cached: int,
+              console: Console) -> dict[str, tuple[RaceResult | None, str | None, bool]]:
+    ctx = multiprocessing.get_context("fork")
+    counter = ctx.Value("i", 0)
+    progress_queue = ctx.Queue()
+    by_key = {job.key: job for job in todo}
+    outcomes: dict[str, tuple[RaceResult | None, str | None, bool]] = {}
+    pool = cf.ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_init_worker,
+                                  initargs=(counter, progress_queue))
+    try:
+        # all submitted (so all workers forked) before the progress bar starts its thread
+        futures = {pool.submit(_run_job, job, overlay): job.key for job in todo}
+        cached_note = f", {n_cached} cached" if n_cached else ""
+        with Progress(TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),
+                      TextColumn("{task.fields[info]}"), TimeElapsedColumn(), console=console,
+                      transient=True) as bar:
+            overall = bar.add_task(f"bench: {len(todo)} races on {workers} workers{cached_note}", total=len(todo),
+                                   info="")
+            running: dict[str, int] = {}
+            pending = set(futures)
+            while pending:
+                done, pending = cf.wait(pending, timeout=0.2, return_when=cf.FIRST_COMPLETED)
+                _drain(progress_queue, bar, running, by_key, outcomes)
+                for fut in done:
+                    key = futures[fut]
+                    job = by_key[key]
+                    try:
+                        out = fut.result()
+                    except Exception as exc:  # the worker itself died
+                        out = {"result": None, "error": f"worker failed: {type(exc).__name__}: {exc}"}
+                    result = _result_from_json(out["result"]) if out["result"] else None
+                    outcomes[key] = (result, out["error"], False)
+                    if out["error"]:
+                        bar.console.print(f"[red]race failed[/] {_escape(job.label)}, {job.car}: "
+                                          f"{_escape(out['error'].splitlines()[0])}", highlight=False)
+                    if key in running:
+                        bar.remove_task(running.pop(key))
+                    bar.advance(overall)
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
+        progress_queue.close()
+    return outcomes
+
+
+def _drain(progress_queue, bar: Progress, running: dict[str, int], by_key: dict[str, RaceJob], finished) -> None:
+    while True:
+        try:
+            what, key, lap, sim = progress_queue.get_nowait()
+        except (queue.Empty, OSError, ValueError):
+            return
+        job = by_key.get(key)
+        if job is None or key in finished:  # a late message from a race already done
+            continue
+        if key not in running:
+            running[key] = bar.add_task(f"  {job.label}", total=job.laps, info="")
+        if what == "lap":
+            bar.update(running[key], completed=lap, info=f"sim {sim:.0f} s")

@@ -1,0 +1,111 @@
+"""`boxbox bench`: robot entries, cache keys, and real benches (raced, then from the cache)."""
+
+from __future__ import annotations
+
+import csv
+
+import pytest
+from helpers import ROBOTS, read_json, run_boxbox
+
+from boxbox.errors import UsageError
+from boxbox.report.bench import (BenchSpec, cache_key, classify_robot, parse_list, plan, python_robot_version,
+                                 torcs_robot_version)
+from boxbox.report.tables import fmt_time
+from boxbox.torcs import catalog
+
+
+def test_robot_entries_are_told_apart():
+    assert classify_robot("bt:2") == ("torcs", ("bt", 2))
+    assert classify_robot("olethros:2") == ("torcs", ("olethros", 2))
+    assert classify_robot("boxbox") == ("python", "boxbox")
+    assert classify_robot("middle") == ("python", "middle")
+    assert classify_robot("boxbox.robot.simple:MiddleRobot") == ("python", "boxbox.robot.simple:MiddleRobot")
+    spec = f"{ROBOTS / 'faulty.py'}:Plain"
+    assert classify_robot(spec) == ("python", spec)
+    with pytest.raises(UsageError, match="not a number"):
+        classify_robot("bt:x")
+    with pytest.raises(UsageError, match="no index 99"):
+        classify_robot("bt:99")
+    with pytest.raises(UsageError, match="needs an index"):
+        classify_robot("inferno")
+
+
+def test_lists_and_all():
+    assert parse_list("a, b,a") == ["a", "b"]
+    assert parse_list("all", list(catalog.tracks()), "track") == list(catalog.tracks())
+    with pytest.raises(UsageError):
+        parse_list(" , ")
+
+
+def test_cache_key_follows_the_race_inputs():
+    py = [{"entry": "boxbox", "kind": "python", "version": python_robot_version("boxbox")}]
+    bt = [{"entry": "bt:2", "kind": "torcs", "version": torcs_robot_version("bt")}]
+    base = cache_key("g-track-1", "car1-trb1", 3, py, None, "fresh")
+    assert base == cache_key("g-track-1", "car1-trb1", 3, py, None, "fresh")
+    assert base != cache_key("g-track-1", "car1-trb1", 4, py, None, "fresh")  # laps
+    assert base != cache_key("michigan", "car1-trb1", 3, py, None, "fresh")
+    assert base != cache_key("g-track-1", "car2-trb1", 3, py, None, "fresh")
+    assert base != cache_key("g-track-1", "car1-trb1", 3, py, {"mu_scale": 0.7}, "fresh")
+    assert base != cache_key("g-track-1", "car1-trb1", 3, py, None, "off")
+    assert base != cache_key("g-track-1", "car1-trb1", 3, [{**py[0], "version": "other"}], None, "fresh")
+    # a TORCS robot drives its own car: --cars and Python-only settings do not change its race
+    torcs = cache_key("g-track-1", "car1-trb1", 3, bt, None, "fresh")
+    assert torcs == cache_key("g-track-1", "car2-trb1", 3, bt, {"mu_scale": 0.7}, "off")
+    assert torcs != cache_key("g-track-1", "car1-trb1", 2, bt, None, "fresh")
+    # a robot file's own contents are part of its version
+    assert python_robot_version(f"{ROBOTS / 'faulty.py'}:Plain") != python_robot_version("boxbox")
+
+
+def test_bad_names_fail_before_racing():
+    for spec, message in [(BenchSpec(["g-trak-1"], ["car1-trb1"], ["bt:2"], 1), "did you mean g-track-1"),
+                          (BenchSpec(["g-track-1"], ["car1-trb"], ["bt:2"], 1), "unknown car"),
+                          (BenchSpec(["g-track-1"], ["car1-trb1"], ["boxbx"], 1), "did you mean boxbox"),
+                          (BenchSpec(["g-track-1"], ["car1-trb1"], ["boxbox"], 1, settings={"nope": 1}), "nope"),
+                          (BenchSpec(["g-track-1"], ["car1-trb1"], ["bt:2"], 0), "laps")]:
+        with pytest.raises(UsageError, match=message):
+            plan(spec)
+
+
+def test_plan_shares_torcs_races_across_cars():
+    rows, _ = plan(BenchSpec(["g-track-1"], ["car1-trb1", "car2-trb1"], ["boxbox", "bt:2"], 1))
+    keys = {(car, robot.entry): job.key for _, car, robot, job in rows}
+    assert keys[("car1-trb1", "bt:2")] == keys[("car2-trb1", "bt:2")]
+    assert keys[("car1-trb1", "boxbox")] != keys[("car2-trb1", "boxbox")]
+    together, _ = plan(BenchSpec(["g-track-1", "michigan"], ["car1-trb1"], ["boxbox", "bt:2"], 1, together=True))
+    assert len({job.key for *_, job in together}) == 2  # one race per track
+
+
+def test_bench_races_then_reads_the_cache(tmp_path, overlay):
+    args = ["bench", "--tracks", "g-track-1,michigan", "--robots", "boxbox,bt:2", "--laps", "1"]
+    first_json, second_json, first_csv = tmp_path / "b.json", tmp_path / "b2.json", tmp_path / "b.csv"
+    # --no-cache: really race (and refresh the cache), whatever earlier runs left there
+    first = run_boxbox(*args, "--no-cache", "--json", str(first_json), "--csv", str(first_csv), timeout=600)
+    assert first.returncode == 0, first.stderr
+    b = read_json(first_json)
+    assert {"laps", "tracks", "cars", "robots", "rows"} <= set(b)
+    assert b["laps"] == 1 and b["tracks"] == ["g-track-1", "michigan"] and b["robots"] == ["boxbox", "bt:2"]
+    rows = b["rows"]
+    assert sorted((r["track"], r["robot"]) for r in rows) == [("g-track-1", "boxbox"), ("g-track-1", "bt:2"),
+                                                            ("michigan", "boxbox"), ("michigan", "bt:2")]
+    for r in rows:
+        assert r["error"] is None and not r["cached"], r
+        assert r["time"] > 0 and r["laps"] == 1 and 0 < r["best_lap"] <= r["time"] + 1e-6, r
+        assert fmt_time(r["time"]) in first.stdout, (r, first.stdout)  # the table agrees with the JSON
+    for track in ("g-track-1", "michigan"):
+        gaps = sorted(r["gap_to_best_s"] for r in rows if r["track"] == track)
+        assert gaps[0] == 0.0 and gaps[1] >= 0.0
+    assert b["raced"] == 4 and b["cached"] == 0
+    with open(first_csv) as f:
+        assert [(r["track"], r["robot"]) for r in csv.DictReader(f)] == [(r["track"], r["robot"]) for r in rows]
+
+    second = run_boxbox(*args, "--json", str(second_json), timeout=600)
+    assert second.returncode == 0, second.stderr
+    b2 = read_json(second_json)
+    assert b2["raced"] == 0 and b2["cached"] == 4
+    assert all(r["cached"] for r in b2["rows"])
+    assert [(r["track"], r["robot"], r["time"], r["best_lap"]) for r in b2["rows"]] == \
+        [(r["track"], r["robot"], r["time"], r["best_lap"]) for r in rows]
+    assert second.stdout.count("cached") >= 4
+    for r in b2["rows"]:
+        assert fmt_time(r["time"]) in second.stdout
+    assert b2["wall_s"] < 0.5 * b["wall_s"]  # nothing raced the second time
