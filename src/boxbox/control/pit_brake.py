@@ -32,6 +32,7 @@ PIT_BRAKE_AHEAD_M = 200.0  # seed: start the stop check this far before the box
 PIT_MU = 0.4  # seed: friction factor for all pit braking (pit surfaces were not analysed)
 G_MPS2 = 9.81
 TORCS_CAPTURE_SPEED_MPS = 1.0  # the race engine captures a car slower than this in its box
+STOP_FEEDBACK_S = 0.1  # constant-decel stop: time constant of the correction towards the trajectory
 
 BrakeDist = Callable[[float, float, float], float]
 
@@ -110,11 +111,13 @@ class PitBrakeFilter:
         self.give_up_timeout_s = give_up_timeout_s
         self.gave_up = False
         self.standing_s = 0.0
+        self._a0: float | None = None  # deceleration latched when the constant-decel stop began
 
     def reset(self) -> None:
         """Forget the current attempt (called by itself when the stop is no longer wanted)."""
         self.gave_up = False
         self.standing_s = 0.0
+        self._a0 = None
         self.stop.reset()
 
     def _mu(self, surface_mu: float) -> float:
@@ -150,6 +153,7 @@ class PitBrakeFilter:
                 if self.give_up and self._check_give_up(speed_mps, s_m, dt_s):
                     self.gave_up = True
                     self.stop.reset()
+                    self._a0 = None
                 else:
                     return self._to_box(brake, speed_mps, s_m, surface_mu, True)
             elif s_m < 0.0:
@@ -208,9 +212,15 @@ class PitBrakeFilter:
                 if r.speed_mps >= v:  # creeping up to the box
                     _, b = self.tracker.control(r.speed_mps, v)
                 else:
-                    # brake at the stop's deceleration A (feed-forward); the speed command
-                    # (v - A in 1 s, clamped at 0) only caps the robot's throttle
-                    _, b = self.tracker.control(v, v, -r.decel_mps2)
+                    # Brake at the deceleration A latched when the stop began (feed-forward), plus
+                    # feedback towards that constant-deceleration trajectory v = sqrt(2 A D): the
+                    # pedal-to-deceleration gain of a real car is not known well enough to trust
+                    # feed-forward alone, and the speed command (v - A in 1 s) caps the throttle.
+                    if self._a0 is None:
+                        self._a0 = max(r.decel_mps2, 0.5)
+                    left = max(0.0, self.box_m - s - v * self.stop.latency_s)
+                    v_path = math.sqrt(2.0 * self._a0 * left)
+                    _, b = self.tracker.control(v, v, -(self._a0 + (v - v_path) / STOP_FEEDBACK_S))
                 return PitBrakeResult(b, STOP, r.speed_mps)
 
         if full:

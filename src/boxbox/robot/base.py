@@ -15,6 +15,7 @@ FUEL_L_PER_M_ESTIMATE = 0.0008
 class RaceOptions:
     """What the race asks of a robot beyond driving (from `boxbox race` options)."""
 
+    laps: int = 0  # race length
     fuel_laps: float | None = None  # start with fuel for this many laps (None: the car's default)
     pit_laps: tuple[int, ...] = ()  # laps on which to stop in the pit
     pit_mode: str = "constant-decel"
@@ -60,6 +61,10 @@ class Robot:
 
     def on_race_end(self, state: State) -> None:
         pass
+
+    def race_report(self) -> dict:
+        """Extra fields for this driver's entry in the race JSON (e.g. {"pit_events": [...]})."""
+        return {}
 
     def signals(self) -> dict[str, float]:
         """Named values to record in telemetry this step (override to add your own)."""

@@ -15,17 +15,21 @@ import math
 from pathlib import Path
 
 from boxbox.control.braking import brake_distance
+from boxbox.control.pit_brake import HOLD, PIT_LOOKAHEAD_M, STOP, PitBrakeFilter
+from boxbox.control.stop import SpeedTracker
 from boxbox.control.carmodel import CarModel
 from boxbox.control.gears import GearBox
 from boxbox.control.speed import SpeedProfile, allowed_speed
 from boxbox.control.steering import steer_to_line, steer_to_point
 from boxbox.control.traction import SlipParams, abs_filter, tcl_filter
 from boxbox.model import Car, Controls, PitOrder, State, Track
-from boxbox.robot.base import RaceOptions, Robot
+from boxbox.robot.base import FUEL_L_PER_M_ESTIMATE, RaceOptions, Robot
 from boxbox.robot.learning import TurnLearner
 from boxbox.robot.opponents import OpponentParams, collision_brake, nearby, overtake_offset, side_steer
 from boxbox.robot.params import TutorialParams, load_params
+from boxbox.robot.pitpath import PitPath
 from boxbox.robot.racingline import RacingLine
+from boxbox.robot.strategy import PitStrategy, plan_stops
 
 TWO_PI = 2.0 * math.pi
 CLUTCH_RELEASE_MPS = 8.0  # first gear: clutch fully engaged from this speed on
@@ -46,6 +50,14 @@ class TutorialRobot(Robot):
         load_params(car_name, track_name, options.robot_args.get("set"))
 
     # --- per track -----------------------------------------------------------------------------
+    def initial_fuel_l(self, track: Track, car: Car) -> float | None:
+        """--fuel-laps if given; else the first stint of the fastest stop plan for the race."""
+        if self.options.fuel_laps is not None or not self.options.laps or track.pit is None:
+            return super().initial_fuel_l(track, car)
+        per_lap = FUEL_L_PER_M_ESTIMATE * car.fuel_cons_factor * track.length_m
+        plan = plan_stops(self.options.laps, per_lap, car.tank_l)
+        return min(car.tank_l, plan.fuel_per_stint_l[0])
+
     def on_track(self, track: Track, car: Car) -> None:
         super().on_track(track, car)
         p, _ = load_params(car.name, track.name, self.options.robot_args.get("set"))
@@ -80,9 +92,109 @@ class TutorialRobot(Robot):
         self.reversing = False
         self.laps_seen = 0
         self.last_damage = 0.0
+        self._setup_pit(track, car, p)
         self._inv_lock = 1.0 / car.steer_lock_rad
         self.wheelbase_m = 0.6 * car.length_m  # not in the car's constants; 0.6 x length fits TORCS's cars
         self._stuck_angle = math.radians(p.stuck_angle_deg)
+
+    def _setup_pit(self, track: Track, car: Car, p: TutorialParams) -> None:
+        self.pit_events: list[dict] = []
+        self.pit_path = None
+        self.strategy = PitStrategy(track.length_m, car.tank_l,
+                                    fuel_per_m_l=FUEL_L_PER_M_ESTIMATE * car.fuel_cons_factor,
+                                    pit_laps=self.options.pit_laps)
+        self.stop_wanted = False  # a stop is planned for this lap and not made yet
+        self.stop_decided_lap = -1
+        self.pit_clutch_open = False
+        self.event: dict | None = None
+        if track.pit is None or car.pit_seg < 0:
+            return
+        entry = float(track.seg["start_dist_m"][track.pit.entry_seg])
+        exit_ = float(track.seg["start_dist_m"][track.pit.exit_seg] + track.seg["length_m"][track.pit.exit_seg])
+        path = PitPath(track, car, entry_offset_m=self.line.offset_at(entry), exit_offset_m=self.line.offset_at(exit_))
+        mu_tyre = self.tyre_model.mu
+        lane_mu = path.surface_friction * mu_tyre
+        model = self.tyre_model
+        self.pit_path = path
+        self.pit_filter = PitBrakeFilter(
+            lambda v1, v2, mu: brake_distance(v1, v2, mu, model, p.brake_method),
+            limit_start_m=path.limit_start_m, box_m=path.box_m, limit_end_m=path.limit_end_m,
+            speed_limit_mps=path.speed_limit_mps, box_length_m=path.box_length_m,
+            pit_mu_source=p.pit_mu_source, pit_mu=lane_mu, pit_mu_factor=p.pit_mu,
+            entry_mode="computed" if p.pit_entry_braking == "computed" else "ahead",
+            brake_ahead_m=p.pit_brake_ahead_m, entry_constraints=path.entry_speed_constraints(lane_mu * 0.9),
+            stop_mode=self.options.pit_mode, stop_threshold_m=p.pit_stop_threshold_m,
+            stop_max_decel_mps2=p.pit_stop_grip_share * lane_mu * 9.81,
+            give_up=True, give_up_timeout_s=p.pit_give_up_s,
+            # full brake on the lane's surface decelerates by about mu g (clutch open: no engine braking)
+            tracker=SpeedTracker(full_brake_mps2=lane_mu * 9.81, drag_k_per_m=model.cw / model.mass_kg))
+        mid = self.line.middle
+        self._mid_xy = list(zip(mid.x_m.tolist(), mid.y_m.tolist()))
+        self._box_from_start_m = track.dist_of(car.pit_seg, car.pit_to_start)
+        self._seg_friction = track.seg["friction"].tolist()
+
+    def _remaining_after_box(self, s: State) -> float:
+        """Laps still to drive after passing the box in this lap (TORCS's remaining laps exclude it)."""
+        length = self.track.length_m
+        return s.remaining_laps + (length - self._box_from_start_m % length) / length
+
+    def _pit_step(self, s: State, v: float, brake: float, accel: float, steer: float):
+        """The pit brake filter and the pit path: (brake, accel, steer, phase)."""
+        path = self.pit_path
+        dist = s.dist_from_start_m
+        laps_done = max(0, int(s.laps) - 1)
+        self.strategy.on_lap(laps_done, s.fuel_l, s.damage)
+        pos = path.signed_coord(dist)
+        on_path = pos >= 0.0
+        # decide once per lap, a few hundred metres before the entry
+        if not on_path and pos > -600.0 and self.stop_decided_lap != s.laps:
+            self.stop_decided_lap = int(s.laps)
+            self.stop_wanted = self.strategy.wants_stop(laps_done, self._remaining_after_box(s), s.fuel_l, s.damage)
+        if not self.stop_wanted and not (on_path and self.event is not None):
+            if not on_path:
+                return brake, accel, steer, None
+        r = self.pit_filter.filter(brake, v, pos, self.stop_wanted, on_path and (self.stop_wanted or
+                                   self.event is not None), self._seg_friction[int(s.seg_id)] * self.tyre_model.mu,
+                                   s.in_pit)
+        if r.gave_up and self.stop_wanted:
+            self.stop_wanted = False
+            if self.event is not None:
+                self.event["gave_up"] = True
+                self._close_event(s)
+        if on_path and (self.stop_wanted or self.event is not None):
+            if self.event is None:
+                self.event = {"lap": int(s.laps), "entry_time": round(s.sim_time_s, 3), "stop_time": None,
+                              "leave_time": None, "exit_time": None, "stop_error_m": None, "fuel": 0.0,
+                              "repair": 0.0, "mode": self.options.pit_mode}
+            if s.in_pit and self.event["stop_time"] is None:
+                self.event["stop_time"] = round(s.sim_time_s, 3)
+                self.event["stop_error_m"] = round(pos - path.box_m, 3)
+            if not s.in_pit and self.event["stop_time"] is not None and self.event["leave_time"] is None:
+                self.event["leave_time"] = round(s.sim_time_s, 3)
+            # steer along the pit path, aiming a short way ahead
+            ahead = dist + PIT_LOOKAHEAD_M + 0.2 * v
+            off = path.offset_at(ahead)
+            j = int(ahead / self.step_m) % self.n
+            mx, my = self._mid_xy[j]
+            nx, ny = self._normals[j]
+            steer = steer_to_point(s.x_m, s.y_m, s.yaw_rad, mx + off * nx, my + off * ny, self.car.steer_lock_rad)
+        elif self.event is not None and not on_path:
+            self._close_event(s)
+        brake = r.brake
+        self.pit_clutch_open = r.phase in (STOP, HOLD)
+        if r.target_speed_mps is not None:
+            if v > r.target_speed_mps:
+                accel = 0.0
+            else:
+                accel = min(accel, max(0.0, 0.3 * (r.target_speed_mps - v)))
+        if brake > 0.0:
+            accel = 0.0
+        return brake, accel, steer, r.phase
+
+    def _close_event(self, s: State) -> None:
+        self.event["exit_time"] = round(s.sim_time_s, 3)
+        self.pit_events.append(self.event)
+        self.event = None
 
     def _limits(self, factors: list[float], model: CarModel) -> list[float]:
         p = self.params
@@ -164,6 +276,10 @@ class TutorialRobot(Robot):
             brake = 0.0
             margin = target - v
             accel = 1.0 if margin >= p.full_accel_margin_mps else 0.4 + 0.6 * margin / p.full_accel_margin_mps
+        pit_request = False
+        if self.pit_path is not None:
+            brake, accel, steer, phase = self._pit_step(s, v, brake, accel, steer)
+            pit_request = self.stop_wanted
         if cars:
             brake = collision_brake(brake, v, cars, self.car.width_m, self.opp, self._brakedist)
         spins = (s.spin_fr_rps, s.spin_fl_rps, s.spin_rr_rps, s.spin_rl_rps)
@@ -175,9 +291,11 @@ class TutorialRobot(Robot):
 
         gear = self.gears.select(int(s.gear), v)
         clutch = 0.0
-        if gear == 1 and v < CLUTCH_RELEASE_MPS:
+        if self.pit_clutch_open and accel == 0.0:  # stopping at the box: brakes alone, predictable
+            clutch = 1.0
+        elif gear == 1 and v < CLUTCH_RELEASE_MPS:
             clutch = min(0.5, 0.5 * (1.0 - v / CLUTCH_RELEASE_MPS))
-        return Controls(steer=steer, accel=accel, brake=brake, clutch=clutch, gear=gear)
+        return Controls(steer=steer, accel=accel, brake=brake, clutch=clutch, gear=gear, pit_request=pit_request)
 
     def _stuck(self, s: State) -> bool:
         """Reverse out after stuck_time_s of being slow, sideways and off the middle."""
@@ -205,7 +323,20 @@ class TutorialRobot(Robot):
         self._build_profile()
 
     def pit_stop(self, state: State) -> PitOrder:
-        return PitOrder(fuel_l=0.0, repair=0.0)
+        fuel, repair = self.strategy.order(self._remaining_after_box(state), state.fuel_l, state.damage,
+                                           self.car.tank_l)
+        self.stop_wanted = False
+        if self.event is not None:
+            self.event["fuel"], self.event["repair"] = round(fuel, 2), round(repair, 1)
+            if self.event["stop_time"] is None:
+                self.event["stop_time"] = round(state.sim_time_s, 3)
+                self.event["stop_error_m"] = round(self.pit_path.signed_coord(state.dist_from_start_m)
+                                                   - self.pit_path.box_m, 3)
+        return PitOrder(fuel_l=fuel, repair=repair)
+
+    def race_report(self) -> dict:
+        events = list(self.pit_events) + ([self.event] if self.event is not None else [])
+        return {"pit_events": events}
 
     def signals(self) -> dict[str, float]:
         return {"offset_m": self.offset_m}

@@ -262,12 +262,18 @@ class Host:
         cars = []
         for i, slot in enumerate(self.slots):
             ns = sorted(slot.step_ns)
+            try:
+                report = slot.robot.race_report() if slot.car is not None else {}
+                json.dumps(report)
+            except Exception as exc:  # a report must never lose the race's results
+                report = {"report_error": f"{type(exc).__name__}: {exc}"}
             cars.append({
                 "robot_index": i, "robot": slot.spec, "name": slot.name,
                 "car_index": slot.car.car_index if slot.car else None,
                 "lap_times": slot.lap_times, "steps": len(ns), "start_fuel_l": slot.start_fuel_l,
                 "step_us_median": ns[len(ns) // 2] / 1000 if ns else None,
                 "step_us_p99": ns[min(len(ns) - 1, int(len(ns) * 0.99))] / 1000 if ns else None,
+                "report": report,
             })
         return {"cars": cars, "other_lap_times": {str(k): v for k, v in self.other_laps.items()}}
 

@@ -107,6 +107,7 @@ def _kill_group(proc: subprocess.Popen | None) -> None:
 def run_race(cfg: RaceConfig, overlay: Overlay, progress: Progress | None = None) -> RaceResult:
     if len(cfg.robots) > MAX_PYTHON_CARS:
         raise RaceError(f"at most {MAX_PYTHON_CARS} Python cars per race")
+    cfg.options.laps = cfg.laps
     run_dir = cfg.run_dir or new_run_dir()
     run_dir.mkdir(parents=True, exist_ok=True)
     for stale in ("fault.json", "host.json", "hang-traceback.txt"):
@@ -245,6 +246,7 @@ def _collect(cfg, run_dir: Path, local: Path, names, laps_seen, wall: float) -> 
             d.lap_times = [round(t, 3) for t in mine["lap_times"]]
             d.step_us_median, d.step_us_p99 = mine["step_us_median"], mine["step_us_p99"]
             d.start_fuel_l = mine.get("start_fuel_l")
+            d.pit_events = mine.get("report", {}).get("pit_events", [])
             if d.car_index < 0 and mine.get("car_index") is not None:
                 d.car_index = mine["car_index"]
         elif d.car_index in others:
