@@ -220,6 +220,56 @@ def params(track, car, settings) -> None:
                                                     for p in setup_files(car, track)))
 
 
+@main_group.group()
+def drill() -> None:
+    """Practice drills for single controllers."""
+
+
+@drill.command("stop")
+@click.option("--track", default="e-track-2", show_default=True)
+@click.option("--car", default="car1-trb1", show_default=True)
+@click.option("--at", "at_m", required=True, help="Marker: distance from the start line (m) to stop at.")
+@click.option("--grip-share", default=None, help="Stop deceleration as a share of the grip (default: the robot's).")
+@click.option("--json", "json_file", type=click.Path(dir_okay=False, path_type=Path))
+def drill_stop(track, car, at_m, grip_share, json_file) -> None:
+    """Drive a lap and stop at a marker with the constant-deceleration stop controller."""
+    from rich.table import Table
+
+    from boxbox.robot.base import RaceOptions
+    from boxbox.torcs import catalog, launch
+
+    category = catalog.check_track(track)
+    catalog.check_car(car)
+    at = _parse_float("--at", at_m, 0.0)
+    args = {"drill_at_m": at}
+    if grip_share is not None:
+        args["drill_grip_share"] = _parse_float("--grip-share", grip_share, 0.05)
+    overlay = _ready()
+    cfg = launch.RaceConfig(track=track, category=category, car=car, laps=1,
+                            robots=["boxbox.robot.drill:StopDrill"], robot_names=["drill 1"],
+                            options=RaceOptions(robot_args=args))
+    result = _run_with_progress(cfg, overlay, quiet=False)
+    if result.error:
+        raise _race_error(result)
+    report = result.drivers[0].report.get("drill", {})
+    if json_file:
+        json_file.write_text(json.dumps(report, indent=1))
+    table = Table("measure", "value", title=f"stop drill: {track}, {car}, marker at {at:.1f} m")
+    labels = [("stop_error_m", "stop error (m, + past the marker)"), ("stop_time_s", "time from latch to standstill (s)"),
+              ("latch_speed_mps", "speed at the latch (m/s)"), ("latch_dist_m", "distance at the latch (m)"),
+              ("latch_decel_mps2", "A at the latch (m/s^2)"), ("peak_decel_mps2", "peak deceleration (m/s^2)"),
+              ("mean_decel_mps2", "mean deceleration (m/s^2)"), ("decel_sd_mps2", "deceleration s.d. (m/s^2)"),
+              ("decel_cv", "steadiness: s.d. / mean")]
+    for key, label in labels:
+        table.add_row(label, str(report.get(key, "-")))
+    out.print(table)
+    if report.get("phase") != "done":
+        from boxbox.errors import RaceError
+
+        raise RaceError(f"the drill did not complete its stop (phase '{report.get('phase')}'); "
+                        "try another marker, away from a turn")
+
+
 @main_group.command()
 def setup() -> None:
     """Install TORCS and its headers, build the bridge and the overlay (idempotent)."""

@@ -25,14 +25,13 @@ import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
-from boxbox.control.stop import SpeedTracker, Stop, StopStatus
+from boxbox.control.stop import SpeedTracker, Stop, StopDriver, StopStatus
 
 PIT_LOOKAHEAD_M = 6.0  # steering lookahead on the pit path: the turn into the box is tight
 PIT_BRAKE_AHEAD_M = 200.0  # seed: start the stop check this far before the box
 PIT_MU = 0.4  # seed: friction factor for all pit braking (pit surfaces were not analysed)
 G_MPS2 = 9.81
 TORCS_CAPTURE_SPEED_MPS = 1.0  # the race engine captures a car slower than this in its box
-STOP_FEEDBACK_S = 0.1  # constant-decel stop: time constant of the correction towards the trajectory
 
 BrakeDist = Callable[[float, float, float], float]
 
@@ -105,20 +104,19 @@ class PitBrakeFilter:
         decel = 0.5 * pit_mu * G_MPS2 if stop_max_decel_mps2 is None else stop_max_decel_mps2
         self.stop = Stop(decel)
         self.tracker = tracker if tracker is not None else SpeedTracker()
+        self.stop_driver = StopDriver(self.stop, self.tracker)
         self.give_up = give_up
         self.give_up_past_m = box_length_m / 2.0 + give_up_margin_m if give_up_past_m is None else give_up_past_m
         self.give_up_near_m = box_length_m / 2.0 if give_up_near_m is None else give_up_near_m
         self.give_up_timeout_s = give_up_timeout_s
         self.gave_up = False
         self.standing_s = 0.0
-        self._a0: float | None = None  # deceleration latched when the constant-decel stop began
 
     def reset(self) -> None:
         """Forget the current attempt (called by itself when the stop is no longer wanted)."""
         self.gave_up = False
         self.standing_s = 0.0
-        self._a0 = None
-        self.stop.reset()
+        self.stop_driver.reset()
 
     def _mu(self, surface_mu: float) -> float:
         if self.pit_mu_source == "surface":
@@ -152,8 +150,7 @@ class PitBrakeFilter:
                     return PitBrakeResult(1.0, HOLD, 0.0)
                 if self.give_up and self._check_give_up(speed_mps, s_m, dt_s):
                     self.gave_up = True
-                    self.stop.reset()
-                    self._a0 = None
+                    self.stop_driver.reset()
                 else:
                     return self._to_box(brake, speed_mps, s_m, surface_mu, True)
             elif s_m < 0.0:
@@ -205,22 +202,10 @@ class PitBrakeFilter:
         if self.stop_mode == "constant-decel":
             # run every step while a stop is wanted so the latch happens at the right moment
             command = limit if s >= self.limit_start_m else math.inf
-            r = self.stop.control(command, v, self.box_m - s, self.stop_threshold_m, topspeed_mps=limit)
+            _, b, r = self.stop_driver.control(command, v, self.box_m - s, self.stop_threshold_m, topspeed_mps=limit)
             if self.stop.stopping and not full:
-                if self.box_m - s - v * self.stop.latency_s <= self.stop_threshold_m:  # at the box
+                if b >= 1.0:  # at the box
                     return PitBrakeResult(1.0, HOLD if r.status is StopStatus.FINISHED else STOP, 0.0)
-                if r.speed_mps >= v:  # creeping up to the box
-                    _, b = self.tracker.control(r.speed_mps, v)
-                else:
-                    # Brake at the deceleration A latched when the stop began (feed-forward), plus
-                    # feedback towards that constant-deceleration trajectory v = sqrt(2 A D): the
-                    # pedal-to-deceleration gain of a real car is not known well enough to trust
-                    # feed-forward alone, and the speed command (v - A in 1 s) caps the throttle.
-                    if self._a0 is None:
-                        self._a0 = max(r.decel_mps2, 0.5)
-                    left = max(0.0, self.box_m - s - v * self.stop.latency_s)
-                    v_path = math.sqrt(2.0 * self._a0 * left)
-                    _, b = self.tracker.control(v, v, -(self._a0 + (v - v_path) / STOP_FEEDBACK_S))
                 return PitBrakeResult(b, STOP, r.speed_mps)
 
         if full:

@@ -133,3 +133,47 @@ class SpeedTracker:
             return (a if a < 1.0 else 1.0), 0.0
         b = -want / self.full_brake_mps2
         return 0.0, (b if b < 1.0 else 1.0)
+
+
+STOP_FEEDBACK_S = 0.1  # time constant of the correction towards the constant-deceleration trajectory
+
+
+class StopDriver:
+    """Pedals that bring the car to rest at the stop point: `Stop` plus a `SpeedTracker`.
+
+    Once the stop latches, it brakes at the deceleration A0 of the latch (feed-forward) plus a
+    correction towards the trajectory v = sqrt(2 A0 D) of a constant deceleration: a real car's
+    pedal-to-deceleration gain varies with speed and grip, so feed-forward alone stops short or long.
+    """
+
+    __slots__ = ("stop", "tracker", "feedback_s", "a0_mps2")
+
+    def __init__(self, stop: Stop, tracker: SpeedTracker | None = None, feedback_s: float = STOP_FEEDBACK_S) -> None:
+        self.stop = stop
+        self.tracker = tracker if tracker is not None else SpeedTracker()
+        self.feedback_s = feedback_s
+        self.a0_mps2: float | None = None
+
+    def reset(self) -> None:
+        self.stop.reset()
+        self.a0_mps2 = None
+
+    def control(self, command_speed_mps: float, speed_mps: float, distance_m: float, threshold_m: float,
+                topspeed_mps: float = 3.0) -> tuple[float, float, StopResult]:
+        """(accel, brake, result); before the latch the pedals track command_speed_mps."""
+        r = self.stop.control(command_speed_mps, speed_mps, distance_m, threshold_m, topspeed_mps)
+        v = speed_mps
+        if not self.stop.stopping:
+            accel, brake = self.tracker.control(r.speed_mps, v)
+            return accel, brake, r
+        left = distance_m - v * self.stop.latency_s
+        if left <= threshold_m:
+            return 0.0, 1.0, r
+        if r.speed_mps >= v:  # creeping up to the point
+            accel, brake = self.tracker.control(r.speed_mps, v)
+            return accel, brake, r
+        if self.a0_mps2 is None:
+            self.a0_mps2 = max(r.decel_mps2, 0.5)
+        v_path = math.sqrt(2.0 * self.a0_mps2 * left)
+        _, brake = self.tracker.control(v, v, -(self.a0_mps2 + (v - v_path) / self.feedback_s))
+        return 0.0, brake, r

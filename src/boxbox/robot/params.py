@@ -67,7 +67,7 @@ class TutorialParams:
     pit_entry_braking: str = "computed"  # "computed" from the pit path, or the seed's "ahead"
     pit_give_up_s: float = 10.0
     pit_stop_threshold_m: float = 0.1  # constant-decel stop: "close enough" to the box centre
-    pit_stop_grip_share: float = 0.8  # constant-decel stop: deceleration as a share of the lane's grip
+    pit_stop_grip_share: float = 0.9  # constant-decel stop: deceleration as a share of the lane's grip
     # learning
     learning: bool = True
     learn_gain: float = 0.5  # fraction of the spare margin turned into turn-speed grip per lap

@@ -246,7 +246,9 @@ def _collect(cfg, run_dir: Path, local: Path, names, laps_seen, wall: float) -> 
             d.lap_times = [round(t, 3) for t in mine["lap_times"]]
             d.step_us_median, d.step_us_p99 = mine["step_us_median"], mine["step_us_p99"]
             d.start_fuel_l = mine.get("start_fuel_l")
-            d.pit_events = mine.get("report", {}).get("pit_events", [])
+            report = dict(mine.get("report", {}))
+            d.pit_events = report.pop("pit_events", [])
+            d.report = report
             if d.car_index < 0 and mine.get("car_index") is not None:
                 d.car_index = mine["car_index"]
         elif d.car_index in others:

@@ -24,6 +24,7 @@ class DriverResult:
     top_speed: float = 0.0  # m/s
     rank: int = 0
     pit_events: list[dict] = field(default_factory=list)  # from the robot's race_report()
+    report: dict = field(default_factory=dict)  # the rest of the robot's race_report()
     start_fuel_l: float | None = None  # Python robots only
     step_us_median: float | None = None
     step_us_p99: float | None = None
