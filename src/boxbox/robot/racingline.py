@@ -365,6 +365,7 @@ def _is_sound(k_line: np.ndarray, mid: MiddleLine, window_m: float) -> bool:
     n = mid.n
     size = min(n, 2 * int(round(2.0 * window_m / mid.step_m)) + 1)
     near = maximum_filter1d(np.abs(mid.curvature_1pm[:n]), size, mode="wrap")
+    # far from any turn, allow what crossing the track on a straight takes (radius >= 500 m)
     return bool(np.all(np.abs(k_line) <= np.maximum(1.02 * near, 2e-3)))
 
 
@@ -379,8 +380,9 @@ class RacingLine:
     blend: 0 = the middle line, 1 = the optimised line, in between a linear mix of the offsets.
     margin_m: kept from each track edge (car half width ~0.95 m + safety).
     peak_cap: no corner of the line curves more than this times the middle line's sharpest
-    curvature within +-cap_window_m (see `_min_curvature_offsets`).  Should the track be too
-    tight for it, the cap is raised towards 1 (`peak_cap_used` tells the value kept).
+    curvature within +-cap_window_m (see `_min_curvature_offsets`; inf: the plain minimum-curvature
+    line).  Should the track be too tight for it, the cap is raised towards 1, at worst dropped
+    (`peak_cap_used` tells the value kept).
     """
 
     def __init__(self, track: Track, step_m: float = 2.0, margin_m: float = 1.2, blend: float = 1.0,

@@ -1,0 +1,241 @@
+"""Racing line: middle-line sampling, bounds, corner curvature and computing time on the recorded
+tracks; the expected shapes on hand-built tracks (circle, rounded square, stadium)."""
+
+from __future__ import annotations
+
+import math
+import time
+from functools import cache
+
+import numpy as np
+import pytest
+from trackdata import TRACKS, load
+
+from boxbox.model import Track
+from boxbox.robot.racingline import RacingLine, middle_line, turn_regions
+
+MAX_SECONDS = 5.0
+
+
+@cache
+def built(name: str) -> tuple[RacingLine, float]:
+    """The racing line of a recorded track (computed once per test session) and its time."""
+    track, _ = load(name)
+    t0 = time.perf_counter()
+    line = RacingLine(track)
+    return line, time.perf_counter() - t0
+
+
+def build_track(pieces: list[tuple], width_m: float = 12.0, seg_len_m: float = 5.0) -> Track:
+    """A closed track from ("S", length_m) / ("L" | "R", radius_m, angle_deg) pieces, cut into
+    ~5 m segments with the same fields the bridge sends (start at (0, 0), heading +x)."""
+    names = ("type", "length_m", "width_m", "start_width_m", "end_width_m", "start_dist_m", "radius_m",
+             "arc_rad", "center_x", "center_y", "start_left_x", "start_left_y", "start_right_x",
+             "start_right_y", "end_left_x", "end_left_y", "end_right_x", "end_right_y", "start_angle_rad",
+             "friction")
+    cols: dict[str, list[float]] = {k: [] for k in names}
+    x = y = h = dist = 0.0
+    hw = width_m / 2
+    for piece in pieces:
+        if piece[0] == "S":
+            k = max(1, math.ceil(piece[1] / seg_len_m))
+            seg_len = piece[1] / k
+        else:
+            radius, arc = piece[1], math.radians(piece[2])
+            k = max(1, math.ceil(radius * arc / seg_len_m))
+            seg_len = radius * arc / k
+        for _ in range(k):
+            lx, ly = -math.sin(h), math.cos(h)
+            row = dict(length_m=seg_len, width_m=width_m, start_width_m=width_m, end_width_m=width_m,
+                       start_dist_m=dist, start_left_x=x + hw * lx, start_left_y=y + hw * ly,
+                       start_right_x=x - hw * lx, start_right_y=y - hw * ly, start_angle_rad=h,
+                       friction=1.2)
+            if piece[0] == "S":
+                row.update(type=3, radius_m=0.0, arc_rad=0.0, center_x=0.0, center_y=0.0)
+                x, y = x + seg_len * math.cos(h), y + seg_len * math.sin(h)
+            else:
+                sign = 1.0 if piece[0] == "L" else -1.0
+                cx, cy = x + sign * radius * lx, y + sign * radius * ly
+                row.update(type=2 if sign > 0 else 1, radius_m=radius, arc_rad=seg_len / radius,
+                           center_x=cx, center_y=cy)
+                h += sign * seg_len / radius
+                x, y = cx + sign * radius * math.sin(h), cy - sign * radius * math.cos(h)
+            lx, ly = -math.sin(h), math.cos(h)
+            row.update(end_left_x=x + hw * lx, end_left_y=y + hw * ly, end_right_x=x - hw * lx,
+                       end_right_y=y - hw * ly)
+            for key, value in row.items():
+                cols[key].append(value)
+            dist += seg_len
+    seg = {k: np.asarray(v, dtype=float) for k, v in cols.items()}
+    return Track(name="synthetic", category="road", length_m=dist, width_m=width_m, seg=seg, pit=None)
+
+
+# ---- the middle line --------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("name", TRACKS)
+def test_middle_line_closes(name: str) -> None:
+    track, _ = load(name)
+    mid = middle_line(track)
+    assert mid.dist_m[0] == 0.0 and mid.dist_m[-1] == pytest.approx(track.length_m)
+    assert np.allclose(np.diff(mid.dist_m), mid.step_m) and abs(mid.step_m - 2.0) < 0.01
+    assert math.hypot(mid.x_m[-1] - mid.x_m[0], mid.y_m[-1] - mid.y_m[0]) < 1.0
+    # one full turn of heading (either way round) after a lap
+    turned = (mid.heading_rad[-1] - mid.heading_rad[0]) / (2 * math.pi)
+    assert abs(abs(turned) - 1.0) < 0.01
+
+
+@pytest.mark.parametrize("name", TRACKS)
+def test_middle_line_matches_segment_vertices(name: str) -> None:
+    track, _ = load(name)
+    seg = track.seg
+    mid = middle_line(track)
+    start = seg["start_dist_m"]
+    x = np.interp(start, mid.dist_m, mid.x_m)
+    y = np.interp(start, mid.dist_m, mid.y_m)
+    vx = 0.5 * (seg["start_left_x"] + seg["start_right_x"])
+    vy = 0.5 * (seg["start_left_y"] + seg["start_right_y"])
+    assert np.hypot(x - vx, y - vy).max() < 0.2
+    # inside turns the samples lie on the arc round the segment's centre
+    turn = seg["type"][mid.seg_id[:-1]] != 3
+    ids = mid.seg_id[:-1][turn]
+    r = np.hypot(mid.x_m[:-1][turn] - seg["center_x"][ids], mid.y_m[:-1][turn] - seg["center_y"][ids])
+    assert np.abs(r - seg["radius_m"][ids]).max() < 0.01
+
+
+def test_middle_line_margin() -> None:
+    track, _ = load("aalborg")  # 10 m wide
+    mid = middle_line(track, margin_m=1.2)
+    assert np.allclose(mid.half_left_m, 3.8) and np.allclose(mid.half_right_m, 3.8)
+
+
+# ---- the racing line on the recorded tracks ---------------------------------------------------
+
+
+@pytest.mark.parametrize("name", TRACKS)
+def test_computation_time(name: str) -> None:
+    line, seconds = built(name)
+    print(f"\n{name}: {line.length_m:.0f} m, {line.middle.n} samples, {seconds:.2f} s")
+    assert seconds < MAX_SECONDS
+
+
+@pytest.mark.parametrize("name", TRACKS)
+def test_racing_line_within_bounds(name: str) -> None:
+    line, _ = built(name)
+    mid = line.middle
+    assert np.all(line.offset_m <= mid.half_left_m + 1e-9)
+    assert np.all(line.offset_m >= -mid.half_right_m - 1e-9)
+    track, _ = load(name)
+    assert np.abs(line.offset_m).max() <= track.width_m / 2 - line.margin_m + 1e-9
+    # the points really are offset_m sideways from the middle (the closing sample repeats the
+    # first point; the middle's own closing point is off by the data's float32 rounding)
+    side = np.hypot(line.x_m - mid.x_m, line.y_m - mid.y_m)[:-1]
+    assert np.allclose(side, np.abs(line.offset_m[:-1]), atol=1e-6)
+    assert (line.x_m[-1], line.y_m[-1]) == (line.x_m[0], line.y_m[0])
+    assert np.isfinite(line.curvature_1pm).all()
+
+
+@pytest.mark.parametrize("name", TRACKS)
+def test_racing_line_opens_every_corner(name: str) -> None:
+    line, _ = built(name)
+    mid = line.middle
+    regions = turn_regions(mid, merge_m=60.0)
+    assert regions
+    ratios = []
+    for r in regions:
+        ratio = np.abs(line.curvature_1pm[r]).max() / np.abs(mid.curvature_1pm[r]).max()
+        ratios.append(ratio)
+        assert ratio < 1.0, f"corner at {mid.dist_m[r[0]]:.0f} m: racing line / middle max |k| = {ratio:.3f}"
+    overall = np.abs(line.curvature_1pm).max() / np.abs(mid.curvature_1pm).max()
+    print(f"\n{name}: max |k| racing/middle {overall:.3f}, worst corner {max(ratios):.3f}, "
+          f"path {line.path_length_m:.0f} m / middle {line.length_m:.0f} m")
+    assert overall < 1.0
+
+
+def test_curvature_is_smooth() -> None:
+    """The smoothed curvature has no sample-to-sample spikes (the speed profile reads it)."""
+    for name in TRACKS:
+        line, _ = built(name)
+        k = line.curvature_1pm
+        jump = np.abs(np.diff(k)).max()
+        assert jump < 0.5 * np.abs(k).max(), name
+
+
+def test_lookups() -> None:
+    line, _ = built("e-track-2")
+    step, length = line.step_m, line.length_m
+    for i in (0, 1, 777, line.middle.n - 1):
+        d = float(line.dist_m[i])
+        assert line.offset_at(d) == pytest.approx(line.offset_m[i], abs=1e-9)
+        assert line.curvature_at(d) == pytest.approx(line.curvature_1pm[i], abs=1e-12)
+        assert line.point_at(d) == pytest.approx((line.x_m[i], line.y_m[i]), abs=1e-9)
+        # half way to the next sample: the mean; a lap later or earlier: the same
+        half = d + 0.5 * step
+        assert line.offset_at(half) == pytest.approx(0.5 * (line.offset_m[i] + line.offset_m[i + 1]))
+        assert line.offset_at(half + length) == pytest.approx(line.offset_at(half))
+        assert line.offset_at(half - length) == pytest.approx(line.offset_at(half))
+    # the closing sample equals the first
+    assert line.offset_at(length - 1e-9) == pytest.approx(line.offset_m[0], abs=1e-6)
+    assert isinstance(line.curvature_at(123.4), float)
+    x, y = line.point_at(123.4)
+    assert isinstance(x, float) and isinstance(y, float)
+    assert -math.pi <= line.heading_at(4000.0) <= math.pi
+    assert 0.8 < line.length_factor_at(1000.0) < 1.2
+
+
+# ---- hand-built tracks -------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("side", ["L", "R"])
+def test_circle_runs_round_the_outside(side: str) -> None:
+    """On a ring the least curved line is the outermost circle (radius 50 + 6 - 1.2 m)."""
+    line = RacingLine(build_track([(side, 50.0, 360.0)]))
+    outside = -4.8 if side == "L" else 4.8  # the outside of a left turn is its right (-)
+    assert np.allclose(line.offset_m, outside, atol=0.01)
+    assert np.allclose(np.abs(line.curvature_1pm), 1 / 54.8, rtol=0.01)
+    mid = middle_line(build_track([(side, 50.0, 360.0)]))
+    assert math.hypot(mid.x_m[-1] - mid.x_m[0], mid.y_m[-1] - mid.y_m[0]) < 1e-6
+
+
+def test_right_angle_turns_outside_inside_outside() -> None:
+    """Four 90 degree left turns (radius 30 m) joined by 200 m straights."""
+    track = build_track([("S", 200.0), ("L", 30.0, 90.0)] * 4)
+    line = RacingLine(track)
+    half = 4.8
+    turn_m = 30.0 * math.pi / 2
+    for corner in range(4):
+        start = corner * (200.0 + turn_m) + 200.0
+        assert line.offset_at(start - 30.0) < -0.8 * half  # wide on the way in
+        assert line.offset_at(start + turn_m / 2) > 0.9 * half  # apex on the inside
+        assert line.offset_at(start + turn_m + 30.0) < -0.8 * half  # wide on the way out
+    # the line's sharpest bend is far gentler than the track's
+    assert np.abs(line.curvature_1pm).max() < 0.7 / 30.0
+    # and right turns give the mirror image
+    mirror = RacingLine(build_track([("S", 200.0), ("R", 30.0, 90.0)] * 4))
+    assert np.allclose(mirror.offset_m, -line.offset_m, atol=1e-3)
+    assert np.allclose(mirror.curvature_1pm, -line.curvature_1pm, atol=1e-5)
+
+
+def test_stadium_hairpins() -> None:
+    """Two 300 m straights joined by 180 degree turns of 50 m.  Round a hairpin between long
+    straights no line beats the outer edge (radius 54.8 m) by much: the line stays on the outer
+    half through the whole turn and starts turning on the straight, so its curvature ramps in
+    instead of jumping to the hairpin's."""
+    line = RacingLine(build_track([("S", 300.0), ("L", 50.0, 180.0)] * 2))
+    turn_m = 50.0 * math.pi
+    inside_turn = [line.offset_at(d) for d in np.arange(300.0, 300.0 + turn_m, 2.0)]
+    assert max(inside_turn) < -0.5 * 4.8
+    assert np.abs(line.curvature_1pm).max() < 0.96 / 50.0
+    assert 0.0 < line.curvature_at(290.0) < 0.5 * line.curvature_at(300.0 + turn_m / 2)
+    assert 0.0 < line.curvature_at(300.0 + turn_m + 10.0) < 0.5 * line.curvature_at(300.0 + turn_m / 2)
+
+
+def test_blend_between_middle_and_racing_line() -> None:
+    track, _ = load("mixed-2")
+    full, _ = built("mixed-2")
+    middle = RacingLine(track, blend=0.0)
+    assert np.all(middle.offset_m == 0.0)
+    assert np.allclose(middle.x_m, full.middle.x_m) and np.allclose(middle.y_m, full.middle.y_m)
+    assert middle.offset_at(500.0) == 0.0
+    half = RacingLine(track, blend=0.5)
+    assert np.allclose(half.offset_m, 0.5 * full.offset_m)
