@@ -120,9 +120,8 @@ def race(track, car, laps, robots, opponents, fuel_laps, pit_laps, pit_mode, jso
         cls.check_setup(options, track, car)
         names.append(f"{cls.name} {i + 1}")
     opp = [catalog.parse_opponent(o) for o in opponents.split(",") if o.strip()]
-    if (options.pit_laps or options.fuel_laps) and not _track_has_pits(track, category):
-        if options.pit_laps:
-            raise UsageError(f"track '{track}' has no pit lane; --pit-laps needs one")
+    if options.pit_laps and not catalog.has_pit_lane(track):
+        raise UsageError(f"track '{track}' has no pit lane, so --pit-laps cannot be met; choose a track with pits")
     overlay = _ready()
     cfg = launch.RaceConfig(track=track, category=category, car=car, laps=laps_n, robots=specs, robot_names=names,
                             opponents=opp, options=options, step_budget_ms=int(budget), run_dir=run_dir)
@@ -158,17 +157,6 @@ def _race_error(result):
     if rest:
         console.print(rest, markup=False, highlight=False)
     return RaceError(first)
-
-
-def _track_has_pits(track: str, category: str) -> bool:
-    from boxbox.torcs.paths import system_torcs
-
-    xml = system_torcs().data_dir / "tracks" / category / track / f"{track}.xml"
-    try:
-        text = xml.read_text(errors="replace")
-    except OSError:
-        return False
-    return 'name="Pits"' in text and 'name="entry"' in text
 
 
 def _run_with_progress(cfg, overlay, quiet: bool):

@@ -27,6 +27,9 @@ CASES = [
     (["--pit-laps", "2,x"], "--pit-laps takes lap numbers like 3,7"),
     (["--pit-laps", "5", "--laps", "3"], "a stop must be before the last lap"),
     (["--nonsense"], "No such option: --nonsense"),
+    (["--track", "mixed-2", "--laps", "5", "--pit-laps", "2"], "track 'mixed-2' has no pit lane"),
+    (["--set", "mu_scal=1"], "unknown parameter 'mu_scal' (did you mean mu_scale?)"),
+    (["--set", "mu_scale=fast"], "mu_scale must be a float"),
 ]
 
 

@@ -6,6 +6,7 @@ import time
 
 from boxbox import Controls, PitOrder, Robot
 from boxbox.robot.simple import MiddleRobot
+from boxbox.robot.tutorial import TutorialRobot
 
 FAULT_STEP = 100  # 2 s into the race
 
@@ -109,3 +110,35 @@ class Plain(Robot):
 
     def drive(self, state):
         return Controls(steer=0.0, accel=0.3, brake=0.0, clutch=0.0, gear=1)
+
+
+class TutorialRaisesInPitStop(TutorialRobot):
+    """The tutorial robot, stopping as asked (--pit-laps), but failing when TORCS calls pit_stop."""
+
+    def pit_stop(self, state):
+        raise KeyError("deliberate failure in pit_stop")
+
+
+class TutorialBadPitOrder(TutorialRobot):
+    def pit_stop(self, state):
+        return PitOrder(fuel_l=float("nan"))
+
+
+class OvershootsTheBoxOnce(TutorialRobot):
+    """Stands in for a car pushed past its box: on the first stop attempt it keeps rolling at
+    8 m/s through the box as if shoved, so the pit brake filter must give up and retry next lap."""
+
+    pushed = False
+    pushing = False
+
+    def drive(self, state):
+        c = super().drive(state)
+        path = self.pit_path
+        if path is not None and not self.pushed:
+            rel = path.signed_coord(state.dist_from_start_m) - path.box_m
+            if self.stop_wanted and -10.0 < rel < 15.0 and not state.in_pit:
+                self.pushing = True
+                return Controls(steer=c.steer, accel=0.3 if state.speed_x_mps < 8.0 else 0.0, brake=0.0,
+                                clutch=0.0, gear=max(1, c.gear), pit_request=True)
+            self.pushed = self.pushing
+        return c

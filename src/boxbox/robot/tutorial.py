@@ -105,6 +105,7 @@ class TutorialRobot(Robot):
                                     pit_laps=self.options.pit_laps)
         self.stop_wanted = False  # a stop is planned for this lap and not made yet
         self.stop_decided_lap = -1
+        self.retry_stop = False  # a stop given up in an earlier lap is still owed
         self.pit_clutch_open = False
         self.event: dict | None = None
         if track.pit is None or car.pit_seg < 0:
@@ -121,6 +122,7 @@ class TutorialRobot(Robot):
             limit_start_m=path.limit_start_m, box_m=path.box_m, limit_end_m=path.limit_end_m,
             speed_limit_mps=path.speed_limit_mps, box_length_m=path.box_length_m,
             pit_mu_source=p.pit_mu_source, pit_mu=lane_mu, pit_mu_factor=p.pit_mu,
+            surface_mu_scale=p.brake_mu_scale,  # brake for the pit as for any turn
             entry_mode="computed" if p.pit_entry_braking == "computed" else "ahead",
             brake_ahead_m=p.pit_brake_ahead_m, entry_constraints=path.entry_speed_constraints(lane_mu * 0.9),
             stop_mode=self.options.pit_mode, stop_threshold_m=p.pit_stop_threshold_m,
@@ -149,18 +151,22 @@ class TutorialRobot(Robot):
         # decide once per lap, a few hundred metres before the entry
         if not on_path and pos > -600.0 and self.stop_decided_lap != s.laps:
             self.stop_decided_lap = int(s.laps)
-            self.stop_wanted = self.strategy.wants_stop(laps_done, self._remaining_after_box(s), s.fuel_l, s.damage)
-        if not self.stop_wanted and not (on_path and self.event is not None):
-            if not on_path:
-                return brake, accel, steer, None
+            remaining = self._remaining_after_box(s)
+            self.stop_wanted = (self.retry_stop and remaining > 0) or \
+                self.strategy.wants_stop(laps_done, remaining, s.fuel_l, s.damage)
+        if not on_path and self.event is not None:
+            self._close_event(s)
+        if not on_path and not self.stop_wanted:
+            return brake, accel, steer, None
         r = self.pit_filter.filter(brake, v, pos, self.stop_wanted, on_path and (self.stop_wanted or
                                    self.event is not None), self._seg_friction[int(s.seg_id)] * self.tyre_model.mu,
                                    s.in_pit)
         if r.gave_up and self.stop_wanted:
+            # pushed past the box (or not captured): drive on at the limit, try again next lap
             self.stop_wanted = False
+            self.retry_stop = True
             if self.event is not None:
                 self.event["gave_up"] = True
-                self._close_event(s)
         if on_path and (self.stop_wanted or self.event is not None):
             if self.event is None:
                 self.event = {"lap": int(s.laps), "entry_time": round(s.sim_time_s, 3), "stop_time": None,
@@ -178,8 +184,6 @@ class TutorialRobot(Robot):
             mx, my = self._mid_xy[j]
             nx, ny = self._normals[j]
             steer = steer_to_point(s.x_m, s.y_m, s.yaw_rad, mx + off * nx, my + off * ny, self.car.steer_lock_rad)
-        elif self.event is not None and not on_path:
-            self._close_event(s)
         brake = r.brake
         self.pit_clutch_open = r.phase in (STOP, HOLD)
         if r.target_speed_mps is not None:
@@ -326,6 +330,7 @@ class TutorialRobot(Robot):
         fuel, repair = self.strategy.order(self._remaining_after_box(state), state.fuel_l, state.damage,
                                            self.car.tank_l)
         self.stop_wanted = False
+        self.retry_stop = False
         if self.event is not None:
             self.event["fuel"], self.event["repair"] = round(fuel, 2), round(repair, 1)
             if self.event["stop_time"] is None:

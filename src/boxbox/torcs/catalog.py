@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import difflib
+import re
 import xml.etree.ElementTree as ET
 from functools import lru_cache
 from pathlib import Path
@@ -69,6 +70,21 @@ def robot_modules() -> list[str]:
     if not root.is_dir():
         return []
     return sorted(p.name for p in root.iterdir() if (p / f"{p.name}.so").exists() and p.name != "human")
+
+
+@lru_cache(maxsize=None)
+def has_pit_lane(track: str) -> bool:
+    """Whether the track's file defines a pit lane (a Pits section with an entry)."""
+    category = tracks().get(track)
+    path = system_torcs().data_dir / "tracks" / str(category) / track / f"{track}.xml"
+    try:
+        text = path.read_text(errors="replace")
+    except OSError:
+        return False
+    # Track files pull in other files through XML entities, which ElementTree cannot resolve:
+    # read the Pits section as text.
+    m = re.search(r'<section\s+name="Pits"\s*>(.*?)</section>', text, re.S | re.I)
+    return bool(m and re.search(r'<attstr\s+name="entry"\s+val="[^"]+"', m.group(1)))
 
 
 def check_track(name: str) -> str:
