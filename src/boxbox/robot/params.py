@@ -31,14 +31,17 @@ class TutorialParams:
     racing_line: float = 1.0  # 0 = the tutorial's middle line, 1 = the optimised line
     line_margin_m: float = 1.2  # racing line's distance from the track edge (car centre)
     # speed
-    mu_scale: float = 0.69  # cornering grip relative to surface x tyre friction (shipped robot: 0.69)
-    brake_mu_scale: float = 0.65  # braking grip, same base (the shipped robot brakes on surface friction alone)
+    mu_scale: float = 0.8  # cornering grip relative to surface x tyre friction (the shipped robot: 0.69)
+    brake_mu_scale: float = 0.8  # braking grip, same base (the shipped robot brakes on surface friction alone)
     brake_method: str = "exact"
     friction_circle: bool = True  # brake less where the line turns (grip shared with cornering)  # braking distance: "exact" or "approx" (the seed's formula)
     max_speed_mps: float = 100.0
     speed_lookahead_s: float = 0.06  # compare speed with the profile this far ahead (latency)
     full_accel_margin_mps: float = 1.0
     brake_band_mps: float = 1.0  # brake fully this far above the target speed
+    # clutch at the start (1 = open): slips from clutch_start down to closed at clutch_release_mps
+    clutch_start: float = 0.7
+    clutch_release_mps: float = 15.0
     # gears (gear-changing.txt)
     shift: float = 0.9
     shift_margin_mps: float = 4.0

@@ -1,18 +1,16 @@
 """A per-track racing line: the track middle line sampled every few metres, then the lateral offset
 that minimises the curvature of the driven path while staying inside the track.
 
-Computed once per track (`RacingLine(track)`: 0.1-0.4 s for the recorded tracks, up to 7 km).
-While driving, `point_at` gives a look-ahead steering target and `curvature_at` feeds the speed
-profile; those lookups are plain Python (lists and one linear interpolation), no numpy per call.
+Computed once per track (`RacingLine(track)`, well under a second for a 7 km track).  While
+driving, `point_at` gives a look-ahead steering target and `curvature_at` feeds the speed profile;
+those lookups are plain Python (lists and one linear interpolation), no numpy per call.
 
-Method.  The line is R_i = P_i + n_i N_i (middle point, left unit normal, offset n_i in metres,
-+ left).  Its curvature at sample i is the second difference of R projected on the line's own
-normal, divided by the line's own spacing squared.  Linearised around the current line
-(Gauss-Newton) this is k = A n + c with A cyclic tridiagonal, so "sum of squared curvatures,
-subject to the track bounds" becomes a convex quadratic programme whose matrix is cyclic
-pentadiagonal; it is solved by an interior point method with banded Cholesky steps, and the
-linearisation is refreshed until the line stops moving (5-15 passes).  A soft cap keeps each
-corner's peak curvature below the middle line's (see `_min_curvature_offsets`).
+Method: the line is P_i + n_i * N_i (middle point, left normal, offset n_i in metres, + left).
+The curvature at sample i is approximated by the second difference of the line points projected on
+the line's own normal, divided by the local spacing squared.  With the normal and spacing taken from
+the previous estimate this is linear in n, so "sum of squared curvatures, subject to the track
+bounds" is a sparse convex quadratic programme; it is solved by an active-set method on the
+bound constraints, and the linearisation is refreshed a few times (sequential QP).
 """
 
 from __future__ import annotations
@@ -21,12 +19,14 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg import cho_solve_banded, cholesky_banded
+import scipy.sparse as sp
 from scipy.ndimage import maximum_filter1d, uniform_filter1d
+from scipy.sparse.linalg import splu
 
 from boxbox.model.track import LEFT, STRAIGHT, Track
 
 TWO_PI = 2.0 * math.pi
+_DEBUG = False
 
 
 @dataclass(frozen=True, eq=False)
@@ -94,8 +94,7 @@ def middle_line(track: Track, step_m: float = 2.0, margin_m: float = 0.0) -> Mid
     heading = np.unwrap(heading)
 
     width = seg["start_width_m"][ids] + frac * (seg["end_width_m"][ids] - seg["start_width_m"][ids])
-    # a little room is always left so the bounds never pinch to a point (the optimiser needs it)
-    half = np.maximum(0.5 * width.astype(float) - margin_m, 0.05)
+    half = np.maximum(0.5 * width.astype(float) - margin_m, 0.0)
     with np.errstate(divide="ignore"):
         k = np.where(turn, sign / np.where(radius > 0, radius, math.inf), 0.0)
     return MiddleLine(length_m=length_m, step_m=length_m / n, dist_m=dist_m, x_m=x, y_m=y,
@@ -103,157 +102,91 @@ def middle_line(track: Track, step_m: float = 2.0, margin_m: float = 0.0) -> Mid
                       friction=seg["friction"].astype(float)[ids], seg_id=ids, curvature_1pm=k)
 
 
-class _CyclicRows:
-    """An n x n matrix with one row per sample and entries only at columns i-1, i, i+1 (cyclic):
-    the linearised curvature, k = A n + c."""
-
-    def __init__(self, prev: np.ndarray, mid: np.ndarray, nxt: np.ndarray) -> None:
-        self.p, self.m, self.q = prev, mid, nxt
-
-    def dot(self, x: np.ndarray) -> np.ndarray:
-        return self.p * np.roll(x, 1) + self.m * x + self.q * np.roll(x, -1)
-
-    def tdot(self, v: np.ndarray) -> np.ndarray:
-        """A' v"""
-        return np.roll(self.p * v, -1) + self.m * v + np.roll(self.q * v, 1)
-
-    def gram(self, w: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """A' diag(w) A as its three upper cyclic diagonals d0[j] = M[j, j], d1[j] = M[j, j+1],
-        d2[j] = M[j, j+2] (indices mod n)."""
-        p, m, q = self.p, self.m, self.q
-        d0 = np.roll(w * p * p, -1) + w * m * m + np.roll(w * q * q, 1)
-        d1 = w * m * q + np.roll(w * p * m, -1)
-        d2 = np.roll(w * p * q, -1)
-        return d0, d1, d2
-
-
-class _CyclicSolver:
-    """Solves symmetric positive definite systems with the cyclic pentadiagonal pattern
-    (three upper cyclic diagonals).  Ordering the unknowns 0, n-1, 1, n-2, 2, ... turns the
-    cyclic pattern into a plain band of half-width 4, so each solve is a banded Cholesky (LAPACK,
-    ~0.5 ms for 3500 samples) instead of a general sparse factorisation."""
-
-    BAND = 4
-
-    def __init__(self, n: int) -> None:
-        if n < 5:
-            raise ValueError("need at least 5 samples")
-        i = np.arange(n)
-        self.pos = np.where(i < (n + 1) // 2, 2 * i, 2 * (n - 1 - i) + 1)  # sample -> band index
-        self.order = np.argsort(self.pos)  # band index -> sample
-        self.n = n
-        # where each entry of the three cyclic diagonals lands in LAPACK's upper band storage
-        self.cells: list[tuple[np.ndarray, np.ndarray]] = []
-        for d in (0, 1, 2):
-            r, c = self.pos[i], self.pos[(i + d) % n]
-            self.cells.append((self.BAND + np.minimum(r, c) - np.maximum(r, c), np.maximum(r, c)))
-
-    def factor(self, diags: tuple[np.ndarray, np.ndarray, np.ndarray]) -> np.ndarray:
-        ab = np.zeros((self.BAND + 1, self.n))
-        for (row, col), d in zip(self.cells, diags):
-            ab[row, col] = d
-        return cholesky_banded(ab, check_finite=False)
-
-    def solve(self, chol: np.ndarray, b: np.ndarray) -> np.ndarray:
-        xp = cho_solve_banded((chol, False), b[self.order], check_finite=False)
-        return xp[self.pos]
-
-
-def _step_to_boundary(v: np.ndarray, dv: np.ndarray) -> float:
-    """Largest alpha with v + alpha dv >= 0 (v > 0)."""
-    neg = dv < 0
-    return float(np.min(-v[neg] / dv[neg])) if neg.any() else math.inf
-
-
-def _solve_line_qp(solver: _CyclicSolver, a: _CyclicRows, c: np.ndarray, capped: np.ndarray,
-                   cap: np.ndarray, cap_weight: float, lo: np.ndarray, hi: np.ndarray,
-                   x0: np.ndarray, max_iter: int = 80, tol: float = 1e-9) -> np.ndarray:
-    """Offsets x minimising  1/2 |A x + c|^2 + 1/2 eps |x|^2 + cap_weight/2 * sum e_i^2
-    subject to lo <= x <= hi and |(A x + c)_i| <= cap_i + e_i on the capped rows.
-
-    The e_i make the caps soft, so a cap the track cannot give costs a little excess instead of
-    making the problem infeasible.  Primal-dual interior point with Mehrotra's predictor-corrector:
-    ~20-30 Newton steps whatever the contact pattern.  (Active-set pivoting was tried first and
-    cycles here: with a fourth-difference operator the line touches a bound at isolated samples
-    and the pivoting flips alternate samples forever.)  With the slack e eliminated, every Newton
-    step is one cyclic pentadiagonal solve."""
-    n = len(c)
-    ones = np.ones(n)
-    base = a.gram(ones)
-    scale = float(base[0].mean())
-    eps = 1e-9 * scale + 1e-12  # makes the problem strictly convex (a straight has a free shift)
-    mu_e = cap_weight * capped  # weight of e; rows that are not capped carry no e at all
-    cap_c = np.where(capped, cap, 0.0)
-
-    x = np.clip(x0, lo + 0.05 * (hi - lo), hi - 0.05 * (hi - lo))
-    k = a.dot(x) + c
-    e = np.where(capped, np.maximum(np.abs(k) - cap_c, 0.0) + 0.1 * cap_c + 1e-6, 0.0)
-    s1, s2 = x - lo, hi - x
-    s3 = np.where(capped, cap_c - k + e, 1.0)
-    s4 = np.where(capped, cap_c + k + e, 1.0)
-    z1 = np.full(n, 1e-2 * scale)
-    z2 = z1.copy()
-    z3 = np.where(capped, 1e-2 * scale * 1e-2, 0.0)
-    z4 = z3.copy()
-    m_all = 2 * n + 2 * int(np.count_nonzero(capped))
-    g_tol = tol * scale * max(1.0, float(np.abs(hi - lo).max()))
-
+def _pivot_box_qp(h_csc: sp.csc_matrix, g: np.ndarray, lo: np.ndarray, hi: np.ndarray,
+                  x0: np.ndarray, max_iter: int) -> tuple[np.ndarray, bool]:
+    """Block active-set pivoting for min 1/2 x'Hx + g'x, lo <= x <= hi: solve on the free
+    variables with the others held at their bounds, pin every free one that overshoots, release
+    every pinned one whose gradient points inward, repeat.  Usually done in a handful of sparse
+    solves, but it can cycle; returns (x, converged)."""
+    n = len(g)
+    x = np.clip(x0, lo, hi)
+    state = np.zeros(n, dtype=np.int8)  # 0 free, -1 at lo, +1 at hi
+    state[x <= lo] = -1
+    state[x >= hi] = 1
+    # loose tolerances: H is ill-conditioned (fourth differences), and flipping variables on
+    # round-off-sized overshoots or gradients is what makes block pivoting cycle
+    tol_x = 1e-6
+    tol_g = 1e-7 * (float(np.abs(h_csc.diagonal()).max()) or 1.0)
     for _ in range(max_iter):
-        k = a.dot(x) + c
-        r_x = a.tdot(k) + eps * x - z1 + z2 + a.tdot(z3 - z4)
-        r_e = np.where(capped, mu_e * e - z3 - z4, 0.0)
-        gap = float(s1 @ z1 + s2 @ z2 + capped @ (s3 * z3 + s4 * z4)) / m_all
-        if gap < tol * scale and float(np.abs(r_x).max()) < g_tol and float(np.abs(r_e).max()) < g_tol:
+        free = state == 0
+        x = np.where(state < 0, lo, np.where(state > 0, hi, x))
+        fi = np.flatnonzero(free)
+        if len(fi):
+            pinned = np.flatnonzero(~free)
+            rhs = -g[fi]
+            if len(pinned):
+                rhs -= h_csc[fi][:, pinned] @ x[pinned]
+            x[fi] = splu(h_csc[fi][:, fi].tocsc()).solve(rhs)
+        grad = h_csc @ x + g
+        over_lo = free & (x < lo - tol_x)
+        over_hi = free & (x > hi + tol_x)
+        release = ((state < 0) & (grad < -tol_g)) | ((state > 0) & (grad > tol_g))
+        if not (over_lo.any() or over_hi.any() or release.any()):
+            return x, True
+        if _DEBUG:
+            print("  pivot", np.count_nonzero(over_lo), np.count_nonzero(over_hi), np.count_nonzero(release), np.flatnonzero(over_lo | over_hi | release)[:8])
+        state[over_lo] = -1
+        state[over_hi] = 1
+        state[release] = 0
+    return np.clip(x, lo, hi), False
+
+
+def _primal_box_qp(h_csc: sp.csc_matrix, g: np.ndarray, lo: np.ndarray, hi: np.ndarray,
+                   x0: np.ndarray, max_iter: int) -> np.ndarray:
+    """Primal active set, the slow but sure way: from a feasible point, Newton step on the free
+    variables; if it leaves the box, go as far as the first bound and pin that variable; else take
+    it and release pinned variables whose gradient points inward.  The cost falls at every step,
+    so it cannot cycle."""
+    x = np.clip(x0, lo, hi)
+    pinned = (x <= lo) | (x >= hi)
+    tol_g = 1e-10 * (float(np.abs(h_csc.diagonal()).max()) or 1.0)
+    for _ in range(max_iter):
+        fi = np.flatnonzero(~pinned)
+        target = x.copy()
+        if len(fi):
+            pi = np.flatnonzero(pinned)
+            rhs = -g[fi]
+            if len(pi):
+                rhs -= h_csc[fi][:, pi] @ x[pi]
+            target[fi] = splu(h_csc[fi][:, fi].tocsc()).solve(rhs)
+        p = target - x
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio = np.where(p < -1e-15, (lo - x) / p, np.where(p > 1e-15, (hi - x) / p, np.inf))
+        alpha = float(ratio.min()) if len(ratio) else np.inf
+        if alpha < 1.0:
+            x = np.clip(x + alpha * p, lo, hi)
+            pinned |= ratio <= alpha * (1.0 + 1e-9) + 1e-15
+            continue
+        x = target
+        grad = h_csc @ x + g
+        at_lo, at_hi = pinned & (x <= lo), pinned & (x >= hi)
+        release = (at_lo & (grad < -tol_g)) | (at_hi & (grad > tol_g))
+        if not release.any():
             break
-        d1, d2 = z1 / s1, z2 / s2
-        d3, d4 = np.where(capped, z3 / s3, 0.0), np.where(capped, z4 / s4, 0.0)
-        m_e = np.where(capped, mu_e + d3 + d4, 1.0)
-        w = 1.0 + d3 + d4 - (d4 - d3) ** 2 / m_e
-        d0, dd1, dd2 = a.gram(w)
-        chol = solver.factor((d0 + eps + d1 + d2, dd1, dd2))
+        pinned &= ~release
+    return x
 
-        def newton(rc1: np.ndarray, rc2: np.ndarray, rc3: np.ndarray, rc4: np.ndarray
-                   ) -> tuple[np.ndarray, ...]:
-            """Newton step for complementarity targets s_j dz_j + z_j ds_j = rc_j."""
-            t3 = np.where(capped, rc3 / s3, 0.0)
-            t4 = np.where(capped, rc4 / s4, 0.0)
-            q = np.where(capped, -r_e + t3 + t4, 0.0)
-            rhs = -r_x + rc1 / s1 - rc2 / s2 - a.tdot(t3 - t4) - a.tdot((d4 - d3) * q / m_e)
-            dx = solver.solve(chol, rhs)
-            adx = a.dot(dx)
-            de = np.where(capped, (q + (d3 - d4) * adx) / m_e, 0.0)
-            ds3, ds4 = -adx + de, adx + de
-            dz3 = np.where(capped, (rc3 - z3 * ds3) / s3, 0.0)
-            dz4 = np.where(capped, (rc4 - z4 * ds4) / s4, 0.0)
-            return dx, de, (rc1 - z1 * dx) / s1, (rc2 + z2 * dx) / s2, dz3, dz4, ds3, ds4
 
-        def longest(step: tuple[np.ndarray, ...]) -> float:
-            dx, _, dz1, dz2, dz3, dz4, ds3, ds4 = step
-            pairs = ((s1, dx), (s2, -dx), (z1, dz1), (z2, dz2), (s3[capped], ds3[capped]),
-                     (s4[capped], ds4[capped]), (z3[capped], dz3[capped]), (z4[capped], dz4[capped]))
-            return min(_step_to_boundary(v, dv) for v, dv in pairs)
-
-        # predictor: plain Newton on the complementarity conditions; its progress sets the
-        # centring; corrector: aim at sigma * gap, compensating the predictor's second-order term
-        aff = newton(-s1 * z1, -s2 * z2, -s3 * z3, -s4 * z4)
-        alpha = min(1.0, longest(aff))
-        dx, _, dz1, dz2, dz3, dz4, ds3, ds4 = aff
-        gap_aff = float((s1 + alpha * dx) @ (z1 + alpha * dz1) + (s2 - alpha * dx) @ (z2 + alpha * dz2)
-                        + capped @ ((s3 + alpha * ds3) * (z3 + alpha * dz3)
-                                    + (s4 + alpha * ds4) * (z4 + alpha * dz4))) / m_all
-        sg = (gap_aff / gap) ** 3 * gap
-        step = newton(-s1 * z1 + sg - dx * dz1, -s2 * z2 + sg + dx * dz2,
-                      -s3 * z3 + sg - ds3 * dz3, -s4 * z4 + sg - ds4 * dz4)
-        alpha = min(1.0, 0.99 * longest(step))
-        dx, de, dz1, dz2, dz3, dz4, ds3, ds4 = step
-        x = x + alpha * dx
-        e = e + alpha * de
-        s1, s2 = np.maximum(x - lo, 1e-14), np.maximum(hi - x, 1e-14)
-        s3 = np.where(capped, np.maximum(s3 + alpha * ds3, 1e-14), 1.0)
-        s4 = np.where(capped, np.maximum(s4 + alpha * ds4, 1e-14), 1.0)
-        z1, z2 = z1 + alpha * dz1, z2 + alpha * dz2
-        z3, z4 = z3 + alpha * dz3, z4 + alpha * dz4
-    return np.clip(x, lo, hi)
+def _solve_box_qp(h: sp.csr_matrix, g: np.ndarray, lo: np.ndarray, hi: np.ndarray,
+                  x0: np.ndarray) -> np.ndarray:
+    """min 1/2 x'Hx + g'x subject to lo <= x <= hi, H sparse symmetric positive definite."""
+    h_csc = h.tocsc()
+    x, ok = _pivot_box_qp(h_csc, g, lo, hi, x0, 20)
+    if _DEBUG:
+        print("pivot ok" if ok else "pivot failed")
+    if ok:
+        return x
+    return _primal_box_qp(h_csc, g, lo, hi, x, 2000)
 
 
 def _closed_curvature(x_m: np.ndarray, y_m: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -274,57 +207,70 @@ def _closed_curvature(x_m: np.ndarray, y_m: np.ndarray) -> tuple[np.ndarray, np.
     return k, heading, d_out
 
 
-def _min_curvature_offsets(mid: MiddleLine, peak_cap: float, cap_window_m: float,
-                           max_passes: int = 20, cap_weight: float = 1e3) -> np.ndarray:
+def _min_curvature_offsets(mid: MiddleLine, iterations: int, peak_cap: float, cap_window_m: float,
+                           cap_weight: float = 1e3) -> np.ndarray:
     """Lateral offsets (n samples) of the minimum-curvature line inside the bounds of `mid`.
 
     Objective: sum of squared curvatures, plus a stiff penalty wherever |k| exceeds
-    peak_cap * (the middle line's largest |k| within +-cap_window_m).  A pure sum-of-squares line
-    spreads curvature into long spirals and, in long or S-shaped turns, ends up with a sharper apex
-    than the middle line (+10 to +18 % on e-track-2, g-track-1, michigan); the cap keeps every
-    corner more open than the track's own radius, which is what sets the corner speed.  The middle
-    line satisfies the cap when peak_cap >= 1, so values a little below 1 are (nearly) always
-    feasible.  peak_cap = inf gives the plain minimum-curvature line.
+    peak_cap * (the middle line's largest |k| within +-cap_window_m).  Pure sum-of-squares lines
+    spread curvature into spirals and, in long or S-shaped turns, end up with a sharper apex than
+    the middle line; the cap keeps every corner at least as open as the track's own radius, which
+    is what sets the corner speed.  The middle line itself satisfies the cap when peak_cap >= 1, so
+    the problem is always feasible; below 1 the penalty takes what the track width allows.
     """
     n = mid.n
     px, py = mid.x_m[:n], mid.y_m[:n]
     nx, ny = -np.sin(mid.heading_rad[:n]), np.cos(mid.heading_rad[:n])
     lo, hi = -mid.half_right_m[:n], mid.half_left_m[:n]
-    solver = _CyclicSolver(n)
-    nx_p, ny_p, nx_n, ny_n = np.roll(nx, 1), np.roll(ny, 1), np.roll(nx, -1), np.roll(ny, -1)
+    idx = np.arange(n)
+    prv, nxt = np.roll(idx, 1), np.roll(idx, -1)
+    rows = np.tile(idx, 3)
+    cols = np.concatenate((prv, idx, nxt))
 
     k_mid = np.abs(mid.curvature_1pm[:n])
-    size = min(n, 2 * int(round(cap_window_m / mid.step_m)) + 1)
-    envelope = maximum_filter1d(k_mid, size, mode="wrap")
+    win = 2 * int(round(cap_window_m / mid.step_m)) + 1
+    envelope = maximum_filter1d(k_mid, min(win, n), mode="wrap")
     # only near turns: long straights stay free so the line can cross the track between corners
-    capped = (envelope > 0.0) & math.isfinite(peak_cap)
-    cap = np.where(capped, min(peak_cap, 1e9) * envelope, 0.0)
+    cap = np.where(envelope > 0.0, peak_cap * envelope, np.inf)
 
     off = np.zeros(n)
-    for _ in range(max(1, max_passes)):
-        # Gauss-Newton: linearise k_i = u_i . (R_{i+1} - 2 R_i + R_{i-1}) / ds_i^2 around the
-        # current line R_j = P_j + n_j N_j (u_i: its unit normal, ds_i: half the chord from
-        # i-1 to i+1).  The spacing term matters: with ds frozen, moving out of a circle looks
-        # like more curvature (the points spread) and the line would hug the inside
+    over = np.zeros(n, dtype=np.int8)  # +1 / -1 where k is pushed down from above / below
+    for _ in range(max(1, iterations)):
+        # linearise around the current line: its unit normal u_i and spacing ds_i
         x, y = px + off * nx, py + off * ny
-        xp, yp, xn, yn = np.roll(x, 1), np.roll(y, 1), np.roll(x, -1), np.roll(y, -1)
-        ds = np.maximum(0.5 * np.hypot(xn - xp, yn - yp), 1e-6)
-        tx, ty = (xn - xp) / (2 * ds), (yn - yp) / (2 * ds)
-        ux, uy = -ty, tx
+        tx = np.roll(x, -1) - np.roll(x, 1)
+        ty = np.roll(y, -1) - np.roll(y, 1)
+        ds = np.maximum(0.5 * np.hypot(tx, ty), 1e-6)
+        ux, uy = -ty / (2 * ds), tx / (2 * ds)
         w = 1.0 / (ds * ds)
-        k0 = w * (ux * (xn - 2 * x + xp) + uy * (yn - 2 * y + yp))
-        # d ds_i / d n_(i+-1) = +- t_i . N_(i+-1) / 2  and  dk = w du - 2 k / ds * d ds
-        a = _CyclicRows(w * (ux * nx_p + uy * ny_p) + k0 / ds * (tx * nx_p + ty * ny_p),
-                        -2.0 * w * (ux * nx + uy * ny),
-                        w * (ux * nx_n + uy * ny_n) - k0 / ds * (tx * nx_n + ty * ny_n))
-        c = k0 - a.dot(off)  # k ~ A n + c near the current line
-        new = _solve_line_qp(solver, a, c, capped, cap, cap_weight, lo, hi, off)
-        change = float(np.max(np.abs(new - off)))
-        # done when the line stops moving, or when it only drifts along a flat valley (a long
-        # straight where a slow sideways shift changes no curvature worth mentioning)
-        k_change = float(np.max(np.abs(a.dot(new - off))))
+        # k_i ~ w_i u_i . (R_{i+1} - 2 R_i + R_{i-1}) with R_j = P_j + n_j N_j, i.e. k = A n + c
+        c = w * (ux * (np.roll(px, -1) - 2 * px + np.roll(px, 1))
+                 + uy * (np.roll(py, -1) - 2 * py + np.roll(py, 1)))
+        a_prev = w * (ux * nx[prv] + uy * ny[prv])
+        a_mid = -2.0 * w * (ux * nx + uy * ny)
+        a_next = w * (ux * nx[nxt] + uy * ny[nxt])
+        a = sp.csr_matrix((np.concatenate((a_prev, a_mid, a_next)), (rows, cols)), shape=(n, n))
+        k_now = a @ off + c
+        # rows over the cap get penalty weight * (k_i -+ cap_i)^2 (semi-smooth Newton: the set is
+        # refreshed every pass; once penalised a row stays so while it is at or over its cap)
+        was = over.copy()
+        over = np.where(k_now > cap * 0.999, 1, np.where(k_now < -cap * 0.999, -1, 0)).astype(np.int8)
+        over[(was != 0) & (np.abs(k_now) >= cap * 0.98)] = was[(was != 0) & (np.abs(k_now) >= cap * 0.98)]
+        pw = np.where(over != 0, cap_weight, 0.0)
+        target = np.where(over != 0, over * np.where(np.isfinite(cap), cap, 0.0), 0.0)
+        # sum k^2 + sum pw (k - target)^2  ->  H = A'(1 + pw)A,  g = A'((1 + pw) c - pw target)
+        dw = sp.diags(1.0 + pw)
+        h = (a.T @ dw @ a).tocsr()
+        # a tiny pull to the middle makes H strictly positive definite (a straight track alone
+        # would leave a free sideways shift) without moving the line measurably
+        h = h + sp.identity(n, format="csr") * (1e-9 * float(h.diagonal().mean()) + 1e-12)
+        g = a.T @ ((1.0 + pw) * c - pw * target)
+        new = _solve_box_qp(h, g, lo, hi, off)
+        if _DEBUG:
+            print(f"it k_now max {np.abs(k_now).max():.5f} excess {np.max(np.abs(k_now) - cap):.5f} over {np.count_nonzero(over)} change {np.max(np.abs(new - off)):.4f}")
+        done = np.max(np.abs(new - off)) < 2e-3 and np.array_equal(over, was)
         off = new
-        if change < 0.01 or k_change < 1e-3 * float(np.max(np.abs(k0))):
+        if done:
             break
     return off
 
@@ -358,36 +304,21 @@ def turn_regions(mid: MiddleLine, merge_m: float = 60.0) -> list[np.ndarray]:
     return regions
 
 
-def _is_sound(k_line: np.ndarray, mid: MiddleLine, window_m: float) -> bool:
-    """False when the line curves clearly more than the track anywhere near: the sign of a cap
-    the track cannot give (the optimiser then pushes the turning just outside the capped
-    stretch, into a kink far sharper than the corner)."""
-    n = mid.n
-    size = min(n, 2 * int(round(2.0 * window_m / mid.step_m)) + 1)
-    near = maximum_filter1d(np.abs(mid.curvature_1pm[:n]), size, mode="wrap")
-    # far from any turn, allow what crossing the track on a straight takes (radius >= 500 m)
-    return bool(np.all(np.abs(k_line) <= np.maximum(1.02 * near, 2e-3)))
-
-
 class RacingLine:
     """Minimum-curvature line of one track.
 
     Arrays (n + 1 samples every `step_m` along the middle line, the last one closing the loop):
     dist_m, offset_m (to_middle of the line, + left), x_m, y_m, heading_rad, curvature_1pm (signed,
-    + left, lightly smoothed), curvature_raw_1pm, length_factor (racing-line metres per middle-line
-    metre), and `middle` (the sampled middle line with its bounds).
+    + left, smoothed), curvature_raw_1pm (unsmoothed), length_factor (racing-line metres per
+    middle-line metre), and `middle` (the sampled middle line with its bounds).
 
     blend: 0 = the middle line, 1 = the optimised line, in between a linear mix of the offsets.
     margin_m: kept from each track edge (car half width ~0.95 m + safety).
-    peak_cap: no corner of the line curves more than this times the middle line's sharpest
-    curvature within +-cap_window_m (see `_min_curvature_offsets`; inf: the plain minimum-curvature
-    line).  Should the track be too tight for it, the cap is raised towards 1, at worst dropped
-    (`peak_cap_used` tells the value kept).
     """
 
     def __init__(self, track: Track, step_m: float = 2.0, margin_m: float = 1.2, blend: float = 1.0,
-                 peak_cap: float = 0.95, cap_window_m: float = 60.0, smooth_m: float = 6.0,
-                 max_passes: int = 20) -> None:
+                 iterations: int = 12, smooth_m: float = 6.0, peak_cap: float = 0.97,
+                 cap_window_m: float = 60.0) -> None:
         mid = middle_line(track, step_m, margin_m)
         self.middle = mid
         self.blend = float(blend)
@@ -399,17 +330,7 @@ class RacingLine:
         nx, ny = -np.sin(mid.heading_rad[:n]), np.cos(mid.heading_rad[:n])
         lo, hi = -mid.half_right_m[:n], mid.half_left_m[:n]
 
-        # an infeasible cap (a corner that cannot be opened that much) makes the optimiser push
-        # turning outside the capped stretch: check, and retry with looser caps, the last one
-        # being none at all (the plain minimum-curvature line)
-        caps = [peak_cap] if peak_cap >= 1.0 else [peak_cap, 0.5 * (peak_cap + 1.0), 1.0]
-        for cap in caps + [math.inf]:
-            off = _min_curvature_offsets(mid, cap, cap_window_m, max_passes)
-            if _is_sound(_closed_curvature(px + off * nx, py + off * ny)[0], mid, cap_window_m):
-                break
-        self.peak_cap_used = cap
-        self.optimal_offset_m = off
-
+        self.optimal_offset_m = _min_curvature_offsets(mid, iterations, peak_cap, cap_window_m)
         off = np.clip(self.blend * self.optimal_offset_m, lo, hi)
         x, y = px + off * nx, py + off * ny
         k_raw, heading, chord = _closed_curvature(x, y)
@@ -442,6 +363,7 @@ class RacingLine:
         self._h = self.heading_rad.tolist()
         self._k = self.curvature_1pm.tolist()
         self._f = self.length_factor.tolist()
+
 
     # ---- per-step lookups: plain Python, linear interpolation between samples -----------------
 

@@ -32,7 +32,6 @@ from boxbox.robot.racingline import RacingLine
 from boxbox.robot.strategy import PitStrategy, plan_stops
 
 TWO_PI = 2.0 * math.pi
-CLUTCH_RELEASE_MPS = 8.0  # first gear: clutch fully engaged from this speed on
 STEP_S = 0.02
 
 
@@ -297,8 +296,8 @@ class TutorialRobot(Robot):
         clutch = 0.0
         if self.pit_clutch_open and accel == 0.0:  # stopping at the box: brakes alone, predictable
             clutch = 1.0
-        elif gear == 1 and v < CLUTCH_RELEASE_MPS:
-            clutch = min(0.5, 0.5 * (1.0 - v / CLUTCH_RELEASE_MPS))
+        elif gear == 1 and v < p.clutch_release_mps:  # starting: let the clutch slip, less as speed builds
+            clutch = min(p.clutch_start, p.clutch_start * (1.0 - v / p.clutch_release_mps))
         return Controls(steer=steer, accel=accel, brake=brake, clutch=clutch, gear=gear, pit_request=pit_request)
 
     def _stuck(self, s: State) -> bool:
