@@ -188,6 +188,25 @@ def bench_speed(track, laps, runs, robot, against) -> None:
     out.print(run_speed_bench(overlay, track, laps_n, runs, robot, against, console))
 
 
+@main_group.command("bench-pits")
+@click.option("--tracks", default="g-track-1,e-track-2,e-track-4,aalborg", show_default=True)
+@click.option("--laps", default="6", show_default=True, help="Race length; stops are asked on every lap but the last.")
+@click.option("--jobs", default=2, show_default=True, type=click.IntRange(1, 64))
+@click.option("--json", "json_file", type=click.Path(dir_okay=False, path_type=Path))
+def bench_pits(tracks, laps, jobs, json_file) -> None:
+    """Compare the two ways into the box (constant-decel, bang-bang) on real races."""
+    from boxbox.report.pitbench import run_pit_bench
+
+    laps_n = _parse_laps(laps)
+    if laps_n < 2:
+        raise UsageError("--laps must be at least 2 to ask for a stop")
+    overlay = _ready()
+    table, rows = run_pit_bench(overlay, [t.strip() for t in tracks.split(",") if t.strip()], laps_n, jobs, console)
+    out.print(table)
+    if json_file:
+        json_file.write_text(json.dumps(rows, indent=1))
+
+
 @main_group.command()
 @click.option("--track", default="e-track-2", show_default=True)
 @click.option("--car", default="car1-trb1", show_default=True)

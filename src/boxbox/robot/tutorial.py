@@ -107,6 +107,10 @@ class TutorialRobot(Robot):
         self.retry_stop = False  # a stop given up in an earlier lap is still owed
         self.pit_clutch_open = False
         self.event: dict | None = None
+        self.pit_plan = None
+        if self.options.laps and not self.options.pit_laps:
+            plan = plan_stops(self.options.laps, self.strategy.fuel_per_lap_l, car.tank_l)
+            self.pit_plan = {"stops": plan.stops, "stint_laps": list(plan.stint_laps)}
         if track.pit is None or car.pit_seg < 0:
             return
         entry = float(track.seg["start_dist_m"][track.pit.entry_seg])
@@ -340,7 +344,7 @@ class TutorialRobot(Robot):
 
     def race_report(self) -> dict:
         events = list(self.pit_events) + ([self.event] if self.event is not None else [])
-        return {"pit_events": events}
+        return {"pit_events": events, "pit_plan": self.pit_plan}
 
     def signals(self) -> dict[str, float]:
         return {"offset_m": self.offset_m}
