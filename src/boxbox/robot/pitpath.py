@@ -24,10 +24,12 @@ plain float arithmetic on lists (offset and slope) precomputed on a 1 m grid.
 from __future__ import annotations
 
 import math
+from functools import cached_property
+from pathlib import Path
 
 import numpy as np
-from scipy.interpolate import CubicHermiteSpline, CubicSpline
 
+from boxbox.cache import cached_array
 from boxbox.model.car import Car
 from boxbox.model.track import LEFT, Track
 
@@ -85,18 +87,24 @@ class PitPath:
         y = [float(entry_offset_m), lane, lane, self.box_offset_m, lane, lane, float(exit_offset_m)]
         self.knots_m: tuple[float, ...] = tuple(x)
         self.knot_offsets_m: tuple[float, ...] = tuple(y)
+        self.kind = kind
         self.exit_m = x[6]
-        if kind == "hermite":
-            self.spline = CubicHermiteSpline(x, y, np.zeros(len(x)))
-        else:
-            self.spline = CubicSpline(x, y, bc_type="clamped")
 
-        # per-step lookup table
+        # per-step lookup tables: offset, slope and bend on a grid, kept in the cache (a race then
+        # needs no scipy import: scipy.interpolate alone takes about a second to load)
         self.grid_m = float(grid_m)
         n = int(math.ceil(self.exit_m / self.grid_m)) + 1
-        s = np.minimum(np.arange(n) * self.grid_m, self.exit_m)
-        self._offsets: list[float] = self.spline(s).tolist()
-        self._slopes: list[float] = self.spline(s, 1).tolist()  # d offset / d s
+        self._grid_s = np.minimum(np.arange(n) * self.grid_m, self.exit_m)
+
+        def tables() -> np.ndarray:
+            sp = self.spline
+            return np.vstack([sp(self._grid_s), sp(self._grid_s, 1), sp(self._grid_s, 2)])
+
+        table = cached_array("pit-paths", [Path(__file__).read_bytes(), repr((kind, self.grid_m, x, y)).encode()],
+                             tables)
+        self._offsets: list[float] = table[0].tolist()
+        self._slopes: list[float] = table[1].tolist()  # d offset / d s
+        self._bends = table[2]  # d2 offset / d s2
         self._n = n
 
         self._track = track
@@ -153,6 +161,16 @@ class PitPath:
         return self.offset_at_s(s)
 
     # --- per track ----------------------------------------------------------------------------
+    @cached_property
+    def spline(self):
+        """The scipy spline through the seven points (built on first use)."""
+        from scipy.interpolate import CubicHermiteSpline, CubicSpline
+
+        x, y = self.knots_m, self.knot_offsets_m
+        if self.kind == "hermite":
+            return CubicHermiteSpline(x, y, np.zeros(len(x)))
+        return CubicSpline(x, y, bc_type="clamped")
+
     def _lane_friction(self, track: Track, car: Car) -> float:
         """Lowest friction the car meets between entry and exit: the main surface, and the side on
         the pit side where that side is wide enough to carry the car (narrow sides are walls/kerbs)."""
@@ -176,10 +194,10 @@ class PitPath:
         d = (np.asarray(s_m, dtype=float) + self.entry_from_start_m) % self.track_length_m
         idx = np.clip(np.searchsorted(track.seg["start_dist_m"], d, side="right") - 1, 0, track.n_segments - 1)
         k_track = track.curvature()[idx]
-        y = self.spline(s_m)
+        y = np.interp(s_m, self._grid_s, self._offsets)
         with np.errstate(divide="ignore", invalid="ignore"):
             k_offset = np.where(np.abs(1.0 - k_track * y) > 1e-6, k_track / (1.0 - k_track * y), 0.0)
-        return k_offset + self.spline(s_m, 2)
+        return k_offset + np.interp(s_m, self._grid_s, self._bends)
 
     def entry_speed_constraints(self, mu: float, g_mps2: float = G_MPS2,
                                 max_speed_mps: float = 100.0) -> list[tuple[float, float]]:

@@ -17,12 +17,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
-import scipy.sparse as sp
-from scipy.ndimage import maximum_filter1d, uniform_filter1d
-from scipy.sparse.linalg import splu
 
+from boxbox.cache import cached_array
 from boxbox.model.track import LEFT, STRAIGHT, Track
 
 TWO_PI = 2.0 * math.pi
@@ -102,12 +101,14 @@ def middle_line(track: Track, step_m: float = 2.0, margin_m: float = 0.0) -> Mid
                       friction=seg["friction"].astype(float)[ids], seg_id=ids, curvature_1pm=k)
 
 
-def _pivot_box_qp(h_csc: sp.csc_matrix, g: np.ndarray, lo: np.ndarray, hi: np.ndarray,
+def _pivot_box_qp(h_csc: "sp.csc_matrix", g: np.ndarray, lo: np.ndarray, hi: np.ndarray,
                   x0: np.ndarray, max_iter: int) -> tuple[np.ndarray, bool]:
     """Block active-set pivoting for min 1/2 x'Hx + g'x, lo <= x <= hi: solve on the free
     variables with the others held at their bounds, pin every free one that overshoots, release
     every pinned one whose gradient points inward, repeat.  Usually done in a handful of sparse
     solves, but it can cycle; returns (x, converged)."""
+    from scipy.sparse.linalg import splu
+
     n = len(g)
     x = np.clip(x0, lo, hi)
     state = np.zeros(n, dtype=np.int8)  # 0 free, -1 at lo, +1 at hi
@@ -147,6 +148,8 @@ def _primal_box_qp(h_csc: sp.csc_matrix, g: np.ndarray, lo: np.ndarray, hi: np.n
     variables; if it leaves the box, go as far as the first bound and pin that variable; else take
     it and release pinned variables whose gradient points inward.  The cost falls at every step,
     so it cannot cycle."""
+    from scipy.sparse.linalg import splu
+
     x = np.clip(x0, lo, hi)
     pinned = (x <= lo) | (x >= hi)
     tol_g = 1e-10 * (float(np.abs(h_csc.diagonal()).max()) or 1.0)
@@ -218,6 +221,10 @@ def _min_curvature_offsets(mid: MiddleLine, iterations: int, peak_cap: float, ca
     is what sets the corner speed.  The middle line itself satisfies the cap when peak_cap >= 1, so
     the problem is always feasible; below 1 the penalty takes what the track width allows.
     """
+    # scipy is imported here only: a cached line needs none of it (and it takes a second to load)
+    import scipy.sparse as sp
+    from scipy.ndimage import maximum_filter1d
+
     n = mid.n
     px, py = mid.x_m[:n], mid.y_m[:n]
     nx, ny = -np.sin(mid.heading_rad[:n]), np.cos(mid.heading_rad[:n])
@@ -304,6 +311,13 @@ def turn_regions(mid: MiddleLine, merge_m: float = 60.0) -> list[np.ndarray]:
     return regions
 
 
+def _moving_average_wrap(a: np.ndarray, win: int) -> np.ndarray:
+    """Centred moving average over an odd window on a closed loop."""
+    half = win // 2
+    padded = np.concatenate((a[-half:], a, a[:half]))
+    return np.convolve(padded, np.full(win, 1.0 / win), mode="valid")
+
+
 class RacingLine:
     """Minimum-curvature line of one track.
 
@@ -318,7 +332,7 @@ class RacingLine:
 
     def __init__(self, track: Track, step_m: float = 2.0, margin_m: float = 1.2, blend: float = 1.0,
                  iterations: int = 12, smooth_m: float = 6.0, peak_cap: float = 0.97,
-                 cap_window_m: float = 60.0) -> None:
+                 cap_window_m: float = 60.0, cache: bool = True) -> None:
         mid = middle_line(track, step_m, margin_m)
         self.middle = mid
         self.blend = float(blend)
@@ -330,7 +344,15 @@ class RacingLine:
         nx, ny = -np.sin(mid.heading_rad[:n]), np.cos(mid.heading_rad[:n])
         lo, hi = -mid.half_right_m[:n], mid.half_left_m[:n]
 
-        self.optimal_offset_m = _min_curvature_offsets(mid, iterations, peak_cap, cap_window_m)
+        def solve() -> np.ndarray:
+            return _min_curvature_offsets(mid, iterations, peak_cap, cap_window_m)
+
+        if cache:  # the optimisation takes seconds; the same track and settings give the same line
+            key = [Path(__file__).read_bytes(), repr((iterations, peak_cap, cap_window_m)).encode(),
+                   *(np.ascontiguousarray(a).tobytes() for a in (mid.x_m, mid.y_m, mid.half_left_m, mid.half_right_m))]
+            self.optimal_offset_m = cached_array("racing-lines", key, solve)
+        else:
+            self.optimal_offset_m = solve()
         off = np.clip(self.blend * self.optimal_offset_m, lo, hi)
         x, y = px + off * nx, py + off * ny
         k_raw, heading, chord = _closed_curvature(x, y)
@@ -338,7 +360,7 @@ class RacingLine:
         # turns (the speed profile then ramps instead of jumping) without overshoot (savgol rings
         # at such steps by ~7 %) and without lowering any turn's plateau longer than the window
         win = max(1, int(round(smooth_m / self.step_m)) | 1)
-        k = uniform_filter1d(k_raw, win, mode="wrap") if 1 < win < n else k_raw
+        k = _moving_average_wrap(k_raw, win) if 1 < win < n else k_raw
         factor = 0.5 * (chord + np.roll(chord, 1)) / self.step_m
 
         def closed(a: np.ndarray, wrap_add: float = 0.0) -> np.ndarray:

@@ -6,17 +6,11 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 
+from boxbox.cache import cache_dir  # noqa: F401  (re-exported: setup and launch use it)
+
 BRIDGE_SOURCE = Path(__file__).parent / "bridge" / "boxbox_bridge.cpp"
 ROBOT_MODULE = "boxbox"  # the name TORCS loads our bridge under
 MAX_PYTHON_CARS = 10  # robot slots in one TORCS module
-
-
-def cache_dir() -> Path:
-    """boxbox's cache: headers, the compiled bridge, overlays.  BOXBOX_CACHE overrides."""
-    if env := os.environ.get("BOXBOX_CACHE"):
-        return Path(env)
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(base) / "boxbox"
 
 
 @dataclass(frozen=True)
