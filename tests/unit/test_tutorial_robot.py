@@ -83,7 +83,7 @@ def line_state(robot: TutorialRobot, dist_m: float, speed_mps: float, yaw_error_
 
 
 def require(condition: bool, what: str) -> None:
-    """A precondition of a test (not its claim): raises RuntimeError, which no xfail below accepts."""
+    """A precondition of a test (not its claim): raises RuntimeError, so a broken setup is not read as a result."""
     if not condition:
         raise RuntimeError(f"test setup: {what}")
 
@@ -285,9 +285,6 @@ def test_drive_is_cheap(name):
 
 # --- bugs ----------------------------------------------------------------------------------------
 
-@pytest.mark.xfail(strict=True, raises=AssertionError, reason="bug: the pit_lookahead_m parameter is never used; _pit_step steers "
-                   "with the constant control.pit_brake.PIT_LOOKAHEAD_M, so --set pit_lookahead_m=... "
-                   "and setup files have no effect")
 def test_pit_lookahead_parameter_changes_the_pit_path_steering():
     steers = []
     for lookahead in (6.0, 30.0):
@@ -360,10 +357,6 @@ def test_overtaking_in_lookahead_mode_stays_on_the_track():
     assert steer * side < 0.15  # the target stays on the track: no hard turn towards the edge
 
 
-@pytest.mark.xfail(strict=True, raises=AssertionError,
-                   reason="bug: with steering = \"line\" (the default) the overtaking offset is added to the "
-                   "racing line's offset without clamping to the track (the lookahead branch clamps it), so "
-                   "passing a car on the far side of the middle aims up to ~half a track width beyond the edge")
 def test_overtaking_in_line_mode_stays_on_the_track():
     steer, side = _pass_a_car_across_the_middle(robot_for(_track_with_the_line_near_an_edge()))
     assert steer * side < 0.15  # the car is at the edge already: do not steer off the track

@@ -42,14 +42,17 @@ def nearby(state: State, length_m: float, track_length_m: float, back_range_m: f
     for o in state.opponents:
         if int(o.car_state) & CAR_STATE_OUT:
             continue
-        d = o.dist_from_start_m - my_dist
+        raw = o.dist_from_start_m - my_dist
+        d = raw
         if d > half:
             d -= track_length_m
         elif d < -half:
             d += track_length_m
         gap = d - length_m if d > 0 else d + length_m
         if -back_range_m < d < front_range_m:
-            out.append(Nearby(d, gap, o.to_middle_m - my_mid, o.speed_mps, int(o.laps - my_laps)))
+            # whole laps between us, counting the start line between the two cars
+            laps_ahead = round(((o.laps - my_laps) * track_length_m + raw - d) / track_length_m)
+            out.append(Nearby(d, gap, o.to_middle_m - my_mid, o.speed_mps, laps_ahead))
     return out
 
 

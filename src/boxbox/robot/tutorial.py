@@ -15,7 +15,7 @@ import math
 from pathlib import Path
 
 from boxbox.control.braking import brake_distance
-from boxbox.control.pit_brake import HOLD, PIT_LOOKAHEAD_M, STOP, PitBrakeFilter
+from boxbox.control.pit_brake import HOLD, STOP, PitBrakeFilter
 from boxbox.control.stop import SpeedTracker
 from boxbox.control.carmodel import CarModel
 from boxbox.control.gears import GearBox
@@ -181,7 +181,7 @@ class TutorialRobot(Robot):
             if not s.in_pit and self.event["stop_time"] is not None and self.event["leave_time"] is None:
                 self.event["leave_time"] = round(s.sim_time_s, 3)
             # steer along the pit path, aiming a short way ahead
-            ahead = dist + PIT_LOOKAHEAD_M + 0.2 * v
+            ahead = dist + self.params.pit_lookahead_m + 0.2 * v
             off = path.offset_at(ahead)
             j = int(ahead / self.step_m) % self.n
             mx, my = self._mid_xy[j]
@@ -254,7 +254,10 @@ class TutorialRobot(Robot):
         # steering
         if p.steering == "line":
             ahead = dist + v * p.line_preview_s
-            line_off = self.line.offset_at(dist) + self.offset_m
+            line_off = self.line.offset_at(dist)
+            if self.offset_m:  # overtaking: shift the line, but never beyond the usable width
+                j = int(dist / self.step_m) % self.n
+                line_off = max(-self._half_right[j], min(self._half_left[j], line_off + self.offset_m))
             heading_error = self.line.heading_at(ahead) - s.yaw_rad
             heading_error = (heading_error + math.pi) % TWO_PI - math.pi
             steer = steer_to_line(heading_error, line_off - s.to_middle_m, self.line.curvature_at(ahead), v,
