@@ -90,19 +90,26 @@ def test_lap_with_spare_margin_raises_the_factor():
     tl = learner(TWO_TURNS)
     changed = drive_lap(tl, {10: 3.0, 12: 1.0, 14: 2.5})  # turn 0, smallest margin 1 m
     assert changed == 1
-    assert tl.turns[0].factor == pytest.approx(1.0 * (1.0 + 0.5 * 0.05 * 1.0))  # 1.025
+    # 1 m of room, 0.5 m of it kept as the target margin: 0.5 m spare
+    assert tl.turns[0].factor == pytest.approx(1.0 * (1.0 + 0.5 * 0.05 * 0.5))
     assert tl.turns[1].factor == 1.0  # not driven: unchanged
     assert tl.turns[1].ceiling == MAX_FACTOR
 
 
 def test_spare_margin_counts_up_to_2_m_and_scales_with_gain():
     tl = learner(TWO_TURNS)
-    drive_lap(tl, {11: 5.0, 26: 0.5})
-    assert tl.turns[0].factor == pytest.approx(1.05)  # 5 m of room counts as 2 m
-    assert tl.turns[1].factor == pytest.approx(1.0 + 0.5 * 0.05 * 0.5)
+    drive_lap(tl, {11: 5.0, 26: 1.5})
+    assert tl.turns[0].factor == pytest.approx(1.05)  # 4.5 m beyond the target margin counts as 2 m
+    assert tl.turns[1].factor == pytest.approx(1.0 + 0.5 * 0.05 * 1.0)
     tl = learner(TWO_TURNS, gain=1.0)
     drive_lap(tl, {11: 1.0})
-    assert tl.turns[0].factor == pytest.approx(1.05)
+    assert tl.turns[0].factor == pytest.approx(1.0 + 0.05 * 0.5)
+
+
+def test_room_within_the_target_margin_holds_the_factor():
+    tl = learner(TWO_TURNS)
+    assert drive_lap(tl, {12: 0.4}) == 0  # on track, but inside the 0.5 m kept to the edge
+    assert tl.turns[0].factor == 1.0
 
 
 def test_zero_margin_changes_nothing():

@@ -90,7 +90,8 @@ def test_nearby_ignores_cars_out_of_the_race():
 
 
 def test_nearby_keeps_a_car_in_its_pit():
-    s = make_state(dist_from_start_m=500.0, opponents=(make_opp(dist_from_start_m=510.0, car_state=float(CAR_STATE_PIT)),))
+    pitted = make_opp(dist_from_start_m=510.0, car_state=float(CAR_STATE_PIT))
+    s = make_state(dist_from_start_m=500.0, opponents=(pitted,))
     assert len(cars_of(s)) == 1
 
 
@@ -314,3 +315,18 @@ def test_lapping_car_behind_across_the_start_line_is_let_past():
         raise RuntimeError("test setup: the car should be 15 m behind")
     assert c.laps_ahead > 0
     assert _overtake(0.0, [c]) == pytest.approx(-0.1)
+
+
+def test_laps_ahead_counts_the_start_line_between_the_cars():
+    # same lap, 15 m ahead of us across the line: its lap counter is one more, but it is not lapping us
+    s = make_state(dist_from_start_m=TRACK_M - 10.0, laps=3.0, opponents=(make_opp(dist_from_start_m=5.0, laps=4.0),))
+    (c,) = cars_of(s)
+    assert c.dist_m == pytest.approx(15.0) and c.laps_ahead == 0
+    # a lap down, 15 m behind us across the line
+    s = make_state(dist_from_start_m=5.0, laps=4.0, opponents=(make_opp(dist_from_start_m=TRACK_M - 10.0, laps=2.0),))
+    (c,) = cars_of(s)
+    assert c.dist_m == pytest.approx(-15.0) and c.laps_ahead == -1
+    # two laps ahead, away from the line
+    s = make_state(dist_from_start_m=500.0, laps=2.0, opponents=(make_opp(dist_from_start_m=480.0, laps=4.0),))
+    (c,) = cars_of(s)
+    assert c.laps_ahead == 2

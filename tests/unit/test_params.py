@@ -169,7 +169,8 @@ def test_invalid_choice_is_a_usage_error(setups, key, value):
 
 
 @pytest.mark.parametrize("key, value", [
-    ("steering", "lookahead"), ("brake_method", "approx"), ("pit_mu_source", "constant"), ("pit_entry_braking", "ahead"),
+    ("steering", "lookahead"), ("brake_method", "approx"), ("pit_mu_source", "constant"),
+    ("pit_entry_braking", "ahead"),
 ])
 def test_valid_choices(setups, key, value):
     p, _ = load_params(CAR, TRACK, {key: value})

@@ -283,7 +283,7 @@ def test_drive_is_cheap(name):
     assert per_call < 200e-6
 
 
-# --- bugs ----------------------------------------------------------------------------------------
+# --- regressions (bugs found by these tests, since fixed) ------------------------------------------
 
 def test_pit_lookahead_parameter_changes_the_pit_path_steering():
     steers = []
@@ -351,7 +351,7 @@ def _track_with_the_line_near_an_edge() -> str:
 
 
 def test_overtaking_in_lookahead_mode_stays_on_the_track():
-    """Reference for the bug below: the lookahead steering clamps the overtaking offset to the track."""
+    """The lookahead steering clamps the overtaking offset to the track (and line steering, below)."""
     robot, _ = build(_track_with_the_line_near_an_edge(), robot_args={"set": {"steering": "lookahead"}})
     steer, side = _pass_a_car_across_the_middle(robot)
     assert steer * side < 0.15  # the target stays on the track: no hard turn towards the edge

@@ -31,11 +31,13 @@ class TurnLearner:
     turns: list[Turn]
     length_m: float
     gain: float = 0.5
+    target_margin_m: float = 0.5  # keep at least this much room to the edge in every turn
     sample_index: list[int] = field(default_factory=list)  # turn index per profile sample, -1 outside
+    last_turn: int = -1  # the turn driven most recently
 
     @classmethod
     def from_limits(cls, limits_mps: list[float], step_m: float, length_m: float, max_speed_mps: float,
-                    gain: float = 0.5) -> "TurnLearner":
+                    gain: float = 0.5, target_margin_m: float = 0.5) -> "TurnLearner":
         """Turns are the runs of samples whose limit is below the top speed."""
         n = len(limits_mps)
         limited = [v < 0.95 * max_speed_mps for v in limits_mps]
@@ -59,7 +61,7 @@ class TurnLearner:
             last = turns[-1]
             last.end_m = first.end_m + length_m
             index = [len(turns) - 1 if t == 0 else (t - 1 if t > 0 else -1) for t in index]
-        return cls(turns=turns, length_m=length_m, gain=gain, sample_index=index)
+        return cls(turns=turns, length_m=length_m, gain=gain, target_margin_m=target_margin_m, sample_index=index)
 
     def factors_per_sample(self) -> list[float]:
         return [self.turns[t].factor if t >= 0 else 1.0 for t in self.sample_index]
@@ -68,11 +70,18 @@ class TurnLearner:
         """One drive step inside the lap: the car's margin to the edge at a profile sample."""
         t = self.sample_index[sample]
         if t >= 0:
+            self.last_turn = t
             turn = self.turns[t]
             if margin_m < turn.min_margin_m:
                 turn.min_margin_m = margin_m
             if damage_up:
                 turn.damaged = True
+        elif self.last_turn >= 0 and (damage_up or margin_m < 0.0):
+            # leaving the track or hitting something on the way out of a turn is that turn's doing
+            turn = self.turns[self.last_turn]
+            turn.damaged |= damage_up
+            if margin_m < turn.min_margin_m:
+                turn.min_margin_m = margin_m
 
     def end_lap(self) -> int:
         """Update every turn from the lap just driven; returns how many factors changed."""
@@ -84,8 +93,10 @@ class TurnLearner:
             if turn.min_margin_m < 0.0 or turn.damaged:
                 turn.ceiling = max(MIN_FACTOR, turn.factor * 0.98)
                 turn.factor = max(MIN_FACTOR, turn.factor * (0.96 if turn.min_margin_m < -1.0 or turn.damaged else 0.98))
-            else:
-                spare = min(turn.min_margin_m, 2.0)
+            elif turn.min_margin_m > self.target_margin_m:
+                # room to spare beyond the margin we keep: take part of it (equilibrium near the target,
+                # not at the edge, where one gust of understeer costs a wall)
+                spare = min(turn.min_margin_m - self.target_margin_m, 2.0)
                 turn.factor = min(turn.ceiling, turn.factor * (1.0 + self.gain * 0.05 * spare))
             turn.min_margin_m = 1e9
             turn.damaged = False

@@ -74,6 +74,7 @@ class TutorialParams:
     # learning
     learning: bool = True
     learn_gain: float = 0.5  # fraction of the spare margin turned into turn-speed grip per lap
+    learn_margin_m: float = 0.5  # room to the track edge the learning keeps in every turn
 
 
 CHOICES = {"steering": ("line", "lookahead"), "brake_method": ("exact", "approx"), "pit_mu_source": ("surface", "constant"),

@@ -72,7 +72,8 @@ class TutorialRobot(Robot):
         self._friction = [float(f) for f in mid.friction[: self.n]]
         self._curv = [abs(k) for k in self.line.curvature_1pm[: self.n].tolist()]
         self.learner = TurnLearner.from_limits(self._limits([1.0] * self.n, self.tyre_model), self.step_m,
-                                               self.line.length_m, p.max_speed_mps, gain=p.learn_gain)
+                                               self.line.length_m, p.max_speed_mps, gain=p.learn_gain,
+                                               target_margin_m=p.learn_margin_m)
         if p.learning and self.options.learning_dir:
             self.learning_file = Path(self.options.learning_dir) / f"{track.name}--{car.name}.json"
             self.learner.load(self.learning_file)
