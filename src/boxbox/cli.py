@@ -132,6 +132,9 @@ def race(track, car, laps, robots, opponents, fuel_laps, pit_laps, pit_mode, jso
     if result.error:
         raise _race_error(result)
     for d in result.drivers:
+        if d.module == "boxbox" and d.laps < laps_n:
+            console.print(f"[yellow]warning:[/] {d.name} did not finish: {d.laps} of {laps_n} laps "
+                          f"(damage {d.damage}, penalty {d.penalty_time:.1f} s)")
         if d.step_us_median is not None:
             console.print(f"[dim]{d.name}: drive step median {d.step_us_median:.1f} us, "
                           f"p99 {d.step_us_p99:.1f} us; run dir {result.run_dir}[/]")

@@ -68,6 +68,7 @@ class TutorialParams:
     pit_mu_source: str = "surface"  # "surface": the pit lane's own friction; "constant": pit_mu
     pit_brake_ahead_m: float = 200.0  # the seed's workaround (used with pit_entry_braking = "ahead")
     pit_entry_braking: str = "computed"  # "computed" from the pit path, or the seed's "ahead"
+    pit_brake_mu_scale: float = 0.65  # braking grip in the pit lane, relative to its surface x tyre friction
     pit_give_up_s: float = 10.0
     pit_stop_threshold_m: float = 0.1  # constant-decel stop: "close enough" to the box centre
     pit_stop_grip_share: float = 0.9  # constant-decel stop: deceleration as a share of the lane's grip

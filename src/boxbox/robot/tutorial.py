@@ -121,12 +121,13 @@ class TutorialRobot(Robot):
         lane_mu = path.surface_friction * mu_tyre
         model = self.tyre_model
         self.pit_path = path
+        self._coast_decel = 2.0 * 0.5 * lane_mu * 9.81  # v^2 = 2 a d with a = half the lane's grip
         self.pit_filter = PitBrakeFilter(
             lambda v1, v2, mu: brake_distance(v1, v2, mu, model, p.brake_method),
             limit_start_m=path.limit_start_m, box_m=path.box_m, limit_end_m=path.limit_end_m,
             speed_limit_mps=path.speed_limit_mps, box_length_m=path.box_length_m,
             pit_mu_source=p.pit_mu_source, pit_mu=lane_mu, pit_mu_factor=p.pit_mu,
-            surface_mu_scale=p.brake_mu_scale,  # brake for the pit as for any turn
+            surface_mu_scale=p.pit_brake_mu_scale,
             entry_mode="computed" if p.pit_entry_braking == "computed" else "ahead",
             brake_ahead_m=p.pit_brake_ahead_m, entry_constraints=path.entry_speed_constraints(lane_mu * 0.9),
             stop_mode=self.options.pit_mode, stop_threshold_m=p.pit_stop_threshold_m,
@@ -190,6 +191,13 @@ class TutorialRobot(Robot):
             steer = steer_to_point(s.x_m, s.y_m, s.yaw_rad, mx + off * nx, my + off * ny, self.car.steer_lock_rad)
         brake = r.brake
         self.pit_clutch_open = r.phase in (STOP, HOLD)
+        if self.stop_wanted and on_path:
+            # no throttle towards the box beyond the speed from which half the grip still stops the
+            # car there: the filter only brakes, so the speed profile would otherwise accelerate
+            # between its full-brake calls (bang-bang) and overshoot the box
+            left = path.box_m - pos
+            if left > 0.0 and v > max(3.0, math.sqrt(self._coast_decel * left)):
+                accel = 0.0
         if r.target_speed_mps is not None:
             if v > r.target_speed_mps:
                 accel = 0.0
