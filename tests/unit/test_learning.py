@@ -220,3 +220,29 @@ def test_load_missing_or_broken_file(tmp_path):
     bad.write_text("{not json")
     assert tl.load(bad) is False
     assert [t.factor for t in tl.turns] == [1.0, 1.0]
+
+
+def drive_lap_on_a_line(tl, errors, margin=0.2):
+    """A lap on a racing line: small margins everywhere (the line uses the width), given line errors."""
+    for i, err in errors.items():
+        tl.observe(i, margin, False, err)
+    return tl.end_lap()
+
+
+def test_holding_the_racing_line_raises_the_factor():
+    tl = learner(TWO_TURNS)
+    assert drive_lap_on_a_line(tl, {11: 0.2, 12: 0.4}) == 1  # within 0.5 m of the line all through
+    assert tl.turns[0].factor == pytest.approx(1.0 + 0.5 * 0.02)
+
+
+def test_fighting_to_stay_near_the_line_lowers_it_and_in_between_holds():
+    tl = learner(TWO_TURNS)
+    drive_lap_on_a_line(tl, {11: 0.2, 12: 1.6, 26: 1.0})
+    assert tl.turns[0].factor == pytest.approx(0.99)  # more than 3 x 0.5 m off the line
+    assert tl.turns[1].factor == 1.0  # between: unchanged
+
+
+def test_line_errors_do_not_override_leaving_the_track():
+    tl = learner(TWO_TURNS)
+    drive_lap_on_a_line(tl, {12: 0.1}, margin=-0.5)
+    assert tl.turns[0].factor == pytest.approx(0.98)

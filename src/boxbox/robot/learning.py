@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 MIN_FACTOR, MAX_FACTOR = 0.8, 1.5
+OFF_MARGIN_M = -0.3  # a wheel this far over the edge counts as leaving the track
 
 
 @dataclass
@@ -23,6 +24,7 @@ class Turn:
     factor: float = 1.0
     ceiling: float = MAX_FACTOR  # lowered when the car went off here
     min_margin_m: float = 1e9  # this lap's smallest distance from the car's side to the edge
+    max_error_m: float = -1.0  # this lap's largest distance from the racing line (-1: not measured)
     damaged: bool = False
 
 
@@ -32,6 +34,7 @@ class TurnLearner:
     length_m: float
     gain: float = 0.5
     target_margin_m: float = 0.5  # keep at least this much room to the edge in every turn
+    steady_error_m: float = 0.5  # on a racing line: within this of the line counts as holding it
     sample_index: list[int] = field(default_factory=list)  # turn index per profile sample, -1 outside
     last_turn: int = -1  # the turn driven most recently
 
@@ -66,14 +69,17 @@ class TurnLearner:
     def factors_per_sample(self) -> list[float]:
         return [self.turns[t].factor if t >= 0 else 1.0 for t in self.sample_index]
 
-    def observe(self, sample: int, margin_m: float, damage_up: bool) -> None:
-        """One drive step inside the lap: the car's margin to the edge at a profile sample."""
+    def observe(self, sample: int, margin_m: float, damage_up: bool, line_error_m: float | None = None) -> None:
+        """One drive step inside the lap: the car's margin to the edge at a profile sample and,
+        for a robot on a racing line, how far it is from that line."""
         t = self.sample_index[sample]
         if t >= 0:
             self.last_turn = t
             turn = self.turns[t]
             if margin_m < turn.min_margin_m:
                 turn.min_margin_m = margin_m
+            if line_error_m is not None and line_error_m > turn.max_error_m:
+                turn.max_error_m = line_error_m
             if damage_up:
                 turn.damaged = True
         elif self.last_turn >= 0 and (damage_up or margin_m < 0.0):
@@ -90,7 +96,7 @@ class TurnLearner:
             before = turn.factor
             if turn.min_margin_m == 1e9:
                 continue  # not driven (pit lane, start)
-            if turn.min_margin_m < 0.0 or turn.damaged:
+            if turn.min_margin_m < OFF_MARGIN_M or turn.damaged:
                 turn.ceiling = max(MIN_FACTOR, turn.factor * 0.98)
                 turn.factor = max(MIN_FACTOR, turn.factor * (0.96 if turn.min_margin_m < -1.0 or turn.damaged else 0.98))
             elif turn.min_margin_m > self.target_margin_m:
@@ -98,7 +104,14 @@ class TurnLearner:
                 # not at the edge, where one gust of understeer costs a wall)
                 spare = min(turn.min_margin_m - self.target_margin_m, 2.0)
                 turn.factor = min(turn.ceiling, turn.factor * (1.0 + self.gain * 0.05 * spare))
+            elif 0.0 <= turn.max_error_m < self.steady_error_m:
+                # a racing line uses the whole width, so the margin says little there; a car that
+                # stayed on its line through the turn had grip to spare
+                turn.factor = min(turn.ceiling, turn.factor * (1.0 + self.gain * 0.02))
+            elif turn.max_error_m > 3.0 * self.steady_error_m:
+                turn.factor = max(MIN_FACTOR, turn.factor * 0.99)  # fought to stay near the line
             turn.min_margin_m = 1e9
+            turn.max_error_m = -1.0
             turn.damaged = False
             changed += turn.factor != before
         return changed

@@ -248,7 +248,8 @@ class TutorialRobot(Robot):
         if self.learner.turns:
             i = int(dist / self.step_m) % self.n
             half_width = 0.5 * self.car.width_m
-            self.learner.observe(i, min(s.to_left_m, s.to_right_m) - half_width, s.damage > self.last_damage)
+            error = abs(s.to_middle_m - self.line.offset_at(dist) - self.offset_m) if p.steering == "line" else None
+            self.learner.observe(i, min(s.to_left_m, s.to_right_m) - half_width, s.damage > self.last_damage, error)
             self.last_damage = s.damage
 
         cars = nearby(s, self.car.length_m, self.track.length_m, p.back_range_m, p.front_range_m) \
