@@ -76,6 +76,21 @@ def max_entry_speed(v2_mps: float, dist_m: float, mu: float, model: CarModel) ->
     return math.sqrt(v2_sq + (c + d * v2_sq) * math.expm1(arg) / d)
 
 
+def max_entry_speed_approx(v2_mps: float, dist_m: float, mu: float, model: CarModel) -> float:
+    """Inverse of brake_distance_approx: v1^2 = v2^2 + 2 s (c + d v2^2)."""
+    if dist_m <= 0.0:
+        return v2_mps
+    c, d = _coefficients(mu, model)
+    v2_sq = v2_mps * v2_mps
+    return math.sqrt(v2_sq + 2.0 * dist_m * max(c + d * v2_sq, 0.0))
+
+
+def entry_speed_function(method: BrakeModel | str = BrakeModel.EXACT):
+    """max_entry_speed for the chosen braking model (for speed profiles)."""
+    method = BrakeModel(method)
+    return max_entry_speed if method is BrakeModel.EXACT else max_entry_speed_approx
+
+
 def brake_distance(
     v1_mps: float, v2_mps: float, mu: float, model: CarModel, method: BrakeModel | str = BrakeModel.EXACT
 ) -> float:

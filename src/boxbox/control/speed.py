@@ -12,7 +12,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from boxbox.control.braking import max_entry_speed
+from boxbox.control.braking import BrakeModel, entry_speed_function
 from boxbox.control.carmodel import G, CarModel
 from boxbox.model.track import STRAIGHT, Track
 
@@ -121,6 +121,7 @@ class SpeedProfile:
         max_speed_mps: float = DEFAULT_MAX_SPEED_MPS,
         curvature_1pm: Sequence[float] | np.ndarray | None = None,
         corner_mu: float | Sequence[float] | np.ndarray | None = None,
+        brake_method: BrakeModel | str = BrakeModel.EXACT,
     ) -> None:
         """curvature_1pm and corner_mu (optional, per sample): share the tyres' grip between
         cornering and braking (friction circle), so the car brakes less where it also turns."""
@@ -140,14 +141,17 @@ class SpeedProfile:
             k = np.abs(np.broadcast_to(np.asarray(curvature_1pm, dtype=float), limit.shape))
             cmu = np.broadcast_to(np.asarray(self.mu if corner_mu is None else corner_mu, dtype=float), limit.shape)
             lateral = (k.tolist(), cmu.tolist())
-        speeds = self._backward_pass(limit.tolist(), self.mu.tolist(), model, self.step_m, lateral)
+        self.brake_method = BrakeModel(brake_method)
+        speeds = self._backward_pass(limit.tolist(), self.mu.tolist(), model, self.step_m, lateral,
+                                     entry_speed_function(self.brake_method))
         self._speeds: list[float] = speeds + [speeds[0]]  # one extra so speed_at can wrap without a branch
         self._inv_step = 1.0 / self.step_m
         self.target_speeds = np.array(speeds)
 
     @staticmethod
     def _backward_pass(limit: list[float], mu: list[float], model: CarModel, step_m: float,
-                       lateral: tuple[list[float], list[float]] | None = None) -> list[float]:
+                       lateral: tuple[list[float], list[float]] | None = None,
+                       max_entry_speed=entry_speed_function(BrakeModel.EXACT)) -> list[float]:
         n = len(limit)
         ca_per_kg = model.ca / model.mass_kg
         speeds = list(limit)

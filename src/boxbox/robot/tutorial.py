@@ -229,7 +229,8 @@ class TutorialRobot(Robot):
         brake_mu = [model.mu * f * p.brake_mu_scale for f in self._friction]
         corner_mu = [model.mu * f * p.mu_scale * g for f, g in zip(self._friction, factors)]
         self.profile = SpeedProfile(limits, brake_mu, model, self.step_m, max_speed_mps=p.max_speed_mps,
-                                    curvature_1pm=self._curv if p.friction_circle else None, corner_mu=corner_mu)
+                                    curvature_1pm=self._curv if p.friction_circle else None, corner_mu=corner_mu,
+                                    brake_method=p.brake_method)
         self.model = model
         method = p.brake_method
         self._brakedist = lambda v1, v2, mu=model.mu: brake_distance(v1, v2, mu, model, method)

@@ -121,3 +121,14 @@ def test_brake_distance_dispatch():
     assert brake_distance(70.0, 25.0, 1.2, RACE_CAR, "approx") == approx
     with pytest.raises(ValueError):
         brake_distance(70.0, 25.0, 1.2, RACE_CAR, "euler")
+
+
+def test_approx_entry_speed_inverts_the_approx_distance_and_is_lower_than_exact():
+    from boxbox.control.braking import max_entry_speed_approx
+
+    model = CarModel(mass_kg=1200.0, ca=3.0, cw=0.45, mu=1.6)
+    for v2, dist in ((20.0, 100.0), (40.0, 50.0), (0.0, 30.0)):
+        v1 = max_entry_speed_approx(v2, dist, 1.6, model)
+        assert brake_distance_approx(v1, v2, 1.6, model) == pytest.approx(dist, rel=1e-9)
+        # the approximation brakes on the lowest deceleration: it allows less entry speed
+        assert v1 < max_entry_speed(v2, dist, 1.6, model)
