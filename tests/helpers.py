@@ -13,8 +13,8 @@ BOXBOX = [sys.executable, "-m", "boxbox.cli"]
 ROBOTS = ROOT / "tests" / "robots"
 
 
-def run_boxbox(*args: str, timeout: float = 120) -> subprocess.CompletedProcess:
-    env = dict(os.environ, COLUMNS="200")
+def run_boxbox(*args: str, timeout: float = 120, env: dict | None = None) -> subprocess.CompletedProcess:
+    env = dict(os.environ, COLUMNS="200", **(env or {}))
     return subprocess.run([*BOXBOX, *args], capture_output=True, text=True, timeout=timeout, env=env, cwd=ROOT)
 
 

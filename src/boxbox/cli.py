@@ -84,15 +84,21 @@ def main_group() -> None:
 @click.option("--json", "json_file", type=click.Path(dir_okay=False, path_type=Path), help="Write results as JSON.")
 @click.option("--step-budget-ms", default="200", show_default=True,
               help="Wall time a robot may take per drive step before the race is stopped.")
+@click.option("--setup-budget-s", default="120", show_default=True,
+              help="Wall time a robot may take in initial_fuel_l, on_track, pit_stop or on_race_end.")
 @click.option("--set", "settings", multiple=True, metavar="KEY=VALUE",
               help="Override a parameter of the boxbox robot (see `boxbox params`). Repeatable.")
 @click.option("--learning", type=click.Choice(["on", "off", "fresh"]), default="on", show_default=True,
               help="Robots' learned data: keep and use it, ignore it, or start from nothing (and keep that).")
 @click.option("--run-dir", type=click.Path(file_okay=False, path_type=Path),
               help="Keep this race's files here (default: a new folder under the cache).")
+@click.option("--no-telemetry", is_flag=True,
+              help="Do not record telemetry (RUN_DIR/telemetry.parquet: every drive step of the Python cars).")
+@click.option("--report", "report_dir", type=click.Path(file_okay=False, path_type=Path),
+              help="Write the race report (report.html, see `boxbox report`) into this folder.")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
 def race(track, car, laps, robots, opponents, fuel_laps, pit_laps, pit_mode, json_file, step_budget_ms, settings,
-         learning, run_dir, quiet) -> None:
+         learning, run_dir, quiet, no_telemetry=False, report_dir=None, setup_budget_s="120") -> None:
     """Run one race in TORCS (console mode) and print the results."""
     from boxbox.report.tables import results_table
     from boxbox.robot.base import RaceOptions
@@ -101,6 +107,7 @@ def race(track, car, laps, robots, opponents, fuel_laps, pit_laps, pit_mode, jso
 
     laps_n = _parse_laps(laps)
     budget = _parse_float("--step-budget-ms", step_budget_ms, 1)
+    setup_budget = _parse_float("--setup-budget-s", setup_budget_s, 0.1)
     from boxbox.robot.params import parse_set
 
     options = RaceOptions(fuel_laps=_parse_float("--fuel-laps", fuel_laps, 0.01),
@@ -122,13 +129,22 @@ def race(track, car, laps, robots, opponents, fuel_laps, pit_laps, pit_mode, jso
     opp = [catalog.parse_opponent(o) for o in opponents.split(",") if o.strip()]
     if options.pit_laps and not catalog.has_pit_lane(track):
         raise UsageError(f"track '{track}' has no pit lane, so --pit-laps cannot be met; choose a track with pits")
+    _check_output_file("--json", json_file)
     overlay = _ready()
     cfg = launch.RaceConfig(track=track, category=category, car=car, laps=laps_n, robots=specs, robot_names=names,
-                            opponents=opp, options=options, step_budget_ms=int(budget), run_dir=run_dir)
+                            opponents=opp, options=options, step_budget_ms=int(budget), run_dir=run_dir,
+                            setup_budget_ms=int(setup_budget * 1000),
+                            telemetry=not no_telemetry)
     result = _run_with_progress(cfg, overlay, quiet)
     out.print(results_table(result))
     if json_file:
-        json_file.write_text(json.dumps(result.to_json(), indent=1))
+        from boxbox.files import write_json_atomic
+
+        write_json_atomic(json_file, result.to_json(), indent=1)  # whole, even with a race at once on it
+    if report_dir is not None:  # also for a race stopped by a fault: its partial telemetry is the point
+        from boxbox.report.race_report import write_report
+
+        console.print(f"report: {write_report(Path(result.run_dir), report_dir / 'report.html')}")
     if result.error:
         raise _race_error(result)
     for d in result.drivers:
@@ -138,6 +154,12 @@ def race(track, car, laps, robots, opponents, fuel_laps, pit_laps, pit_mode, jso
         if d.step_us_median is not None:
             console.print(f"[dim]{d.name}: drive step median {d.step_us_median:.1f} us, "
                           f"p99 {d.step_us_p99:.1f} us; run dir {result.run_dir}[/]")
+
+
+def _check_output_file(name: str, path: Path | None) -> None:
+    """The folder of an output file must exist before the race, not only after it."""
+    if path is not None and not path.resolve().parent.is_dir():
+        raise UsageError(f"{name} {path}: folder {path.resolve().parent} does not exist")
 
 
 def _learning_dir(mode: str, track: str, car: str) -> str | None:
@@ -154,12 +176,13 @@ def _learning_dir(mode: str, track: str, car: str) -> str | None:
 
 
 def _race_error(result):
-    from boxbox.errors import RaceError
+    from boxbox.errors import Interrupted, RaceError
+    from boxbox.torcs.launch import INTERRUPTED
 
     first, _, rest = result.error.partition("\n")
     if rest:
         console.print(rest, markup=False, highlight=False)
-    return RaceError(first)
+    return Interrupted(first) if result.error == INTERRUPTED else RaceError(first)
 
 
 def _run_with_progress(cfg, overlay, quiet: bool):
@@ -338,9 +361,22 @@ def robots_cmd() -> None:
 
 from boxbox.report.bench_cli import bench
 main_group.add_command(bench)
+from boxbox.report.report_cli import bench_telemetry, report_cmd  # noqa: E402
+main_group.add_command(report_cmd)
+main_group.add_command(bench_telemetry)
+from boxbox.report.reliability_cli import soak, sweep  # noqa: E402
+main_group.add_command(sweep)
+main_group.add_command(soak)
+
+
+def _sigterm_as_interrupt(signum, frame) -> None:
+    raise KeyboardInterrupt  # a race stops as on Ctrl-C: TORCS stopped, results so far written
 
 
 def main() -> None:
+    import signal
+
+    signal.signal(signal.SIGTERM, _sigterm_as_interrupt)
     try:
         main_group.main(standalone_mode=False)
     except click.exceptions.Exit as exc:

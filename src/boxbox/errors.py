@@ -23,3 +23,9 @@ class RaceError(BoxboxError):
     """The race did not finish properly: a robot fault, TORCS dying, a timeout."""
 
     exit_code = 4
+
+
+class Interrupted(RaceError):
+    """The race was stopped by Ctrl-C or SIGTERM (its results so far are still written)."""
+
+    exit_code = 130

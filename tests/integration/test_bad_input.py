@@ -30,6 +30,7 @@ CASES = [
     (["--track", "mixed-2", "--laps", "5", "--pit-laps", "2"], "track 'mixed-2' has no pit lane"),
     (["--set", "mu_scal=1"], "unknown parameter 'mu_scal' (did you mean mu_scale?)"),
     (["--set", "mu_scale=fast"], "mu_scale must be a float"),
+    (["--run-dir", "/proc/boxbox-no-such/run"], "run dir /proc/boxbox-no-such/run cannot be made"),
 ]
 
 
@@ -42,3 +43,45 @@ def test_bad_input_one_line_exit_2(args, message):
     assert lines[0].startswith("boxbox: error: ")
     assert message in lines[0], lines[0]
     assert proc.stdout == ""
+
+
+def test_bad_input_starts_nothing(tmp_path):
+    """The checks come before any race: no run folder is even made."""
+    run_dir = tmp_path / "run"
+    proc = run_boxbox("race", "--track", "g-trak-1", "--run-dir", str(run_dir), timeout=30)
+    assert proc.returncode == 2 and not run_dir.exists()
+
+
+def test_json_file_in_a_missing_folder(tmp_path):
+    proc = run_boxbox("race", "--json", str(tmp_path / "no" / "such" / "r.json"), timeout=30)
+    assert proc.returncode == 2
+    [line] = proc.stderr.strip().splitlines()
+    assert line.startswith("boxbox: error: --json") and "does not exist" in line
+
+
+SETUP_CASES = [
+    # (file under the setups folder, its text, the message)
+    ("default.toml", "mu_scal = 0.7\n", "unknown parameter 'mu_scal' (did you mean mu_scale?)"),
+    ("default.toml", 'mu_scale = "fast"\n', "mu_scale must be a float, got 'fast'"),
+    ("default.toml", "mu_scale = \n", "not valid TOML"),
+    ("car1-trb1/default.toml", "learning = 1\n", "learning must be a bool, got 1"),
+    ("car1-trb1/g-track-1.toml", 'steering = "sideways"\n', "steering must be one of line, lookahead"),
+]
+
+
+@pytest.mark.parametrize("name,text,message", SETUP_CASES, ids=[f"{n}:{t.strip()}" for n, t, _ in SETUP_CASES])
+def test_bad_setup_file_one_line_exit_2(name, text, message, tmp_path):
+    """The boxbox robot's TOML setup files (BOXBOX_SETUPS points at a test folder) are checked
+    before TORCS starts: one line naming the file, exit 2, no run folder made."""
+    setups = tmp_path / "setups"
+    (setups / name).parent.mkdir(parents=True)
+    (setups / name).write_text(text)
+    run_dir = tmp_path / "run"
+    for command in (["race", "--track", "g-track-1", "--run-dir", str(run_dir)],
+                    ["bench", "--tracks", "g-track-1", "--robots", "boxbox"]):
+        proc = run_boxbox(*command, timeout=30, env={"BOXBOX_SETUPS": str(setups)})
+        assert proc.returncode == 2, (command, proc.stderr)
+        lines = proc.stderr.strip().splitlines()
+        assert len(lines) == 1 and lines[0].startswith("boxbox: error: "), proc.stderr
+        assert message in lines[0] and str(setups / name) in lines[0], lines[0]
+    assert not run_dir.exists()

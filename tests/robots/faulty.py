@@ -2,7 +2,9 @@
 
 import os
 import signal
+import sys
 import time
+from pathlib import Path
 
 from boxbox import Controls, PitOrder, Robot
 from boxbox.robot.simple import MiddleRobot
@@ -142,3 +144,77 @@ class OvershootsTheBoxOnce(TutorialRobot):
                                 clutch=0.0, gear=max(1, c.gear), pit_request=True)
             self.pushed = self.pushing
         return c
+
+
+class HangsInOnTrack(MiddleRobot):
+    def on_track(self, track, car):
+        while True:
+            time.sleep(1)
+
+
+def torcs_pid() -> int:
+    """The TORCS process of this race: the host is its sibling, started as
+    `python -m boxbox.torcs.host RUN_DIR/host-spec.json`; TORCS runs `-r RUN_DIR/race.xml`."""
+    race_file = str(Path(sys.argv[-1]).parent / "race.xml")
+    for pid in os.listdir("/proc"):
+        if not pid.isdigit():
+            continue
+        try:
+            args = Path(f"/proc/{pid}/cmdline").read_bytes().decode(errors="replace").split("\0")
+        except OSError:
+            continue
+        if race_file in args and any(a.endswith("torcs-bin") for a in args):
+            return int(pid)
+    raise RuntimeError(f"no TORCS process found for {race_file}")
+
+
+class KillsTorcs(MiddleRobot):
+    def drive(self, state):
+        if state.sim_time_s > 1.0:
+            os.kill(torcs_pid(), signal.SIGKILL)
+        return super().drive(state)
+
+
+class LateFault(MiddleRobot):
+    """Drives lap 1, then fails 2 s into lap 2 in the way its subclass says."""
+
+    def drive(self, state):
+        if state.laps >= 2 and state.cur_lap_time_s > 2.0:
+            return self.fail(state) or super().drive(state)
+        return super().drive(state)
+
+    def fail(self, state):
+        raise NotImplementedError
+
+
+class RaisesInLapTwo(LateFault):
+    def fail(self, state):
+        raise RuntimeError("late failure")
+
+
+class HangsInLapTwo(LateFault):
+    def fail(self, state):
+        while True:
+            time.sleep(1)
+
+
+class KillsItselfInLapTwo(LateFault):
+    def fail(self, state):
+        os.kill(os.getpid(), signal.SIGKILL)
+
+
+class KillsTorcsInLapTwo(LateFault):
+    killed = False
+
+    def fail(self, state):
+        if not self.killed:
+            self.killed = True
+            os.kill(torcs_pid(), signal.SIGKILL)
+
+
+class Slow(MiddleRobot):
+    """Well within its step budget, but slow enough (1 ms a step) that a race lasts a while."""
+
+    def drive(self, state):
+        time.sleep(0.001)
+        return super().drive(state)

@@ -34,6 +34,7 @@ from rich.table import Table
 
 import boxbox
 from boxbox.errors import UsageError
+from boxbox.files import write_json_atomic
 from boxbox.report.tables import fmt_time
 from boxbox.robot.base import RaceOptions
 from boxbox.robot.loader import BUILTIN, load_robot_class
@@ -45,7 +46,8 @@ from boxbox.torcs.setup import Overlay
 CACHE_FORMAT = 1
 LEARNING_MODES = ("fresh", "on", "off")
 ROW_FIELDS = ["track", "car", "robot", "name", "laps", "time", "best_lap", "damage", "pit_stops", "penalty",
-              "wall_s", "error", "cached", "gap_to_best_s", "category", "car_driven", "rank", "run_dir"]
+              "wall_s", "error", "cached", "gap_to_best_s", "category", "car_driven", "rank", "run_dir",
+              "stuck_s", "longest_stuck_s", "off_track_s"]
 
 
 # --- inputs ------------------------------------------------------------------------------------
@@ -301,7 +303,7 @@ class BenchResult:
                 "wall_s": round(self.wall_s, 3), "raced": self.raced, "cached": self.cached, "rows": self.rows}
 
     def write_json(self, path: Path | str) -> None:
-        Path(path).write_text(json.dumps(self.to_json(), indent=1))
+        write_json_atomic(path, self.to_json(), indent=1)
 
     def write_csv(self, path: Path | str) -> None:
         with open(path, "w", newline="") as f:
@@ -498,7 +500,9 @@ def _row(track: str, car: str, robot: _Robot, job: RaceJob, result: RaceResult |
             "pit_stops": d.pit_stops if d else 0, "penalty": d.penalty_time if d else 0.0,
             "wall_s": result.wall_s if result else 0.0, "error": error, "cached": cached, "gap_to_best_s": None,
             "category": job.category, "car_driven": car_driven, "rank": d.rank if d else 0,
-            "run_dir": result.run_dir if result else ""}
+            "run_dir": result.run_dir if result else "",
+            "stuck_s": d.stuck_s if d else None, "longest_stuck_s": d.longest_stuck_s if d else None,
+            "off_track_s": d.off_track_s if d else None, "lap_times": list(d.lap_times) if d else []}
 
 
 def run_bench(spec: BenchSpec, overlay: Overlay, console: Console | None = None) -> BenchResult:

@@ -67,5 +67,19 @@ class Robot:
         return {}
 
     def signals(self) -> dict[str, float]:
-        """Named values to record in telemetry this step (override to add your own)."""
+        """Named values to record in telemetry this step (override to add your own).  The simple way:
+        the default `telemetry_fields`/`telemetry` use it, building a dict each step.  Keep the keys
+        the same every step."""
         return {}
+
+    def telemetry_fields(self) -> tuple[str, ...]:
+        """Names of the values `telemetry` returns, asked once after `on_track` (fixed for the race).
+        A value named 'target_speed_mps' fills the telemetry's target speed column; the others become
+        `sig_<name>` columns.  Default: the keys of `signals()`; () records no robot values."""
+        return tuple(self.signals())
+
+    def telemetry(self, state: State) -> tuple[float, ...]:
+        """This step's values in `telemetry_fields` order, called after every `drive` while telemetry
+        is recorded.  It runs inside the drive step: keep it cheap (return a tuple of numbers).
+        Default: the values of `signals()`."""
+        return tuple(self.signals().values())

@@ -122,9 +122,9 @@ class TurnLearner:
         data = {"track": track, "car": car,
                 "turns": [{"start_m": round(t.start_m, 1), "end_m": round(t.end_m, 1), "factor": round(t.factor, 4),
                            "ceiling": round(t.ceiling, 4)} for t in self.turns]}
-        tmp = path.with_suffix(".tmp")
-        tmp.write_text(json.dumps(data, indent=1))
-        tmp.replace(path)
+        from boxbox.files import write_json_atomic
+
+        write_json_atomic(path, data, indent=1)  # a unique temporary file: races at once may save together
 
     def load(self, path: Path) -> bool:
         """Take the factors of turns that start within 10 m of a stored one."""

@@ -3,12 +3,14 @@
 Overrides come from TOML files next to the robot, like TORCS setup files, applied in order:
   setups/default.toml, setups/<car>/default.toml, setups/<car>/<track>.toml
 then `--set key=value` on the command line.  Unknown keys and wrong types are errors.
+The environment variable BOXBOX_SETUPS points at another setups folder (tests use it).
 `boxbox params --track T --car C` prints the effective values and where each came from.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import os
 import tomllib
 from dataclasses import dataclass, fields
 from pathlib import Path
@@ -16,6 +18,12 @@ from pathlib import Path
 from boxbox.errors import UsageError
 
 SETUPS = Path(__file__).parent / "setups"
+
+
+def setups_dir() -> Path:
+    """$BOXBOX_SETUPS, else the setups folder next to the robot."""
+    env = os.environ.get("BOXBOX_SETUPS")
+    return Path(env) if env else SETUPS
 
 
 @dataclass(frozen=True)
@@ -122,7 +130,8 @@ def parse_set(items: tuple[str, ...] | list[str]) -> dict:
 
 
 def setup_files(car: str, track: str) -> list[Path]:
-    return [SETUPS / "default.toml", SETUPS / car / "default.toml", SETUPS / car / f"{track}.toml"]
+    root = setups_dir()
+    return [root / "default.toml", root / car / "default.toml", root / car / f"{track}.toml"]
 
 
 def load_params(car: str, track: str, overrides: dict | None = None) -> tuple[TutorialParams, dict[str, str]]:
@@ -135,6 +144,8 @@ def load_params(car: str, track: str, overrides: dict | None = None) -> tuple[Tu
                 data = tomllib.loads(path.read_text())
             except tomllib.TOMLDecodeError as exc:
                 raise UsageError(f"{path}: not valid TOML: {exc}") from None
+            except (OSError, UnicodeDecodeError) as exc:
+                raise UsageError(f"{path}: cannot be read: {exc}") from None
             _apply(values, data, str(path), sources)
     _apply(values, overrides or {}, "--set", sources)
     return TutorialParams(**values), sources

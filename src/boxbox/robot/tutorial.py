@@ -15,7 +15,7 @@ import math
 from pathlib import Path
 
 from boxbox.control.braking import brake_distance
-from boxbox.control.pit_brake import HOLD, STOP, PitBrakeFilter
+from boxbox.control.pit_brake import ENTRY, EXIT, FREE, GAVE_UP, HOLD, LANE, LIMIT, STOP, PitBrakeFilter
 from boxbox.control.stop import SpeedTracker
 from boxbox.control.carmodel import CarModel
 from boxbox.control.gears import GearBox
@@ -32,6 +32,8 @@ from boxbox.robot.racingline import RacingLine
 from boxbox.robot.strategy import PitStrategy, plan_stops
 
 TWO_PI = 2.0 * math.pi
+# the pit brake filter's phase as a number for telemetry (0: no pit business)
+PIT_PHASE_CODES = {None: 0, FREE: 0, ENTRY: 1, LIMIT: 2, LANE: 3, STOP: 4, HOLD: 5, EXIT: 6, GAVE_UP: 7}
 STEP_S = 0.02
 
 
@@ -88,6 +90,7 @@ class TutorialRobot(Robot):
                                   length_margin_m=p.length_margin_m, side_margin_m=p.side_margin_m,
                                   overtake_step_m=p.overtake_step_m)
         self.offset_m = 0.0
+        self.target_mps = 0.0  # the speed profile's target the last drive step used
         self.stuck_steps = 0
         self.reversing = False
         self.laps_seen = 0
@@ -108,6 +111,7 @@ class TutorialRobot(Robot):
         self.retry_stop = False  # a stop given up in an earlier lap is still owed
         self.pit_clutch_open = False
         self.event: dict | None = None
+        self.pit_phase: str | None = None  # the pit brake filter's phase this step (telemetry)
         self.pit_plan = None
         if self.options.laps and not self.options.pit_laps:
             plan = plan_stops(self.options.laps, self.strategy.fuel_per_lap_l, car.tank_l)
@@ -290,6 +294,7 @@ class TutorialRobot(Robot):
 
         # speed: the profile says how fast we may be here
         target = self.profile.speed_at(dist + v * p.speed_lookahead_s)
+        self.target_mps = target  # for telemetry
         if v > target:
             brake = min(1.0, (v - target) / p.brake_band_mps)
             accel = 0.0
@@ -300,6 +305,7 @@ class TutorialRobot(Robot):
         pit_request = False
         if self.pit_path is not None:
             brake, accel, steer, phase = self._pit_step(s, v, brake, accel, steer)
+            self.pit_phase = phase
             pit_request = self.stop_wanted
         if cars:
             brake = collision_brake(brake, v, cars, self.car.width_m, self.opp, self._brakedist)
@@ -362,3 +368,12 @@ class TutorialRobot(Robot):
 
     def signals(self) -> dict[str, float]:
         return {"offset_m": self.offset_m}
+
+    def telemetry_fields(self) -> tuple[str, ...]:
+        return ("target_speed_mps", "pit_phase", "offset_m", "reversing")
+
+    def telemetry(self, s: State) -> tuple[float, ...]:
+        """The target speed drive() used (the speed profile speed_lookahead_s ahead of the car), the
+        pit phase code (PIT_PHASE_CODES), the overtaking offset and 1 while reversing out of a stuck
+        position.  Values drive() stored: nothing is computed here."""
+        return (self.target_mps, PIT_PHASE_CODES.get(self.pit_phase, -1), self.offset_m, self.reversing)

@@ -22,13 +22,20 @@ from time import perf_counter_ns
 
 import numpy as np
 
+from boxbox.files import write_json_atomic
 from boxbox.model import Car, Controls, Opponent, PitLane, PitOrder, State, Track
+from boxbox.model.state import CAR_STATE_OUT, CAR_STATE_PIT
+from boxbox.model.track import LEFT
 from boxbox.robot.base import RaceOptions, Robot
 from boxbox.robot.loader import load_robot_class
 from boxbox.torcs import wire
+from boxbox.torcs.telemetry import FILE_NAME as TELEMETRY_FILE, Recorder, write_telemetry
 
 STATE_SIZE = wire.STATE_REC.size
 OPP_SIZE = wire.OPPONENT_REC.size
+STEP_S = 0.02  # TORCS calls a robot's drive every 0.02 s of simulated time
+STUCK_SPEED_MPS = 1.0  # slower than this outside the pit counts as stuck
+MAX_STEP_SAMPLES = 1 << 16  # step times kept per car: every step up to this, then every 2nd, 4th...
 
 
 @dataclass
@@ -43,9 +50,19 @@ class Slot:
     max_gear: int = 6
     laps_seen: int = 0
     lap_times: list[float] = field(default_factory=list)
-    step_ns: array = field(default_factory=lambda: array("q"))
+    step_ns: array = field(default_factory=lambda: array("q"))  # a sample of the step times (see record_step_time)
+    steps_timed: int = 0
+    step_stride: int = 1
     chunks: list[bytes] = field(default_factory=list)
     last_state: State | None = None
+    # incidents, in drive steps (see watch_step)
+    stuck_steps: int = 0
+    stuck_run: int = 0
+    longest_stuck_steps: int = 0
+    off_track_steps: int = 0
+    pit_zone: bytes = b""  # 1 per segment between pit entry and exit
+    recorder: Recorder | None = None  # telemetry (None: not recorded)
+    rec: Recorder | None = None  # the recorder while recording (the drive step's check), else None
     start_fuel_l: float | None = None
 
 
@@ -87,6 +104,62 @@ def complete_car(car: Car, payload: bytes) -> None:
     car.gear_ratios = tuple(r[f"gear_ratio_{i}"] for i in range(car.gear_count))
 
 
+def pit_zone(track: Track | None) -> bytes:
+    """1 for each segment from the pit entry to the pit exit (where the pit lane runs beside the track)."""
+    if track is None or track.pit is None:
+        return b""
+    n = track.n_segments
+    zone = bytearray(n)
+    entry, exit_ = track.pit.entry_seg % n, track.pit.exit_seg % n
+    i = entry
+    for _ in range(n):
+        zone[i] = 1
+        if i == exit_:
+            break
+        i = (i + 1) % n
+    return bytes(zone)
+
+
+def watch_step(slot: Slot, state: State) -> None:
+    """Count a drive step stuck (slower than 1 m/s) or off the track (the car's centre beyond an
+    edge), outside the pit: captured in the box, or in the pit lane beside the pit zone, is neither."""
+    if int(state.car_state) & (CAR_STATE_PIT | CAR_STATE_OUT):
+        slot.stuck_run = 0
+        return
+    left, right = state.to_left_m, state.to_right_m
+    if left < 0.0 or right < 0.0:
+        seg = int(state.seg_id)
+        if slot.pit_zone and 0 <= seg < len(slot.pit_zone) and slot.pit_zone[seg] and \
+                (left < 0.0 if slot.track.pit.side == LEFT else right < 0.0):
+            slot.stuck_run = 0
+            return  # in the pit lane
+        slot.off_track_steps += 1
+    if math.hypot(state.speed_x_mps, state.speed_y_mps) < STUCK_SPEED_MPS and state.sim_time_s > 0.0:
+        slot.stuck_steps += 1
+        slot.stuck_run += 1
+        if slot.stuck_run > slot.longest_stuck_steps:
+            slot.longest_stuck_steps = slot.stuck_run
+    else:
+        slot.stuck_run = 0
+
+
+def record_step_time(slot: Slot, ns: int) -> None:
+    """Keep the step times in bounded memory: all of them up to MAX_STEP_SAMPLES, then an evenly
+    spaced sample over the whole race (thinned by half, stride doubled, whenever it fills up)."""
+    slot.steps_timed += 1
+    if slot.steps_timed % slot.step_stride == 0:
+        slot.step_ns.append(ns)
+        if len(slot.step_ns) >= MAX_STEP_SAMPLES:
+            del slot.step_ns[1::2]
+            slot.step_stride *= 2
+
+
+def incidents(slot: Slot) -> dict:
+    return {"stuck_s": round(slot.stuck_steps * STEP_S, 2),
+            "longest_stuck_s": round(slot.longest_stuck_steps * STEP_S, 2),
+            "off_track_s": round(slot.off_track_steps * STEP_S, 2)}
+
+
 class Host:
     def __init__(self, spec: dict) -> None:
         self.spec = spec
@@ -98,6 +171,10 @@ class Host:
         for entry in spec["robots"]:
             cls = load_robot_class(entry["spec"])
             self.slots.append(Slot(robot=cls(options), spec=entry["spec"], name=entry["name"]))
+        if spec.get("telemetry", True):
+            for i, slot in enumerate(self.slots):
+                slot.rec = slot.recorder = Recorder(i, slot.name, slot.spec)
+        self.alternate = bool(spec.get("telemetry_alternate"))  # bench-telemetry: record odd laps only
         self.other_laps: dict[int, list[float]] = {}
         self._other_seen: dict[int, int] = {}
         self.fault: RobotFault | None = None
@@ -136,8 +213,12 @@ class Host:
         controls_rec = wire.CONTROLS_REC.pack_into
         make_state = State._make
         make_opp = Opponent._make
-        out = self.out
-        out_view = memoryview(out)[: wire.HEADER.size + wire.CONTROLS_REC.size]
+        # the CONTROLS reply is packed into buf right after the state record (over the opponents,
+        # decoded by then), so that telemetry records a step with one copy: state, header, controls
+        reply_at = wire.HEADER.size + STATE_SIZE
+        reply_view = memoryview(buf)[reply_at: reply_at + wire.HEADER.size + wire.CONTROLS_REC.size]
+        row_view = memoryview(buf)[wire.HEADER.size: reply_at + wire.HEADER.size + wire.CONTROLS_REC.size]
+        state_view = row_view[:STATE_SIZE]
         pack_header = wire.HEADER.pack_into
         hsize = wire.HEADER.size
         slots = self.slots
@@ -161,6 +242,7 @@ class Host:
                     opps = ()
                 state = make_state(vals + (opps,))
                 slot.last_state = state
+                watch_step(slot, state)
                 if step == 1:
                     slot.start_fuel_l = state.fuel_l
                 if vals[29] != slot.laps_seen:  # laps
@@ -179,10 +261,19 @@ class Host:
                                                     f"t={state.sim_time_s:.2f} s)", traceback.format_exc())
                     self._fail(conn, slot, robot, step, "drive", fault, wire.CONTROLS)
                     continue
-                pack_header(out, 0, wire.CONTROLS, robot, step, 0)
-                controls_rec(out, hsize, c.steer, c.accel, c.brake, c.clutch, c.gear, 1.0 if c.pit_request else 0.0)
-                conn.send(out_view)
-                slot.step_ns.append(perf_counter_ns() - t0)
+                pack_header(buf, reply_at, wire.CONTROLS, robot, step, 0)
+                controls_rec(buf, reply_at + hsize, c.steer, c.accel, c.brake, c.clutch, c.gear,
+                             1.0 if c.pit_request else 0.0)
+                conn.send(reply_view)
+                rec = slot.rec
+                if rec is not None:
+                    rec.rows += row_view
+                    if rec.tel is not None:
+                        try:
+                            rec.sig_append(rec.tel(state))
+                        except Exception as exc:
+                            rec.drop_signals(exc)
+                record_step_time(slot, perf_counter_ns() - t0)
             elif kind == wire.NEW_TRACK:
                 slot = slots[robot]
                 slot.chunks.append(bytes(buf[hsize:n]))
@@ -204,15 +295,20 @@ class Host:
                 slot = slots[robot]
                 complete_car(slot.car, bytes(buf[hsize:n]))
                 slot.max_gear = slot.car.max_gear
+                slot.pit_zone = pit_zone(slot.track)
                 try:
                     self._call(slot, robot, step, "on_track", slot.robot.on_track, slot.track, slot.car)
                 except RobotFault as fault:
                     self._fail(conn, slot, robot, step, "on_track", fault, wire.ACK)
                     continue
+                if slot.recorder is not None:
+                    slot.recorder.start(slot.robot)
                 self._reply(conn, wire.ACK, robot, step)
             elif kind == wire.PIT_CMD:
                 slot = slots[robot]
                 state = make_state(state_rec(buf, hsize) + ((),))
+                if slot.rec is not None:  # the stop itself: TORCS drives no car it holds in the pit
+                    slot.rec.add(bytes(state_view), state)
                 try:
                     order = self._call(slot, robot, step, "pit_stop", slot.robot.pit_stop, state)
                     problem = order.problem() if type(order) is PitOrder else f"pit_stop() returned {type(order).__name__}, not PitOrder"
@@ -243,9 +339,24 @@ class Host:
 
     def _lap(self, slot: Slot, state: State) -> None:
         laps = int(state.laps)
+        if self.alternate:
+            self._alternate(slot, laps)
         if laps > slot.laps_seen and slot.laps_seen >= 1 and state.last_lap_time_s > 0:
             slot.lap_times.append(state.last_lap_time_s)
+            self._save_progress()
         slot.laps_seen = max(slot.laps_seen, laps)
+
+    def _save_progress(self) -> None:
+        """Lap times so far, once per lap, so a host that is killed or hangs loses none of them."""
+        cars = [{"robot_index": i, "robot": s.spec, "name": s.name,
+                 "car_index": s.car.car_index if s.car else None, "lap_times": s.lap_times,
+                 "steps": s.steps_timed, "start_fuel_l": s.start_fuel_l, "step_us_median": None,
+                 "step_us_p99": None, "report": {}, **incidents(s)} for i, s in enumerate(self.slots)]
+        try:
+            write_json_atomic(self.run_dir / "host-progress.json",
+                              {"cars": cars, "other_lap_times": {str(k): v for k, v in self.other_laps.items()}})
+        except OSError:
+            pass  # only a safety copy: host.json at the end has it all
 
     def _track_other_laps(self, opps: tuple[Opponent, ...]) -> None:
         seen = self._other_seen
@@ -257,6 +368,32 @@ class Host:
                 if before >= 1 and o.last_lap_time_s > 0:
                     self.other_laps.setdefault(idx, []).append(o.last_lap_time_s)
                 seen[idx] = laps
+
+    def _alternate(self, slot: Slot, lap: int) -> None:
+        """bench-telemetry: record odd laps only, and keep each whole lap's step median (from lap 2:
+        lap 1 holds the start) with whether it was recorded, so one race compares both."""
+        rec = slot.recorder
+        if rec is None or lap == rec.alt_lap:
+            return
+        if rec.alt_lap >= 2 and slot.step_stride == 1:  # step_ns still holds every step
+            part = sorted(slot.step_ns[rec.alt_mark:])
+            if part:
+                rec.lap_step_us.append((rec.alt_lap, slot.rec is not None, part[len(part) // 2] / 1000))
+        rec.alt_lap, rec.alt_mark = lap, len(slot.step_ns)
+        slot.rec = rec if lap % 2 == 1 else None
+
+    def write_telemetry(self) -> None:
+        """RUN_DIR/telemetry.parquet from what was recorded, also after a fault; never raises."""
+        recorders = [s.recorder for s in self.slots if s.recorder is not None]
+        if not recorders:
+            return
+        try:
+            track = next((s.track for s in self.slots if s.track is not None), None)
+            write_telemetry(self.run_dir / TELEMETRY_FILE, recorders, track,
+                            {i: s.car for i, s in enumerate(self.slots)})
+        except Exception:
+            print("boxbox host: writing the telemetry failed", file=sys.stderr)
+            traceback.print_exc()
 
     def summary(self) -> dict:
         cars = []
@@ -270,10 +407,11 @@ class Host:
             cars.append({
                 "robot_index": i, "robot": slot.spec, "name": slot.name,
                 "car_index": slot.car.car_index if slot.car else None,
-                "lap_times": slot.lap_times, "steps": len(ns), "start_fuel_l": slot.start_fuel_l,
+                "lap_times": slot.lap_times, "steps": slot.steps_timed, "start_fuel_l": slot.start_fuel_l,
                 "step_us_median": ns[len(ns) // 2] / 1000 if ns else None,
                 "step_us_p99": ns[min(len(ns) - 1, int(len(ns) * 0.99))] / 1000 if ns else None,
                 "report": report,
+                **incidents(slot),
             })
         return {"cars": cars, "other_lap_times": {str(k): v for k, v in self.other_laps.items()}}
 
@@ -298,10 +436,16 @@ def main(argv: list[str]) -> int:
     except socket.timeout:
         return 2
     conn.settimeout(None)
+    (run_dir / "host-connected").touch()  # tells the launcher that TORCS's bridge got through
     try:
         host.serve(conn)
+    except (BrokenPipeError, ConnectionResetError):
+        pass  # TORCS went away while we answered (killed): what we have is written below
     finally:
-        (run_dir / "host.json").write_text(json.dumps(host.summary()))
+        try:
+            write_json_atomic(run_dir / "host.json", host.summary())
+        finally:
+            host.write_telemetry()  # what was recorded, also after a robot fault
     return 1 if host.fault else 0
 
 

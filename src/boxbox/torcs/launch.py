@@ -8,8 +8,10 @@ trip ~15x cheaper), die with us (PR_SET_PDEATHSIG), and are killed by process gr
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import dataclasses
+import fcntl
 import json
 import os
 import re
@@ -25,7 +27,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
 
-from boxbox.errors import RaceError
+from boxbox.errors import RaceError, UsageError
+from boxbox.files import write_json_atomic
 from boxbox.robot.base import RaceOptions
 from boxbox.torcs import catalog
 from boxbox.torcs.paths import MAX_PYTHON_CARS, ROBOT_MODULE, cache_dir
@@ -35,8 +38,9 @@ from boxbox.torcs.results import (DriverResult, RaceResult, driver_from_rank, fi
 from boxbox.torcs.setup import Overlay
 
 PROGRESS_LINE = re.compile(r"Sim Time:\s*([\d.]+)\s*\[s\], Leader Laps:\s*(\d+)")
-FAULT_LINE = re.compile(r"BOXBOX-FAULT (\S+) robot=(-?\d+) step=(\d+)")
+FAULT_LINE = re.compile(r"BOXBOX-FAULT (\S+) robot=(-?\d+) step=(\d+)(?: budget_ms=(\d+) answer=(\d+))?")
 Progress = Callable[[int, float], None]  # (leader laps done, sim time)
+INTERRUPTED = "the race was interrupted (Ctrl-C or SIGTERM); TORCS was stopped, the results so far are kept"
 
 
 @dataclass
@@ -50,10 +54,14 @@ class RaceConfig:
     opponents: list[tuple[str, int]] = field(default_factory=list)  # TORCS robots (module, idx)
     options: RaceOptions = field(default_factory=RaceOptions)
     step_budget_ms: int = 200
-    setup_budget_ms: int = 30_000
+    # on_track and friends: the tutorial robot's first race on the 22 km spring computes its
+    # racing line for ~30 s alone (longer with parallel races), so set-up gets room
+    setup_budget_ms: int = 120_000
     wall_timeout_s: float | None = None  # default: generous, from the number of laps
     cpu: int | None = None
     run_dir: Path | None = None
+    telemetry: bool = True  # record every drive step of the Python cars in RUN_DIR/telemetry.parquet
+    telemetry_alternate: bool = False  # bench-telemetry: record odd laps only (step times per lap compared)
 
 
 def _child_setup(cpu: int | None) -> Callable[[], None]:
@@ -109,12 +117,42 @@ def run_race(cfg: RaceConfig, overlay: Overlay, progress: Progress | None = None
         raise RaceError(f"at most {MAX_PYTHON_CARS} Python cars per race")
     cfg.options.laps = cfg.laps
     run_dir = cfg.run_dir or new_run_dir()
-    run_dir.mkdir(parents=True, exist_ok=True)
-    for stale in ("fault.json", "host.json", "hang-traceback.txt"):
+    try:
+        run_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise UsageError(f"run dir {run_dir} cannot be made: {exc.strerror or exc}") from None
+    with run_dir_lock(run_dir):
+        return _run_race(cfg, overlay, progress, run_dir)
+
+
+@contextlib.contextmanager
+def run_dir_lock(run_dir: Path):
+    """Hold <run_dir>/.lock for the race: a second race in the same folder is refused (exit 2).
+
+    An flock, so it goes with the process: a launcher killed outright leaves no stale lock."""
+    fd = os.open(run_dir / ".lock", os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o644)
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            holder = os.pread(fd, 32, 0).decode(errors="replace").strip()
+            raise UsageError(f"run dir {run_dir} is in use by another race"
+                             + (f" (pid {holder})" if holder else "") + "; give each race its own --run-dir") from None
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, str(os.getpid()).encode(), 0)
+        yield
+    finally:
+        os.close(fd)
+
+
+def _run_race(cfg: RaceConfig, overlay: Overlay, progress: Progress | None, run_dir: Path) -> RaceResult:
+    for stale in ("fault.json", "host.json", "host-progress.json", "host-connected", "hang-traceback.txt",
+                  "telemetry.parquet"):
         (run_dir / stale).unlink(missing_ok=True)
     local = prepare_local_dir(run_dir, overlay, cfg)
     cpu = cfg.cpu if cfg.cpu is not None else _pick_cpu()
-    wall_limit = cfg.wall_timeout_s or 60.0 + 10.0 * cfg.laps * (1 + len(cfg.opponents) + len(cfg.robots))
+    wall_limit = cfg.wall_timeout_s or cfg.setup_budget_ms / 1000 + 60.0 + 10.0 * cfg.laps * (
+        1 + len(cfg.opponents) + len(cfg.robots))
     names = cfg.robot_names or [f"boxbox {i + 1}" for i in range(len(cfg.robots))]
 
     env = dict(os.environ)
@@ -125,7 +163,7 @@ def run_race(cfg: RaceConfig, overlay: Overlay, progress: Progress | None = None
     sock_dir = None
     started = time.perf_counter()
     laps_seen: list[tuple[int, float]] = []
-    timed_out = False
+    timed_out = interrupted = False
     try:
         if cfg.robots:
             sock_dir = tempfile.mkdtemp(prefix="boxbox-sock-")  # short path: sun_path is 108 bytes
@@ -138,7 +176,8 @@ def run_race(cfg: RaceConfig, overlay: Overlay, progress: Progress | None = None
                     "category": cfg.category, "car": cfg.car,
                     "robots": [{"spec": s, "name": n} for s, n in zip(cfg.robots, names)],
                     "options": dataclasses.asdict(cfg.options),
-                    "connect_timeout_s": wall_limit}
+                    "connect_timeout_s": wall_limit, "telemetry": cfg.telemetry,
+                    "telemetry_alternate": cfg.telemetry_alternate}
             (run_dir / "host-spec.json").write_text(json.dumps(spec))
             with open(run_dir / "host.log", "wb") as log:
                 host = subprocess.Popen([sys.executable, "-m", "boxbox.torcs.host", str(run_dir / "host-spec.json")],
@@ -156,19 +195,31 @@ def run_race(cfg: RaceConfig, overlay: Overlay, progress: Progress | None = None
         if not overlay.torcs.binary.exists():
             raise RaceError(f"TORCS binary missing: {overlay.torcs.binary}; run `boxbox setup`")
         with open(run_dir / "torcs.err", "wb") as err:
-            torcs = subprocess.Popen(cmd, cwd=overlay.data_dir, env=env, stdout=subprocess.PIPE, stderr=err,
-                                     stdin=subprocess.DEVNULL, preexec_fn=_child_setup(cpu), start_new_session=True)
-        timed_out = _follow(torcs, started + wall_limit, laps_seen, progress, run_dir)
+            try:
+                torcs = subprocess.Popen(cmd, cwd=overlay.data_dir, env=env, stdout=subprocess.PIPE, stderr=err,
+                                         stdin=subprocess.DEVNULL, preexec_fn=_child_setup(cpu),
+                                         start_new_session=True)
+            except OSError as exc:
+                raise RaceError(f"TORCS could not be started ({cmd[0]}): {exc.strerror or exc}") from None
+        try:
+            timed_out = _follow(torcs, started + wall_limit, laps_seen, progress, run_dir)
+        except KeyboardInterrupt:  # Ctrl-C (or SIGTERM, see cli): stop TORCS, keep what the race has
+            interrupted = True
+            _kill_group(torcs)
         if timed_out:
             _dump_hang(host)
             _kill_group(torcs)
         torcs.wait()
         err_file = run_dir / "torcs.err"
-        if host is not None and err_file.exists() and b"BOXBOX-FAULT timeout" in err_file.read_bytes():
+        hung = host is not None and err_file.exists() and b"BOXBOX-FAULT timeout" in err_file.read_bytes()
+        if hung:
             _dump_hang(host)  # now, while the robot is still stuck where it hung
         if host is not None:
             try:
-                host.wait(timeout=3.0)
+                # a host that is not stuck writes host.json and the telemetry file, then exits
+                # (one that never got a connection waits in accept: no reason to wait for it)
+                connected = (run_dir / "host-connected").exists()
+                host.wait(timeout=1.0 if not connected or hung or timed_out else 3.0 if not cfg.telemetry else 30.0)
             except subprocess.TimeoutExpired:
                 _dump_hang(host)
     finally:
@@ -176,23 +227,24 @@ def run_race(cfg: RaceConfig, overlay: Overlay, progress: Progress | None = None
             listener.close()
         _kill_group(torcs)
         _kill_group(host)
+        if torcs is not None and torcs.stdout is not None:
+            torcs.stdout.close()
         if sock_dir:
             shutil.rmtree(sock_dir, ignore_errors=True)
     wall = time.perf_counter() - started
     result = _collect(cfg, run_dir, local, names, laps_seen, wall)
-    error = _diagnose(cfg, run_dir, torcs, host, names, timed_out, wall_limit, result)
+    error = INTERRUPTED if interrupted else _diagnose(cfg, run_dir, torcs, host, names, timed_out, wall_limit, result)
     if error:
         result.error = error
-    (run_dir / "result.json").write_text(json.dumps(result.to_json(), indent=1))
+    write_json_atomic(run_dir / "result.json", result.to_json(), indent=1)
     return result
 
 
 def _follow(torcs: subprocess.Popen, deadline: float, laps_seen, progress, run_dir: Path) -> bool:
     """Read TORCS's console until it exits; True when the wall-time limit was hit."""
-    sel = selectors.DefaultSelector()
-    sel.register(torcs.stdout, selectors.EVENT_READ)
-    pending = b""
-    with open(run_dir / "torcs.out", "wb") as out:
+    with selectors.DefaultSelector() as sel, open(run_dir / "torcs.out", "wb") as out:  # no fd outlives a race
+        sel.register(torcs.stdout, selectors.EVENT_READ)
+        pending = b""
         while True:
             remaining = deadline - time.perf_counter()
             if remaining <= 0:
@@ -226,9 +278,7 @@ def _dump_hang(host: subprocess.Popen | None) -> None:
 def _collect(cfg, run_dir: Path, local: Path, names, laps_seen, wall: float) -> RaceResult:
     result = RaceResult(track=cfg.track, category=cfg.category, car=cfg.car, laps=cfg.laps, wall_s=round(wall, 3),
                         run_dir=str(run_dir))
-    host_info = {}
-    if (run_dir / "host.json").exists():
-        host_info = json.loads((run_dir / "host.json").read_text())
+    host_info = _host_info(run_dir)
     ours = {c["robot_index"]: c for c in host_info.get("cars", [])}
     others = {int(k): v for k, v in host_info.get("other_lap_times", {}).items()}
     results_file = find_results_file(local)
@@ -246,6 +296,8 @@ def _collect(cfg, run_dir: Path, local: Path, names, laps_seen, wall: float) -> 
             d.lap_times = [round(t, 3) for t in mine["lap_times"]]
             d.step_us_median, d.step_us_p99 = mine["step_us_median"], mine["step_us_p99"]
             d.start_fuel_l = mine.get("start_fuel_l")
+            d.stuck_s, d.longest_stuck_s, d.off_track_s = (mine.get(k) for k in ("stuck_s", "longest_stuck_s",
+                                                                                   "off_track_s"))
             report = dict(mine.get("report", {}))
             d.pit_events = report.pop("pit_events", [])
             d.report = report
@@ -255,12 +307,33 @@ def _collect(cfg, run_dir: Path, local: Path, names, laps_seen, wall: float) -> 
             d.lap_times = [round(t, 3) for t in others[d.car_index]]
         elif len(drivers) == 1:
             d.lap_times = leader_lap_times(laps_seen)
+        if entries and d.laps == len(d.lap_times) + 1:
+            _add_final_lap(d)
         if not entries:
             d.laps = len(d.lap_times)
         if d.lap_times and not d.best_lap:
             d.best_lap = min(d.lap_times)
     result.drivers = drivers
     return result
+
+
+def _add_final_lap(d: DriverResult) -> None:
+    """TORCS ends the race in the simulation step the line is crossed, often before the robot's
+    next drive call, so the host may never see the last lap's time: it is the race time less the
+    laps before it (checked against TORCS's best lap, which counts it)."""
+    last = round(d.time - sum(d.lap_times), 3)
+    if d.time > 0 and d.best_lap and last >= d.best_lap - 0.005:
+        d.lap_times.append(last)
+
+
+def _host_info(run_dir: Path) -> dict:
+    """host.json, or when the host could not write it (killed, hung) its copy saved at each lap."""
+    for name in ("host.json", "host-progress.json"):
+        try:
+            return json.loads((run_dir / name).read_text())
+        except (OSError, ValueError):
+            continue
+    return {}
 
 
 def _diagnose(cfg, run_dir: Path, torcs, host, names, timed_out: bool, wall_limit: float,
@@ -280,7 +353,7 @@ def _diagnose(cfg, run_dir: Path, torcs, host, names, timed_out: bool, wall_limi
         kind, robot, step = marker.group(1), int(marker.group(2)), int(marker.group(3))
         who = f"robot '{cfg.robots[robot]}' ({names[robot]})" if 0 <= robot < len(cfg.robots) else "the robot host"
         if kind == "timeout":
-            line = f"{who} did not answer within its step budget of {cfg.step_budget_ms} ms (step {step})"
+            line = _timeout_line(who, cfg, step, marker)
             return line + (f"\nwhere the robot was stuck:\n{hang_tb}" if hang_tb else "")
         if kind in ("host-gone", "connect"):
             how = _exit_text(host.returncode) if host is not None and host.returncode is not None else "ended"
@@ -292,15 +365,45 @@ def _diagnose(cfg, run_dir: Path, torcs, host, names, timed_out: bool, wall_limi
         return f"the race did not finish within {wall_limit:.0f} s of wall time; TORCS was stopped" + \
             ("\n" + hang_tb if hang_tb else "")
     if torcs is not None and torcs.returncode not in (0, None):
-        tail = " | ".join(err_text.strip().splitlines()[-3:])
-        return f"TORCS {_exit_text(torcs.returncode)} (log {run_dir / 'torcs.err'}): {tail}"
+        tail = _torcs_words(run_dir, err_text)
+        if torcs.returncode in (126, 127) and "failed to run command" in tail:  # stdbuf could not exec it
+            return f"TORCS could not be started: {tail}"
+        return f"TORCS {_exit_text(torcs.returncode)}" + (f": {tail}" if tail else "") + \
+            f" (log {run_dir / 'torcs.err'})"
     if not find_results_file(run_dir / "local"):
-        tail = " | ".join(err_text.strip().splitlines()[-3:])
-        return f"TORCS wrote no results file (log {run_dir / 'torcs.err'}): {tail}"
+        tail = _torcs_words(run_dir, err_text)
+        return "TORCS wrote no results file" + (f": {tail}" if tail else "") + f" (logs {run_dir}/torcs.*)"
     if host is not None and host.returncode not in (0, None):
         log = (run_dir / "host.log").read_text(errors="replace").strip()
         return f"the robot process {_exit_text(host.returncode)}" + (f"\n{log[-2000:]}" if log else "")
     return None
+
+
+def _torcs_words(run_dir: Path, err_text: str) -> str:
+    """TORCS's last complaint: its stderr, else its console lines other than progress; a module it
+    could not load (linuxModLoad) is named first."""
+    lines = [ln.strip() for ln in err_text.splitlines() if ln.strip()]
+    if not lines and (run_dir / "torcs.out").exists():
+        out = (run_dir / "torcs.out").read_text(errors="replace")
+        lines = [ln.strip() for ln in out.splitlines() if ln.strip() and not PROGRESS_LINE.search(ln)]
+    load = next((ln for ln in lines if ln.startswith("linuxModLoad:")), None)
+    if load:
+        return "could not load " + load.partition("...")[2].strip()
+    return " | ".join(lines[-3:])
+
+
+def _timeout_line(who: str, cfg, step: int, marker: re.Match) -> str:
+    """Which call did not answer in time: a drive step (step budget) or a set-up call (set-up budget)."""
+    from boxbox.torcs import wire
+
+    answer = int(marker.group(5)) if marker.group(5) else wire.CONTROLS
+    if answer == wire.CONTROLS:
+        return f"{who} did not answer within its step budget of {cfg.step_budget_ms} ms (step {step})"
+    call = {wire.FUEL: "initial_fuel_l", wire.PIT_ORDER: "pit_stop", wire.HELLO: "start-up",
+            wire.ACK: "on_track" if step == 0 else "on_race_end"}.get(answer, f"answer kind {answer}")
+    budget_s = int(marker.group(4)) / 1000 if marker.group(4) else cfg.setup_budget_ms / 1000
+    when = f", step {step}" if answer in (wire.PIT_ORDER, wire.ACK) and step else ""
+    return f"{who} did not answer within its set-up budget of {budget_s:g} s (in {call}{when})"
 
 
 def _exit_text(code: int) -> str:

@@ -28,6 +28,11 @@ class DriverResult:
     start_fuel_l: float | None = None  # Python robots only
     step_us_median: float | None = None
     step_us_p99: float | None = None
+    # Python robots only, from every drive step (None: not measured): time below 1 m/s outside the
+    # pit, the longest such spell, and time with the car's centre beyond a track edge (pit lane excluded)
+    stuck_s: float | None = None
+    longest_stuck_s: float | None = None
+    off_track_s: float | None = None
 
 
 @dataclass

@@ -6,6 +6,8 @@ overlay (folders of symlinks to the system TORCS plus our own `drivers/boxbox/`)
 
 from __future__ import annotations
 
+import contextlib
+import fcntl
 import hashlib
 import os
 import shutil
@@ -223,10 +225,30 @@ def _mirror(src: Path, dest: Path, real_subdir: str) -> None:
             link.symlink_to(entry)
 
 
+def overlay_intact(root: Path, bridge: Path, torcs: TorcsInstall) -> bool:
+    """The overlay holds this bridge build and a link to each entry of this TORCS (and its drivers).
+    A few dozen stats and one 200 kB compare: checked before every race, so a broken overlay mends."""
+    import filecmp
+
+    try:
+        if not filecmp.cmp(root / "lib" / "drivers" / ROBOT_MODULE / f"{ROBOT_MODULE}.so", bridge, shallow=False):
+            return False
+        for src, dest in ((torcs.lib_dir, root / "lib"), (torcs.data_dir, root / "data")):
+            for entry in src.iterdir():
+                links = [(sub, dest / "drivers" / sub.name) for sub in entry.iterdir()] \
+                    if entry.name == "drivers" else [(entry, dest / entry.name)]
+                for target, link in links:
+                    if not link.exists() or os.readlink(link) != str(target):
+                        return False
+    except OSError:
+        return False
+    return True
+
+
 def build_overlay(bridge: Path, torcs: TorcsInstall) -> Overlay:
     root = cache_dir() / "overlay" / bridge.parent.name
     lib, data = root / "lib", root / "data"
-    if not (lib / "drivers" / ROBOT_MODULE / f"{ROBOT_MODULE}.so").exists():
+    if not overlay_intact(root, bridge, torcs):  # missing, or broken: (re)built
         tmp = root.with_name(root.name + ".partial")
         shutil.rmtree(tmp, ignore_errors=True)
         _mirror(torcs.lib_dir, tmp / "lib", "drivers")
@@ -241,14 +263,30 @@ def build_overlay(bridge: Path, torcs: TorcsInstall) -> Overlay:
 
 
 def ensure_ready(report: Report = _quiet) -> Overlay:
-    """Do whatever setup is missing; fast when everything is in place."""
+    """Do whatever setup is missing; fast when everything is in place.  Safe to call from several
+    processes at once (a lock in the cache: the second waits, then finds everything built)."""
     torcs = system_torcs()
-    install_packages(report)
-    if not torcs.binary.exists():
-        raise SetupError(f"TORCS binary not found at {torcs.binary}; install Debian's torcs package")
-    include = headers_dir(report)
-    bridge = build_bridge(include, torcs, report)
-    return build_overlay(bridge, torcs)
+    if os.environ.get("BOXBOX_TORCS_LIB") and not torcs.binary.exists():  # Debian's package cannot help
+        raise SetupError(f"TORCS binary not found at {torcs.binary} (from BOXBOX_TORCS_LIB)")
+    with _setup_lock():
+        install_packages(report)
+        if not torcs.binary.exists():
+            raise SetupError(f"TORCS binary not found at {torcs.binary}; install Debian's torcs package")
+        include = headers_dir(report)
+        bridge = build_bridge(include, torcs, report)
+        return build_overlay(bridge, torcs)
+
+
+@contextlib.contextmanager
+def _setup_lock():
+    root = cache_dir()
+    root.mkdir(parents=True, exist_ok=True)
+    with open(root / "setup.lock", "a") as f:
+        fcntl.flock(f, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(f, fcntl.LOCK_UN)
 
 
 def doctor() -> list[tuple[str, bool, str]]:
@@ -268,3 +306,29 @@ def doctor() -> list[tuple[str, bool, str]]:
     overlay = cache_dir() / "overlay" / bridge_fingerprint()
     rows.append(("overlay", (overlay / "lib" / "drivers" / ROBOT_MODULE).exists(), str(overlay)))
     return rows
+
+
+def ensure_chromium(report: Report = _quiet) -> Path:
+    """Headless Chromium for the report test: Debian's `chromium` package, installed when missing.
+    Only the tests call this (never a race); returns the browser's path."""
+    def find() -> Path | None:
+        for name in ("chromium", "chromium-browser"):
+            if found := shutil.which(name):
+                return Path(found)
+        return Path("/usr/bin/chromium") if Path("/usr/bin/chromium").exists() else None
+
+    browser = find()
+    if browser is not None:
+        return browser
+    if not shutil.which("apt-get"):
+        raise SetupError("chromium is missing and apt-get is not available to install it")
+    log = cache_dir() / "logs" / "apt.log"
+    report(f"installing Debian's chromium package (log: {log})")
+    env_cmd = ["env", "DEBIAN_FRONTEND=noninteractive"]
+    _run(_privileged([*env_cmd, "apt-get", "update"]), log, "apt-get update")
+    _run(_privileged([*env_cmd, "apt-get", "install", "-y", "--no-install-recommends", "chromium"]), log,
+         "apt-get install chromium")
+    browser = find()
+    if browser is None:
+        raise SetupError(f"apt-get did not install chromium; see {log}")
+    return browser

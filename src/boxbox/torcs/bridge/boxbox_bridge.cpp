@@ -79,7 +79,13 @@ static ssize_t bb_recv(int kind, int robot, int step, int timeout_ms, int *flags
         ssize_t n = recv(g_fd, g_in, sizeof g_in, 0);
         if (n < 0 && errno == EINTR) continue;
         if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) {
-            bb_fault("timeout", robot, step);
+            // the budget and the awaited answer say which call hung (a drive step, on_track...)
+            if (!g_dead) {
+                fprintf(stderr, "BOXBOX-FAULT timeout robot=%d step=%d budget_ms=%d answer=%d\n",
+                        robot, step, timeout_ms, kind);
+                fflush(stderr);
+            }
+            g_dead = true;
             return -1;
         }
         if (n < (ssize_t)sizeof(bb_header)) {

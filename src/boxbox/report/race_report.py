@@ -1,0 +1,477 @@
+"""`boxbox report RUN_DIR`: one self-contained HTML page for a race, from result.json and telemetry.parquet.
+
+Figures are drawn with matplotlib (no pyplot, no display) and embedded as base64 PNG, so the page
+is a single file that opens anywhere.  What the page shows is described in docs/report.md.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import io
+import json
+import math
+import time
+from pathlib import Path
+
+import numpy as np
+
+from boxbox.errors import UsageError
+
+KMH = 3.6
+REPORT_FILE = "report.html"
+PYTHON_MODULE = "boxbox"
+COLORS = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22",
+          "#17becf"]
+BRAKE_ON = 0.1  # a braking point: the brake command rises through this ...
+BRAKE_GAP_STEPS = 50  # ... after at least this many steps (1 s) without braking
+
+
+# --- helpers ---------------------------------------------------------------------------------------
+def _figure(width_in: float, height_in: float, **kw):
+    from matplotlib.figure import Figure
+
+    return Figure(figsize=(width_in, height_in), layout="constrained", **kw)
+
+
+def _png(fig, dpi: int = 90) -> str:
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=dpi)
+    return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode("ascii")
+
+
+def _img(fig, alt: str, dpi: int = 90) -> str:
+    return f'<figure><img src="{_png(fig, dpi)}" alt="{html.escape(alt)}"><figcaption>{html.escape(alt)}</figcaption></figure>'
+
+
+def _fmt_time(seconds) -> str:
+    if seconds is None or seconds == 0 or (isinstance(seconds, float) and math.isnan(seconds)):
+        return "-"
+    minutes, sec = divmod(float(seconds), 60.0)
+    return f"{int(minutes)}:{sec:06.3f}" if minutes else f"{sec:.3f}"
+
+
+def _num(value, fmt: str = "{:.2f}") -> str:
+    if value is None or (isinstance(value, float) and math.isnan(value)):
+        return "-"
+    return fmt.format(value)
+
+
+def _table(headers: list[str], rows: list[list[str]], cls: str = "") -> str:
+    head = "".join(f"<th>{html.escape(h)}</th>" for h in headers)
+    body = "".join("<tr>" + "".join(f"<td>{c}</td>" for c in row) + "</tr>" for row in rows)
+    return f'<table class="{cls}"><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>'
+
+
+def _break_wraps(x: np.ndarray, *ys: np.ndarray, jump: float) -> tuple[np.ndarray, ...]:
+    """NaN between samples whose x jumps by more than `jump` (the start line), so lines do not cross the plot."""
+    if len(x) < 2:
+        return (x, *ys)
+    cut = np.flatnonzero(np.abs(np.diff(x)) > jump) + 1
+    if not len(cut):
+        return (x, *ys)
+    out = []
+    for a in (x, *ys):
+        a = a.astype(float)
+        out.append(np.insert(a, cut, np.nan))
+    return tuple(out)
+
+
+def driver_label(d: dict) -> str:
+    return f"{d['name']} ({d['module']}:{d['idx']})"
+
+
+# --- figures ---------------------------------------------------------------------------------------
+def fig_lap_times(drivers: list[dict]):
+    """Lap-time bars, one group per lap, one bar per driver; pit laps marked."""
+    timed = [d for d in drivers if d.get("lap_times")]
+    if not timed:
+        return None
+    laps = max(len(d["lap_times"]) for d in timed)
+    fig = _figure(max(6.0, min(16.0, 1.2 + 0.45 * laps * len(timed))), 3.8)
+    ax = fig.add_subplot()
+    width = 0.8 / len(timed)
+    lo = min(min(d["lap_times"]) for d in timed)
+    hi = max(max(d["lap_times"]) for d in timed)
+    for k, d in enumerate(timed):
+        x = np.arange(1, len(d["lap_times"]) + 1) + (k - (len(timed) - 1) / 2) * width
+        t = np.array(d["lap_times"], dtype=float)
+        bars = ax.bar(x, t, width=width * 0.95, color=COLORS[k % len(COLORS)], label=driver_label(d),
+                      edgecolor="black" if d["module"] == PYTHON_MODULE else "none", linewidth=0.6)
+        pit_laps = {int(e["lap"]) for e in d.get("pit_events", []) if e.get("stop_time") is not None}
+        for lap, bar in enumerate(bars, start=1):
+            if lap in pit_laps:
+                ax.annotate("pit", (bar.get_x() + bar.get_width() / 2, bar.get_height()), ha="center",
+                            va="bottom", fontsize=7, xytext=(0, 1), textcoords="offset points")
+    ax.set_xticks(range(1, laps + 1))
+    ax.set_xlabel("lap")
+    ax.set_ylabel("lap time (s)")
+    bottom = max(0.0, math.floor(lo * 0.92))
+    ax.set_ylim(bottom, hi + 0.08 * (hi - bottom) + 0.5)
+    ax.set_title(f"Lap times (axis from {bottom:.0f} s; Python cars outlined)")
+    ax.legend(fontsize=8, ncols=min(4, len(timed)), loc="upper right")
+    ax.grid(axis="y", alpha=0.3)
+    return fig
+
+
+def _pedal_gear_panels(fig, gs_rows, x, c, jump: float, sharex):
+    """Throttle (up, green) and brake (down, red) band; gear band.  Returns the two axes."""
+    axp = fig.add_subplot(gs_rows[0], sharex=sharex)
+    xs, acc, brk = _break_wraps(x, c["accel"], c["brake"], jump=jump)
+    axp.fill_between(xs, 0, acc, color="#2ca02c", alpha=0.6, linewidth=0, label="throttle")
+    axp.fill_between(xs, 0, -brk, color="#d62728", alpha=0.7, linewidth=0, label="brake")
+    axp.set_ylim(-1.05, 1.05)
+    axp.set_yticks([-1, 0, 1], ["brake", "0", "throttle"], fontsize=7)
+    axp.grid(alpha=0.3)
+    axg = fig.add_subplot(gs_rows[1], sharex=sharex)
+    xs, gear = _break_wraps(x, c["gear"].astype(float), jump=jump)
+    axg.fill_between(xs, 0, gear, step="post", color="#9467bd", alpha=0.5, linewidth=0)
+    axg.step(xs, gear, where="post", color="#9467bd", linewidth=0.8)
+    top = int(np.nanmax(c["gear"])) if len(c["gear"]) else 1
+    axg.set_ylim(min(-1, int(np.nanmin(c["gear"])) if len(c["gear"]) else 0) - 0.2, max(1, top) + 0.5)
+    axg.set_yticks(range(0, max(1, top) + 1))
+    axg.tick_params(axis="y", labelsize=7)
+    axg.set_ylabel("gear", fontsize=8)
+    axg.grid(alpha=0.3)
+    return axp, axg
+
+
+def fig_lap(c: dict, lap: int, length_m: float, title: str):
+    """Speed and target speed against distance for one lap, with throttle/brake and gear bands."""
+    fig = _figure(11.0, 5.4)
+    gs = fig.add_gridspec(3, 1, height_ratios=[3.2, 1.0, 1.0])
+    ax = fig.add_subplot(gs[0])
+    x = c["dist_m"]
+    jump = 0.5 * length_m
+    xs, v, target = _break_wraps(x, c["speed_mps"] * KMH, c["target_speed_mps"] * KMH, jump=jump)
+    if "sig_pit_phase" in c and np.nanmax(c["sig_pit_phase"], initial=0) > 0:
+        pit = np.nan_to_num(c["sig_pit_phase"]) > 0
+        ax.fill_between(x, 0, 1, where=pit, transform=ax.get_xaxis_transform(), color="#7f7f7f", alpha=0.15,
+                        linewidth=0, label="pit phase")
+    if np.isfinite(target).any():
+        ax.plot(xs, target, color="#ff7f0e", linewidth=1.0, linestyle="--", label="target speed")
+    ax.plot(xs, v, color="#1f77b4", linewidth=1.3, label="speed")
+    ax.set_ylabel("km/h")
+    # the target can be the robot's top speed on straights: the axis follows the car's own speed
+    ax.set_ylim(0, max(50.0, float(np.nanmax(v, initial=0.0))) * 1.25)
+    ax.set_xlim(0, length_m)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8, loc="lower right", ncols=3)
+    ax.set_title(title)
+    ax.tick_params(labelbottom=False)
+    _, axg = _pedal_gear_panels(fig, [gs[1], gs[2]], x, c, jump, ax)
+    fig.axes[1].tick_params(labelbottom=False)
+    axg.set_xlabel("distance from the start line (m)")
+    return fig
+
+
+def braking_points(c: dict) -> np.ndarray:
+    """Indices where the brake command rises through BRAKE_ON after a second without braking (the
+    brake filters pulse, so each braking zone counts once), outside pit business."""
+    braking = np.nan_to_num(c["brake"]) >= BRAKE_ON
+    if not braking.any():
+        return np.zeros(0, dtype=int)
+    steps = np.arange(len(braking))
+    last = np.maximum.accumulate(np.where(braking, steps, -1))  # last braking step at or before each step
+    idx = np.flatnonzero(braking[1:] & ~braking[:-1]) + 1
+    idx = idx[(last[idx - 1] < 0) | (idx - last[idx - 1] > BRAKE_GAP_STEPS)]
+    if "sig_pit_phase" in c:
+        idx = idx[np.nan_to_num(c["sig_pit_phase"][idx]) == 0]
+    return idx
+
+
+def fig_map(c: dict, lap_rows: np.ndarray, lap: int, meta_track: dict, events: list[dict], title: str):
+    """The track map, the chosen lap coloured by speed, its braking points, and the pit events."""
+    from matplotlib.collections import LineCollection
+
+    fig = _figure(8.5, 7.0)
+    ax = fig.add_subplot()
+    edges = meta_track.get("edges")
+    if edges:
+        for side in ("left", "right"):
+            ax.plot(edges[f"{side}_x"], edges[f"{side}_y"], color="#9a9a9a", linewidth=0.8)
+    x, y, v = c["x_m"][lap_rows], c["y_m"][lap_rows], c["speed_mps"][lap_rows] * KMH
+    if len(x) >= 2:
+        pts = np.column_stack([x, y]).reshape(-1, 1, 2)
+        segs = np.concatenate([pts[:-1], pts[1:]], axis=1)
+        lc = LineCollection(segs, cmap="turbo", linewidth=2.6)
+        lc.set_array(0.5 * (v[:-1] + v[1:]))
+        ax.add_collection(lc)
+        fig.colorbar(lc, ax=ax, label=f"speed on lap {lap} (km/h)", shrink=0.8)
+        ax.plot(x[0], y[0], marker="*", color="black", markersize=12, linestyle="none", label="lap start")
+    sub = {k: a[lap_rows] for k, a in c.items()}
+    bp = braking_points(sub)
+    if len(bp):
+        ax.plot(sub["x_m"][bp], sub["y_m"][bp], marker="v", color="#d62728", markeredgecolor="black",
+                markersize=7, linestyle="none", label=f"braking points ({len(bp)})")
+    t = c["time_s"]
+    shown = set()
+    for e in events:
+        start = e.get("entry_time")
+        end = e.get("exit_time") or e.get("leave_time")
+        if start is None:
+            continue
+        rows = (t >= start) & (t <= (end if end is not None else t[-1]))
+        ax.plot(c["x_m"][rows], c["y_m"][rows], color="black", linewidth=1.0, linestyle="--",
+                label=None if "path" in shown else "pit lane driven")
+        shown.add("path")
+        for key, marker, color, label in (("entry_time", "^", "#ffffff", "pit entry"),
+                                          ("stop_time", "s", "#ffd700", "pit stop"),
+                                          ("exit_time", "o", "#ffffff", "pit exit")):
+            when = e.get(key)
+            if when is None:
+                continue
+            i = int(np.argmin(np.abs(t - when)))
+            ax.plot(c["x_m"][i], c["y_m"][i], marker=marker, color=color, markeredgecolor="black", markersize=9,
+                    linestyle="none", label=None if label in shown else label)
+            shown.add(label)
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.autoscale_view()
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.set_title(title)
+    ax.legend(fontsize=8, loc="best")
+    ax.grid(alpha=0.2)
+    return fig
+
+
+def fig_pit(c: dict, event: dict, pit: dict, car_index: int, length_m: float, title: str):
+    """Speed against distance from the pit entry to the exit, with the speed limit and the stop point."""
+    t = c["time_s"]
+    start = event["entry_time"] - 1.5
+    end = event.get("exit_time") or event.get("leave_time")
+    end = (end + 1.5) if end is not None else t[-1]
+    rows = (t >= start) & (t <= end)
+    sub = {k: a[rows] for k, a in c.items()}
+    entry = pit["entry_m"]
+
+    def rel(d):
+        return (np.asarray(d, dtype=float) - entry + 0.25 * length_m) % length_m - 0.25 * length_m
+
+    x = rel(sub["dist_m"])
+    fig = _figure(11.0, 5.0)
+    gs = fig.add_gridspec(3, 1, height_ratios=[3.2, 1.0, 1.0])
+    ax = fig.add_subplot(gs[0])
+    jump = 0.5 * length_m
+    xs, v, target = _break_wraps(x, sub["speed_mps"] * KMH, sub["target_speed_mps"] * KMH, jump=jump)
+    ax.plot(xs, v, color="#1f77b4", linewidth=1.3, label="speed")
+    lim_a, lim_b = rel(pit["limit_start_m"]), rel(pit["limit_end_m"])
+    limit = pit["speed_limit_mps"] * KMH
+    ax.hlines(limit, lim_a, lim_b, color="#d62728", linewidth=1.4, label=f"speed limit {limit:.0f} km/h")
+    ax.axvspan(lim_a, lim_b, color="#d62728", alpha=0.06, linewidth=0)
+    box = pit.get("box_m", {}).get(str(car_index))
+    if box is not None:
+        ax.axvline(rel(box), color="#444444", linestyle=":", linewidth=1.2, label="box")
+    stop_t = event.get("stop_time")
+    if stop_t is not None and len(sub["time_s"]):
+        i = int(np.argmin(np.abs(sub["time_s"] - stop_t)))
+        err = event.get("stop_error_m")
+        ax.plot(x[i], sub["speed_mps"][i] * KMH, marker="s", color="#ffd700", markeredgecolor="black",
+                markersize=9, linestyle="none",
+                label="stop point" + (f" ({err:+.2f} m from the box)" if err is not None else ""))
+    ax.axvline(0.0, color="black", linewidth=0.8)
+    ax.axvline(rel(pit["exit_m"]), color="black", linewidth=0.8)
+    ax.text(0.0, 1.0, " entry", transform=ax.get_xaxis_transform(), va="top", fontsize=8)
+    ax.text(rel(pit["exit_m"]), 1.0, " exit", transform=ax.get_xaxis_transform(), va="top", fontsize=8)
+    ax.set_ylabel("km/h")
+    ax.set_ylim(0, max(limit * 1.5, float(np.nanmax(v, initial=0.0))) * 1.3)
+    ax.set_xlim(min(-20.0, float(np.nanmin(x, initial=0.0))), max(rel(pit["exit_m"]) + 20.0,
+                                                                   float(np.nanmax(x, initial=0.0))))
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8, loc="upper center", ncols=2)
+    ax.set_title(title)
+    ax.tick_params(labelbottom=False)
+    _, axg = _pedal_gear_panels(fig, [gs[1], gs[2]], x, sub, jump, ax)
+    fig.axes[1].tick_params(labelbottom=False)
+    axg.set_xlabel("distance from the pit entry (m)")
+    return fig
+
+
+# --- the page ----------------------------------------------------------------------------------------
+def _results_table(r: dict) -> str:
+    rows = []
+    for d in r["drivers"]:
+        rows.append([str(d.get("rank") or "-"), html.escape(driver_label(d)), html.escape(d.get("car", "")),
+                     str(d.get("laps", 0)), _fmt_time(d.get("time")), _fmt_time(d.get("best_lap")),
+                     str(d.get("damage", 0)), str(d.get("pit_stops", 0)),
+                     _num(d.get("penalty_time"), "{:.1f}") if d.get("penalty_time") else "-",
+                     _num((d.get("top_speed") or 0) * KMH, "{:.1f}") if d.get("top_speed") else "-",
+                     _num(d.get("step_us_median"), "{:.1f}")])
+    return _table(["#", "driver", "car", "laps", "time", "best lap", "damage", "pits", "penalty s", "top km/h",
+                   "step µs (median)"], rows)
+
+
+def _lap_table(drivers: list[dict]) -> str:
+    timed = [d for d in drivers if d.get("lap_times")]
+    if not timed:
+        return "<p>No lap times.</p>"
+    laps = max(len(d["lap_times"]) for d in timed)
+    rows = []
+    for lap in range(laps):
+        row = [str(lap + 1)]
+        for d in timed:
+            lt = d["lap_times"]
+            cell = _fmt_time(lt[lap]) if lap < len(lt) else "-"
+            if lap < len(lt) and lt[lap] == min(lt):
+                cell = f"<b>{cell}</b>"
+            row.append(cell)
+        rows.append(row)
+    return _table(["lap"] + [driver_label(d) for d in timed], rows, "num")
+
+
+def _pit_table(drivers: list[dict]) -> str:
+    rows = []
+    for d in drivers:
+        for e in d.get("pit_events", []):
+            stand = (e["leave_time"] - e["stop_time"]) if e.get("leave_time") and e.get("stop_time") else None
+            lane = (e["exit_time"] - e["entry_time"]) if e.get("exit_time") and e.get("entry_time") else None
+            rows.append([html.escape(driver_label(d)), str(e.get("lap")), html.escape(str(e.get("mode", ""))),
+                         _num(e.get("entry_time")), _num(e.get("stop_time")), _num(e.get("leave_time")),
+                         _num(e.get("exit_time")), _num(stand), _num(lane), _num(e.get("stop_error_m"), "{:+.3f}"),
+                         _num(e.get("fuel"), "{:.1f}"), _num(e.get("repair"), "{:.0f}"),
+                         "yes" if e.get("gave_up") else ""])
+    if not rows:
+        return "<p>No pit events.</p>"
+    return _table(["driver", "lap", "mode", "entry s", "stop s", "leave s", "exit s", "standing s", "entry to exit s",
+                   "stop error m", "fuel l", "repair", "gave up"], rows, "num")
+
+
+CSS = """
+body { font-family: system-ui, -apple-system, "Segoe UI", Roboto, "DejaVu Sans", sans-serif; margin: 1.5em auto;
+       max-width: 1100px; color: #222; padding: 0 1em; }
+h1 { margin-bottom: 0.2em; } h2 { border-bottom: 1px solid #ccc; padding-bottom: 0.2em; margin-top: 1.6em; }
+.meta { color: #555; } .error { background: #fde8e8; border: 1px solid #d62728; padding: 0.6em; white-space: pre-wrap; }
+.note { color: #555; font-size: 0.9em; }
+table { border-collapse: collapse; margin: 0.8em 0; font-size: 0.9em; }
+th, td { border: 1px solid #ccc; padding: 0.25em 0.6em; text-align: left; }
+th { background: #f2f2f2; } table.num td { text-align: right; } table.num td:first-child { text-align: left; }
+figure { margin: 1em 0; } figure img { max-width: 100%; height: auto; border: 1px solid #e4e4e4; }
+figcaption { color: #555; font-size: 0.85em; }
+details { margin: 0.4em 0; } summary { cursor: pointer; font-weight: 600; }
+"""
+
+
+def build_report(run_dir: Path) -> str:
+    """The HTML page for the race in run_dir (result.json required; telemetry.parquet when recorded)."""
+    from boxbox.torcs.telemetry import FILE_NAME, load_telemetry
+
+    run_dir = Path(run_dir)
+    result_file = run_dir / "result.json"
+    if not result_file.exists():
+        raise UsageError(f"{run_dir} has no result.json: give the run directory of a race "
+                         "(printed after `boxbox race`, or chosen with --run-dir)")
+    try:
+        r = json.loads(result_file.read_text())
+    except ValueError as exc:
+        raise UsageError(f"{result_file} is not valid JSON: {exc}") from None
+    drivers = r.get("drivers", [])
+    tel = None
+    tel_note = ""
+    tel_file = run_dir / FILE_NAME
+    if tel_file.exists():
+        try:
+            tel = load_telemetry(tel_file)
+        except Exception as exc:
+            tel_note = f"telemetry file unreadable: {type(exc).__name__}: {exc}"
+    else:
+        tel_note = "no telemetry recorded for this race (raced with --no-telemetry, or no Python car)"
+
+    parts = [f"<h1>{html.escape(r.get('track', '?'))} ({html.escape(r.get('category', ''))}), "
+             f"{html.escape(r.get('car', ''))}, {r.get('laps', '?')} laps</h1>",
+             f"<p class='meta'>Wall time {r.get('wall_s', 0):.2f} s · run dir <code>{html.escape(str(run_dir))}</code> "
+             f"· report made {time.strftime('%Y-%m-%d %H:%M:%S')}</p>"]
+    if r.get("error"):
+        parts.append(f"<div class='error'><b>The race stopped early:</b> {html.escape(r['error'])}</div>")
+    parts += ["<h2>Results</h2>", _results_table(r), "<h2>Lap times</h2>"]
+    fig = fig_lap_times(drivers)
+    if fig is not None:
+        parts.append(_img(fig, "Lap times of every car, lap by lap"))
+    parts += [_lap_table(drivers), "<h2>Pit events</h2>", _pit_table(drivers)]
+
+    if tel is not None and tel.rows:
+        track = tel.meta.get("track", {})
+        length = float(track.get("length_m") or np.nanmax(tel.columns["dist_m"]))
+        cars_meta = {m["car"]: m for m in tel.meta.get("cars", [])}
+        for d in drivers:
+            if d.get("module") != PYTHON_MODULE:
+                continue
+            c = tel.car(int(d["idx"]))
+            if not len(c["time_s"]):
+                continue
+            parts.append(_car_section(d, c, track, length, cars_meta.get(int(d["idx"]), {}), r))
+        parts.append(_telemetry_section(tel, tel_file))
+    else:
+        parts.append(f"<h2>Telemetry</h2><p class='note'>{html.escape(tel_note or 'telemetry file is empty')}</p>")
+    title = html.escape(f"boxbox race report: {r.get('track', '?')}")
+    return (f"<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'><title>{title}</title>"
+            f"<meta name='viewport' content='width=device-width, initial-scale=1'><style>{CSS}</style></head>"
+            f"<body>{''.join(parts)}</body></html>\n")
+
+
+def _car_section(d: dict, c: dict, track: dict, length: float, car_meta: dict, r: dict) -> str:
+    name = driver_label(d)
+    parts = [f"<h2>{html.escape(name)}</h2>"]
+    if car_meta.get("error"):
+        parts.append(f"<p class='note'>Telemetry note: {html.escape(car_meta['error'])}</p>")
+    lap_times = d.get("lap_times") or []
+    race_laps = int(r.get("laps") or 0)
+    laps_present = sorted(int(x) for x in np.unique(c["lap"]) if 1 <= x <= max(race_laps, 1))
+    # the map shows the fastest complete lap (else the lap with the most steps)
+    if lap_times:
+        best = int(np.argmin(lap_times)) + 1
+    elif laps_present:
+        best = max(laps_present, key=lambda k: int((c["lap"] == k).sum()))
+    else:
+        best = int(c["lap"].max())
+    lap_rows = np.flatnonzero(c["lap"] == best)
+    events = [e for e in d.get("pit_events", []) if e.get("entry_time") is not None]
+    what = f"lap {best}" + (f" ({_fmt_time(lap_times[best - 1])}, fastest)" if best <= len(lap_times) else "")
+    parts.append(_img(fig_map(c, lap_rows, best, track, events, f"{name}: {what}, coloured by speed"),
+                      f"Track map: {what} coloured by speed, braking points and pit events"))
+    pit = track.get("pit")
+    if events and pit:
+        parts.append("<h3>Pit stops</h3>")
+        for k, e in enumerate(events, start=1):
+            stand = (e["leave_time"] - e["stop_time"]) if e.get("leave_time") and e.get("stop_time") else None
+            title = (f"Pit stop {k}, lap {e.get('lap')}: " +
+                     ("gave up (no stop)" if e.get("gave_up") and e.get("stop_time") is None else
+                      f"standing {_num(stand, '{:.2f}')} s, fuel {_num(e.get('fuel'), '{:.1f}')} l") +
+                     f" ({e.get('mode', '')})")
+            parts.append(_img(fig_pit(c, e, pit, int(d["idx"]), length, title),
+                              f"{title}: speed from the pit entry to the exit"))
+    parts.append("<h3>Laps</h3>")
+    for lap in laps_present:
+        rows = c["lap"] == lap
+        sub = {k: a[rows] for k, a in c.items()}
+        lt = lap_times[lap - 1] if lap <= len(lap_times) else None
+        partial = "" if lt is not None else " (not completed)"
+        title = f"{name}: lap {lap}" + (f", {_fmt_time(lt)}" if lt else "") + partial
+        img = _img(fig_lap(sub, lap, length, title), f"Lap {lap}: speed and target speed, throttle/brake, gear")
+        parts.append(f"<details{' open' if lap == best or len(laps_present) <= 3 else ''}><summary>Lap {lap}"
+                     f"{' · ' + _fmt_time(lt) if lt else partial}</summary>{img}</details>")
+    return "".join(parts)
+
+
+def _telemetry_section(tel, tel_file: Path) -> str:
+    from boxbox.torcs.telemetry import COLUMNS
+
+    cols = list(tel.columns)
+    doc = dict(COLUMNS)
+    rows = [[f"<code>{html.escape(k)}</code>", html.escape(doc.get(k, "robot signal" if k.startswith("sig_") else ""))]
+            for k in cols]
+    cars = ", ".join(f"{m['name']}: {m['steps']} steps" + (f", signals {', '.join(m['signals'])}" if m["signals"] else "")
+                     for m in tel.meta.get("cars", []))
+    return (f"<h2>Telemetry</h2><p class='note'><code>{html.escape(tel_file.name)}</code>: {tel.rows} rows "
+            f"(one per drive step per Python car, every {tel.meta.get('step_s', 0.02)} s); {html.escape(cars)}.</p>"
+            + _table(["column", "meaning"], rows))
+
+
+def write_report(run_dir: Path, out: Path | None = None) -> Path:
+    """Write the report page (default RUN_DIR/report.html); returns its path."""
+    page = build_report(run_dir)
+    out = Path(out) if out is not None else Path(run_dir) / REPORT_FILE
+    out.parent.mkdir(parents=True, exist_ok=True)
+    from boxbox.files import write_text_atomic
+
+    write_text_atomic(out, page)
+    return out

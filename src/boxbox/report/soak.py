@@ -1,0 +1,263 @@
+"""`boxbox soak`: long runs, watching the Python processes for growth in memory and open files.
+
+Two parts:
+  long   one long race (200 laps by default: the robot plans several pit stops); at every lap the
+         robot host's and this process's resident memory (VmRSS) and open file descriptors are read
+         from /proc.
+  many   many short races back to back (200 x 1 lap by default) in this one process, as a robot
+         author's session does; after each race this process's memory, open files, threads and
+         children are read, and processes left behind are counted.
+
+Growth is the least-squares slope over the samples after a warm-up (the first 10 % of the laps,
+or of the races), given per 100 laps or per 100 races, next to the first and last value.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import glob
+import os
+import shutil
+import tempfile
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
+
+from rich.console import Console
+from rich.table import Table
+
+from boxbox.robot.base import RaceOptions
+from boxbox.torcs import catalog, launch
+from boxbox.torcs.setup import Overlay
+
+
+# --- /proc readings ----------------------------------------------------------------------------
+
+def rss_kb(pid: int | str = "self") -> int | None:
+    try:
+        for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+            if line.startswith("VmRSS:"):
+                return int(line.split()[1])
+    except (OSError, ValueError, IndexError):
+        return None
+    return None
+
+
+def open_fds(pid: int | str = "self") -> int | None:
+    try:
+        return len(os.listdir(f"/proc/{pid}/fd"))
+    except OSError:
+        return None
+
+
+def threads(pid: int | str = "self") -> int:
+    try:
+        return len(os.listdir(f"/proc/{pid}/task"))
+    except OSError:
+        return 0
+
+
+def children(pid: int | None = None) -> list[int]:
+    pid = pid or os.getpid()
+    out: list[int] = []
+    for task in glob.glob(f"/proc/{pid}/task/*/children"):
+        try:
+            out += [int(x) for x in Path(task).read_text().split()]
+        except (OSError, ValueError):
+            pass
+    return out
+
+
+def processes_mentioning(text: str) -> list[int]:
+    """Live processes whose command line mentions text (a run dir)."""
+    found = []
+    for pid in os.listdir("/proc"):
+        if not pid.isdigit() or int(pid) == os.getpid():
+            continue
+        try:
+            if text in Path(f"/proc/{pid}/cmdline").read_bytes().replace(b"\0", b" ").decode(errors="replace"):
+                found.append(int(pid))
+        except OSError:
+            continue
+    return found
+
+
+def slope(xs: list[float], ys: list[float]) -> float | None:
+    """Least-squares slope of ys over xs."""
+    pairs = [(x, y) for x, y in zip(xs, ys) if y is not None]
+    if len(pairs) < 2:
+        return None
+    mx = sum(x for x, _ in pairs) / len(pairs)
+    my = sum(y for _, y in pairs) / len(pairs)
+    den = sum((x - mx) ** 2 for x, _ in pairs)
+    return sum((x - mx) * (y - my) for x, y in pairs) / den if den else None
+
+
+# --- the runs ----------------------------------------------------------------------------------
+
+@dataclass
+class SoakSpec:
+    track: str = "g-track-1"
+    car: str = "car1-trb1"
+    robot: str = "boxbox"
+    long_laps: int = 200
+    races: int = 200
+    race_laps: int = 1
+    telemetry: bool = True  # the races record telemetry (kept in the host's memory until the race ends)
+    keep_runs: bool = False
+
+
+@dataclass
+class Series:
+    """One measured quantity over laps or races."""
+
+    name: str
+    unit: str
+    xs: list[float] = field(default_factory=list)
+    ys: list[float | None] = field(default_factory=list)
+
+    def add(self, x: float, y: float | None) -> None:
+        self.xs.append(x)
+        self.ys.append(y)
+
+    def figures(self, warmup_share: float = 0.1) -> dict:
+        vals = [(x, y) for x, y in zip(self.xs, self.ys) if y is not None]
+        if not vals:
+            return {"name": self.name, "unit": self.unit, "samples": 0}
+        start = vals[0][0] + warmup_share * (vals[-1][0] - vals[0][0])
+        steady = [(x, y) for x, y in vals if x >= start] or vals
+        k = slope([x for x, _ in steady], [y for _, y in steady])
+        return {"name": self.name, "unit": self.unit, "samples": len(vals), "values": vals, "first": vals[0][1],
+                "after_warmup": steady[0][1], "last": vals[-1][1], "min": min(y for _, y in vals),
+                "max": max(y for _, y in vals), "slope_per_100": None if k is None else round(100 * k, 2)}
+
+
+@dataclass
+class SoakResult:
+    spec: SoakSpec
+    long: dict = field(default_factory=dict)
+    many: dict = field(default_factory=dict)
+
+    def to_json(self) -> dict:
+        return {"spec": dataclasses.asdict(self.spec), "long": self.long, "many": self.many}
+
+
+def _options(spec: SoakSpec, learning_dir: str, laps: int) -> RaceOptions:
+    return RaceOptions(laps=laps, learning_dir=learning_dir)
+
+
+def run_long(spec: SoakSpec, overlay: Overlay, work: Path, console: Console) -> dict:
+    """One long race; host and launcher sampled at every lap."""
+    run_dir = work / "long"
+    cfg = launch.RaceConfig(track=spec.track, category=catalog.check_track(spec.track), car=spec.car,
+                            laps=spec.long_laps, robots=[spec.robot], robot_names=[f"{spec.robot} 1"],
+                            options=_options(spec, str(work / "learning"), spec.long_laps), run_dir=run_dir,
+                            telemetry=spec.telemetry)
+    host_rss, host_fds = Series("robot host memory (VmRSS)", "kB"), Series("robot host open files", "fds")
+    me_rss, me_fds = Series("launcher memory (VmRSS)", "kB"), Series("launcher open files", "fds")
+    host_pid: list[int] = []
+    spec_path = str(run_dir / "host-spec.json")
+
+    def progress(lap: int, sim: float) -> None:
+        if not host_pid:
+            host_pid.extend(processes_mentioning(spec_path)[:1])
+        if host_pid:
+            host_rss.add(lap, rss_kb(host_pid[0]))
+            host_fds.add(lap, open_fds(host_pid[0]))
+        me_rss.add(lap, rss_kb())
+        me_fds.add(lap, open_fds())
+        if lap % 20 == 0:
+            console.print(f"[dim]soak long race: lap {lap}/{spec.long_laps}, sim {sim:.0f} s, "
+                          f"host {host_rss.ys[-1] if host_rss.ys else '?'} kB[/]")
+
+    started = time.perf_counter()
+    result = launch.run_race(cfg, overlay, progress)
+    wall = time.perf_counter() - started
+    [me] = [d for d in result.drivers if d.module == "boxbox"] or [None]
+    return {"track": spec.track, "laps": spec.long_laps, "wall_s": round(wall, 1), "error": result.error,
+            "laps_done": me.laps if me else 0, "race_time_s": me.time if me else 0.0,
+            "pit_stops": me.pit_stops if me else 0, "damage": me.damage if me else 0,
+            "lap_times_recorded": len(me.lap_times) if me else 0,
+            "leftover_processes": len(processes_mentioning(str(run_dir))),
+            "series": [s.figures() for s in (host_rss, host_fds, me_rss, me_fds)]}
+
+
+def run_many(spec: SoakSpec, overlay: Overlay, work: Path, console: Console,
+             on_race: Callable[[int], None] | None = None) -> dict:
+    """Short races back to back in this process; this process sampled after each."""
+    category = catalog.check_track(spec.track)
+    rss, fds = Series("launcher memory (VmRSS)", "kB"), Series("launcher open files", "fds")
+    thr, kids = Series("launcher threads", ""), Series("launcher child processes", "")
+    leftovers = errors = finished = 0
+    started = time.perf_counter()
+    for i in range(1, spec.races + 1):
+        run_dir = work / "many" / f"race-{i:04d}"
+        cfg = launch.RaceConfig(track=spec.track, category=category, car=spec.car, laps=spec.race_laps,
+                                robots=[spec.robot], robot_names=[f"{spec.robot} 1"],
+                                options=_options(spec, str(work / "learning"), spec.race_laps), run_dir=run_dir,
+                                telemetry=spec.telemetry)
+        result = launch.run_race(cfg, overlay)
+        errors += bool(result.error)
+        finished += any(d.module == "boxbox" and d.laps >= spec.race_laps for d in result.drivers)
+        leftovers += len(processes_mentioning(str(run_dir)))
+        rss.add(i, rss_kb())
+        fds.add(i, open_fds())
+        thr.add(i, threads())
+        kids.add(i, len(children()))
+        if not spec.keep_runs:
+            shutil.rmtree(run_dir, ignore_errors=True)
+        if on_race:
+            on_race(i)
+        if i % 20 == 0:
+            console.print(f"[dim]soak: race {i}/{spec.races}, launcher {rss.ys[-1]} kB, {fds.ys[-1]} fds[/]")
+    wall = time.perf_counter() - started
+    return {"track": spec.track, "races": spec.races, "laps_each": spec.race_laps, "wall_s": round(wall, 1),
+            "finished": finished, "errors": errors, "leftover_processes": leftovers,
+            "series": [s.figures() for s in (rss, fds, thr, kids)]}
+
+
+def run_soak(spec: SoakSpec, overlay: Overlay, console: Console | None = None, parts=("long", "many")) -> SoakResult:
+    console = console or Console(stderr=True)
+    work = Path(tempfile.mkdtemp(prefix="boxbox-soak-"))
+    result = SoakResult(spec=spec)
+    try:
+        if "long" in parts and spec.long_laps:
+            result.long = run_long(spec, overlay, work, console)
+        if "many" in parts and spec.races:
+            result.many = run_many(spec, overlay, work, console)
+    finally:
+        if spec.keep_runs:
+            console.print(f"[dim]soak runs kept in {work}[/]")
+        else:
+            shutil.rmtree(work, ignore_errors=True)
+    return result
+
+
+def tables(result: SoakResult) -> list[Table]:
+    out = []
+    for part, data in (("long", result.long), ("many", result.many)):
+        if not data:
+            continue
+        if part == "long":
+            title = (f"soak: one {data['laps']}-lap race on {data['track']}: {data['laps_done']} laps, "
+                     f"{data['pit_stops']} pit stops, damage {data['damage']}, {data['wall_s']} s wall, "
+                     f"leftover processes {data['leftover_processes']}"
+                     + (f", error: {data['error']}" if data['error'] else ""))
+            per = "per 100 laps"
+        else:
+            title = (f"soak: {data['races']} races of {data['laps_each']} lap(s) on {data['track']}, back to back: "
+                     f"{data['finished']} finished, {data['errors']} errors, leftover processes "
+                     f"{data['leftover_processes']}, {data['wall_s']} s wall")
+            per = "per 100 races"
+        table = Table(title=title)
+        for col in ("measure", "unit", "first", "after warm-up", "last", "min", "max", f"slope {per}"):
+            table.add_column(col, justify="left" if col in ("measure", "unit") else "right")
+        for s in data["series"]:
+            if not s.get("samples"):
+                table.add_row(s["name"], s["unit"], *["-"] * 6)
+                continue
+            table.add_row(s["name"], s["unit"], *(str(s[k]) for k in ("first", "after_warmup", "last", "min", "max")),
+                          "-" if s["slope_per_100"] is None else f"{s['slope_per_100']:+.2f}")
+        out.append(table)
+    return out

@@ -1,0 +1,262 @@
+"""Telemetry: every drive step of every Python car, kept in memory and written once as Parquet.
+
+The robot host records a step with one byte copy (the state record as the bridge sent it, followed
+in the host's buffer by the CONTROLS reply as it was sent: header and controls record) and, when
+the robot names telemetry fields, one list append of the tuple `Robot.telemetry(state)` returns.  Nothing is decoded or converted while the
+race runs; `write_telemetry` turns the bytes into columns at the end (also after a robot fault:
+the host's `finally` calls it), so partial telemetry survives a failed race.
+
+File: RUN_DIR/telemetry.parquet, one row per drive step per Python car, columns in `COLUMNS`
+order, then `sig_<name>` for each robot signal.  The schema metadata key `boxbox` holds JSON with
+the track (length, edges for a map, pit lane) and per car its name, robot, signal names, box
+position and any telemetry error.  `load_telemetry` reads it back as numpy columns.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from boxbox.torcs import wire
+
+FILE_NAME = "telemetry.parquet"
+METADATA_KEY = b"boxbox"
+TARGET_FIELD = "target_speed_mps"  # a robot signal of this name fills the target speed column
+SIGNAL_PREFIX = "sig_"
+N_STATE = len(wire.STATE_FIELDS)
+N_CONTROLS = len(wire.CONTROLS_FIELDS)
+N_HEADER = wire.HEADER.size // 8
+# one recorded step: the state record, the reply's header (ignored), the controls record
+ROW_DOUBLES = N_STATE + N_HEADER + N_CONTROLS
+_S = {f: i for i, f in enumerate(wire.STATE_FIELDS)}
+_C = {f: N_STATE + N_HEADER + i for i, f in enumerate(wire.CONTROLS_FIELDS)}
+RAD_S_TO_RPM = 60.0 / (2.0 * math.pi)
+NO_CONTROLS = wire.CONTROLS_REC.pack(*[math.nan] * N_CONTROLS)  # a pit stop row: the race engine holds the car
+_NO_HEADER = bytes(wire.HEADER.size)
+
+# (column, unit / meaning) in file order; documented in docs/report.md
+COLUMNS = [
+    ("car", "robot index of the Python car (its `idx` in result.json)"),
+    ("driver", "driver name"),
+    ("time_s", "simulated time"),
+    ("lap", "lap being driven (TORCS count: 1 during the first lap, 0 before the start line)"),
+    ("dist_m", "distance from the start line along the track"),
+    ("dist_raced_m", "distance raced since the start"),
+    ("x_m", "position"),
+    ("y_m", "position"),
+    ("speed_mps", "speed along the car's axis"),
+    (TARGET_FIELD, "the robot's target speed (its speed profile), null when the robot gives none"),
+    ("accel", "throttle command [0, 1]"),
+    ("brake", "brake command [0, 1]"),
+    ("clutch", "clutch command [0, 1], 1 = disengaged"),
+    ("gear", "gear engaged (-1 reverse, 0 neutral)"),
+    ("rpm", "engine speed in revolutions per minute"),
+    ("steer", "steer command [-1, 1], + left"),
+    ("to_middle_m", "track position: distance from the middle line, + left"),
+    ("fuel_l", "fuel in the tank"),
+    ("damage", "damage points"),
+    ("in_pit", "captured by the race engine in the pit box (the row TORCS sends at the stop; no controls)"),
+    ("pit_request", "the robot asks for a pit stop"),
+]
+
+
+class Recorder:
+    """One Python car's telemetry while the race runs (the host appends to `rows` and `signals`)."""
+
+    __slots__ = ("index", "name", "spec", "rows", "signals", "sig_append", "tel", "names", "error", "alt_lap",
+                 "alt_mark", "lap_step_us")
+
+    def __init__(self, index: int, name: str, spec: str) -> None:
+        self.index, self.name, self.spec = index, name, spec
+        self.rows = bytearray()  # ROW_DOUBLES little-endian float64 per step (see ROW_DOUBLES)
+        self.signals: list[tuple] = []  # one tuple per step, in `names` order
+        self.sig_append = self.signals.append
+        self.tel = None  # the robot's bound telemetry method, or None: no signals
+        self.names: tuple[str, ...] = ()
+        self.error: str | None = None
+        # bench-telemetry's lap alternation (see Host._alternate): (lap, recorded, step median us)
+        self.alt_lap, self.alt_mark = 0, 0
+        self.lap_step_us: list[tuple[int, bool, float]] = []
+
+    @property
+    def steps(self) -> int:
+        return len(self.rows) // (8 * ROW_DOUBLES)
+
+    def start(self, robot) -> None:
+        """Ask the robot for its signal names once (after on_track).  A robot error here costs only
+        its signals, never the race."""
+        try:
+            names = tuple(robot.telemetry_fields())
+            bad = [n for n in names if not isinstance(n, str) or not n]
+            if bad or len(set(names)) != len(names):
+                raise ValueError(f"names must be distinct non-empty strings, got {names!r}")
+        except Exception as exc:
+            self.error = f"telemetry_fields() failed: {type(exc).__name__}: {exc}; robot signals not recorded"
+            return
+        self.names = names
+        self.tel = robot.telemetry if names else None
+
+    def add(self, state_record: bytes, state, controls: bytes = NO_CONTROLS) -> None:
+        """Record one step off the hot path (the state TORCS sends when it captures the car in its pit)."""
+        self.rows += state_record
+        self.rows += _NO_HEADER
+        self.rows += controls
+        if self.tel is not None:
+            try:
+                self.sig_append(self.tel(state))
+            except Exception as exc:
+                self.drop_signals(exc)
+
+    def drop_signals(self, exc: BaseException) -> None:
+        """telemetry() raised: keep recording the car, without the robot's signals."""
+        self.error = f"telemetry() raised {type(exc).__name__}: {exc}; robot signals dropped"
+        self.tel = None
+        self.names = ()
+        self.signals.clear()
+
+    # --- at the end ----------------------------------------------------------------------------
+    def columns(self) -> dict[str, np.ndarray]:
+        """The recorded steps as named numpy columns (the signals as sig_<name>, the target apart)."""
+        n = self.steps
+        a = np.frombuffer(self.rows, dtype="<f8", count=n * ROW_DOUBLES).reshape(n, ROW_DOUBLES)
+        cols: dict[str, np.ndarray] = {
+            "car": np.full(n, self.index, dtype=np.int16),
+            "time_s": a[:, _S["sim_time_s"]].copy(),
+            "lap": a[:, _S["laps"]].astype(np.int16),
+            "dist_m": a[:, _S["dist_from_start_m"]].copy(),
+            "dist_raced_m": a[:, _S["dist_raced_m"]].copy(),
+            "x_m": a[:, _S["x_m"]].copy(),
+            "y_m": a[:, _S["y_m"]].copy(),
+            "speed_mps": a[:, _S["speed_x_mps"]].copy(),
+            "accel": a[:, _C["accel"]].copy(),
+            "brake": a[:, _C["brake"]].copy(),
+            "clutch": a[:, _C["clutch"]].copy(),
+            "gear": a[:, _S["gear"]].astype(np.int8),
+            "rpm": a[:, _S["rpm"]] * RAD_S_TO_RPM,
+            "steer": a[:, _C["steer"]].copy(),
+            "to_middle_m": a[:, _S["to_middle_m"]].copy(),
+            "fuel_l": a[:, _S["fuel_l"]].copy(),
+            "damage": a[:, _S["damage"]].copy(),
+            "in_pit": (a[:, _S["car_state"]].astype(np.int64) & 1) != 0,
+            "pit_request": a[:, _C["pit_request"]] > 0.5,
+        }
+        if self.names:
+            try:
+                sig = np.array(self.signals, dtype=np.float64)
+                if sig.shape != (n, len(self.names)):
+                    raise ValueError(f"expected {n} steps x {len(self.names)} values, got shape {sig.shape}")
+            except (ValueError, TypeError) as exc:
+                self.error = (f"telemetry() values do not match telemetry_fields() {self.names}: {exc}; "
+                              "robot signals dropped")
+            else:
+                for j, name in enumerate(self.names):
+                    cols[name if name == TARGET_FIELD else SIGNAL_PREFIX + name] = sig[:, j]
+        return cols
+
+
+def track_info(track, cars: dict[int, object]) -> dict:
+    """What a report needs of the track: length, edges (for the map), pit lane, each car's box."""
+    info: dict = {"name": track.name, "category": track.category, "length_m": float(track.length_m),
+                  "width_m": float(track.width_m)}
+    try:
+        from boxbox.robot.racingline import middle_line
+
+        mid = middle_line(track, step_m=4.0)
+        nx, ny = -np.sin(mid.heading_rad), np.cos(mid.heading_rad)
+        r = lambda v: np.round(v, 2).tolist()  # noqa: E731
+        info["edges"] = {"left_x": r(mid.x_m + mid.half_left_m * nx), "left_y": r(mid.y_m + mid.half_left_m * ny),
+                         "right_x": r(mid.x_m - mid.half_right_m * nx), "right_y": r(mid.y_m - mid.half_right_m * ny)}
+    except Exception as exc:  # a map without edges is still a map
+        info["edges_error"] = f"{type(exc).__name__}: {exc}"
+    pit = track.pit
+    if pit is not None:
+        starts, lengths = track.seg["start_dist_m"], track.seg["length_m"]
+        info["pit"] = {"entry_m": float(starts[pit.entry_seg]), "limit_start_m": float(starts[pit.start_seg]),
+                       "limit_end_m": float(starts[pit.end_seg] + lengths[pit.end_seg]),
+                       "exit_m": float(starts[pit.exit_seg] + lengths[pit.exit_seg]),
+                       "speed_limit_mps": float(pit.speed_limit_mps), "side": int(pit.side),
+                       "box_length_m": float(pit.box_length_m),
+                       "box_m": {str(i): float(track.dist_of(c.pit_seg, c.pit_to_start))
+                                 for i, c in cars.items() if c is not None and c.pit_seg >= 0}}
+    return info
+
+
+def write_telemetry(path: Path, recorders: list[Recorder], track=None, cars: dict | None = None) -> int:
+    """Write every recorder's steps to one Parquet file (atomically); returns the number of rows.
+    Writes nothing when no step was recorded."""
+    if not any(r.steps for r in recorders):
+        return 0
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    tables = []
+    for rec in recorders:
+        if not rec.steps:
+            continue
+        cols = rec.columns()
+        n = rec.steps
+        arrays = {}
+        for name, _ in COLUMNS:
+            if name == "driver":
+                arrays[name] = pa.DictionaryArray.from_arrays(pa.array(np.zeros(n, dtype=np.int32)), pa.array([rec.name]))
+            elif name == TARGET_FIELD and name not in cols:
+                arrays[name] = pa.nulls(n, pa.float64())
+            else:
+                arrays[name] = pa.array(cols[name])
+        for name, values in cols.items():
+            if name.startswith(SIGNAL_PREFIX):
+                arrays[name] = pa.array(values)
+        tables.append(pa.table(arrays))
+    table = pa.concat_tables(tables, promote_options="default") if len(tables) > 1 else tables[0]
+    meta = {"version": 1, "step_s": 0.02,
+            "cars": [{"car": r.index, "name": r.name, "robot": r.spec, "steps": r.steps, "signals": list(r.names),
+                      "error": r.error, **({"lap_step_us": r.lap_step_us} if r.lap_step_us else {})}
+                     for r in recorders]}
+    if track is not None:
+        meta["track"] = track_info(track, cars or {})
+    table = table.replace_schema_metadata({METADATA_KEY: json.dumps(meta).encode()})
+    tmp = path.with_name(f".{path.name}.tmp")
+    pq.write_table(table, tmp, compression="zstd")
+    os.replace(tmp, path)
+    return table.num_rows
+
+
+@dataclass
+class Telemetry:
+    """A telemetry file read back: numpy columns (nulls as NaN) and the metadata."""
+
+    columns: dict[str, np.ndarray]
+    meta: dict
+
+    @property
+    def rows(self) -> int:
+        return len(self.columns["time_s"]) if self.columns else 0
+
+    def car(self, index: int) -> dict[str, np.ndarray]:
+        """The rows of one Python car, in time order."""
+        mask = self.columns["car"] == index
+        return {k: v[mask] for k, v in self.columns.items()}
+
+
+def load_telemetry(path: Path) -> Telemetry:
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    table = pq.read_table(path)
+    raw = (table.schema.metadata or {}).get(METADATA_KEY)
+    meta = json.loads(raw) if raw else {}
+    cols = {}
+    for name in table.column_names:
+        col = table.column(name)
+        if name == "driver":
+            cols[name] = np.array(col.to_pylist(), dtype=object)
+        elif pa.types.is_floating(col.type):
+            cols[name] = np.asarray(col.to_numpy(), dtype=np.float64)  # nulls become NaN
+        else:
+            cols[name] = col.to_numpy()
+    return Telemetry(columns=cols, meta=meta)
