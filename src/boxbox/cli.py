@@ -9,6 +9,7 @@ from pathlib import Path
 import click
 from rich.console import Console
 
+from boxbox.cliutil import positive_int, ready
 from boxbox.errors import BoxboxError, UsageError
 
 # Errors are one line however narrow the terminal; tables get room when piped.
@@ -17,28 +18,11 @@ out = Console(width=None if sys.stdout.isatty() else 160)
 
 
 def _ready():
-    """Set up TORCS and the bridge when needed, showing each step."""
-    from boxbox.torcs import setup
-
-    if not setup.packages_missing() and all(ok for _, ok, _ in setup.doctor()):
-        return setup.ensure_ready()
-    with console.status("setting up TORCS for boxbox") as status:
-        def report(msg: str) -> None:
-            status.update(msg)
-            console.print(f"[dim]setup:[/] {msg}")
-        overlay = setup.ensure_ready(report)
-    console.print("[green]setup: ready[/]")
-    return overlay
+    return ready(console)
 
 
 def _parse_laps(text: str) -> int:
-    try:
-        laps = int(text)
-    except ValueError:
-        raise UsageError(f"--laps must be a whole number of laps >= 1, got '{text}'") from None
-    if laps < 1:
-        raise UsageError(f"--laps must be >= 1, got {laps}")
-    return laps
+    return positive_int("--laps", text, " of laps")
 
 
 def _parse_float(name: str, text: str | None, minimum: float) -> float | None:

@@ -505,21 +505,27 @@ def _row(track: str, car: str, robot: _Robot, job: RaceJob, result: RaceResult |
             "off_track_s": d.off_track_s if d else None, "lap_times": list(d.lap_times) if d else []}
 
 
-def run_bench(spec: BenchSpec, overlay: Overlay, console: Console | None = None) -> BenchResult:
-    """Check everything, take what the cache has, race the rest in parallel, compare."""
-    console = console or Console(stderr=True)
-    started = time.perf_counter()
-    planned, robots = plan(spec)
-    unique = list({job.key: job for *_, job in planned}.values())
+def race_or_recall(unique: list, overlay: Overlay, jobs: int, use_cache: bool, console: Console):
+    """Outcomes of every distinct race (cached ones recalled, the rest raced in parallel) and the raced list."""
     outcomes: dict[str, tuple[RaceResult | None, str | None, bool]] = {}
-    if spec.use_cache:
+    if use_cache:
         for job in unique:
             hit = _load_cached(job.key)
             if hit is not None:
                 outcomes[job.key] = (hit, None, True)
     todo = [job for job in unique if job.key not in outcomes]
     if todo:
-        outcomes.update(_race_all(todo, overlay, min(spec.jobs, len(todo)), len(unique) - len(todo), console))
+        outcomes.update(_race_all(todo, overlay, min(jobs, len(todo)), len(unique) - len(todo), console))
+    return outcomes, todo
+
+
+def run_bench(spec: BenchSpec, overlay: Overlay, console: Console | None = None) -> BenchResult:
+    """Check everything, take what the cache has, race the rest in parallel, compare."""
+    console = console or Console(stderr=True)
+    started = time.perf_counter()
+    planned, robots = plan(spec)
+    unique = list({job.key: job for *_, job in planned}.values())
+    outcomes, todo = race_or_recall(unique, overlay, spec.jobs, spec.use_cache, console)
     rows = [_row(track, car, robot, job, *outcomes[job.key]) for track, car, robot, job in planned]
     _set_gaps(rows, spec.laps)
     return BenchResult(laps=spec.laps, tracks=list(spec.tracks), cars=list(spec.cars), robots=[r.entry for r in robots],

@@ -9,34 +9,11 @@ from pathlib import Path
 import click
 from rich.console import Console
 
+from boxbox.cliutil import positive_int, ready
 from boxbox.errors import UsageError
 
 DEFAULT_TRACKS = "e-track-2,e-track-4,mixed-2,g-track-1,aalborg,michigan"
 DEFAULT_ROBOTS = "boxbox,bt:2,berniw:3,inferno:3,olethros:2"
-
-
-def _positive_int(name: str, text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise UsageError(f"{name} must be a whole number >= 1, got '{text}'") from None
-    if value < 1:
-        raise UsageError(f"{name} must be >= 1, got {value}")
-    return value
-
-
-def _ready(console: Console):
-    from boxbox.torcs import setup
-
-    if not setup.packages_missing() and all(ok for _, ok, _ in setup.doctor()):
-        return setup.ensure_ready()
-    with console.status("setting up TORCS for boxbox") as status:
-        def report(msg: str) -> None:
-            status.update(msg)
-            console.print(f"[dim]setup:[/] {msg}")
-        overlay = setup.ensure_ready(report)
-    console.print("[green]setup: ready[/]")
-    return overlay
 
 
 @click.command("bench")
@@ -67,15 +44,15 @@ def bench(tracks, cars, robots, laps, together, jobs, no_cache, learning, settin
     spec = BenchSpec(tracks=parse_list(tracks, list(catalog.tracks()), "track"),
                      cars=parse_list(cars, catalog.cars(), "car"),
                      robots=parse_list(robots, None, "robot"),
-                     laps=_positive_int("--laps", laps),
+                     laps=positive_int("--laps", laps),
                      together=together,
-                     jobs=_positive_int("--jobs", jobs) if jobs is not None else (os.cpu_count() or 1),
+                     jobs=positive_int("--jobs", jobs) if jobs is not None else (os.cpu_count() or 1),
                      use_cache=not no_cache, learning=learning,
                      settings=parse_set(settings) if settings else None)
     from boxbox.report.bench import plan
 
     plan(spec)  # every name checked before TORCS is even set up
-    overlay = _ready(err)
+    overlay = ready(err)
     result = run_bench(spec, overlay, err)
     out.print(result.table())
     if len(result.tracks) > 1 or len(result.cars) > 1:

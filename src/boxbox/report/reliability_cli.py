@@ -10,7 +10,7 @@ import click
 from rich.console import Console
 
 from boxbox.errors import BoxboxError, UsageError
-from boxbox.report.bench_cli import _positive_int, _ready
+from boxbox.cliutil import positive_int, ready
 
 
 class SweepFailed(BoxboxError):
@@ -47,15 +47,15 @@ def sweep(robot, car, cars_track, tracks, cars, laps, jobs, no_cache, json_file,
 
     err = Console(stderr=True, soft_wrap=True)
     out = Console(width=None if sys.stdout.isatty() else 200)
-    spec = SweepSpec(robot=robot, car=car, cars_track=cars_track, laps=_positive_int("--laps", laps),
-                     jobs=_positive_int("--jobs", jobs) if jobs is not None else (os.cpu_count() or 1),
+    spec = SweepSpec(robot=robot, car=car, cars_track=cars_track, laps=positive_int("--laps", laps),
+                     jobs=positive_int("--jobs", jobs) if jobs is not None else (os.cpu_count() or 1),
                      use_cache=not no_cache,
                      tracks=parse_list(tracks, list(catalog.tracks()), "track"),
                      cars=parse_list(cars, catalog.cars(), "car"))
     _output("--json", json_file)
     _output("--markdown", markdown_file)
     check(spec)  # every name checked before TORCS is even set up
-    overlay = _ready(err)
+    overlay = ready(err)
     result = run_sweep(spec, overlay, err)
     result.command = command_line()
     out.print(result.table())
@@ -86,18 +86,18 @@ def soak(track, car, robot, long_laps, races, race_laps, telemetry, keep_runs, j
     from boxbox.torcs import catalog
 
     def count(name: str, text: str) -> int:
-        return 0 if text.strip() == "0" else _positive_int(name, text)
+        return 0 if text.strip() == "0" else positive_int(name, text)
 
     err = Console(stderr=True, soft_wrap=True)
     out = Console(width=None if sys.stdout.isatty() else 200)
     spec = SoakSpec(track=track, car=car, robot=robot, long_laps=count("--long-laps", long_laps),
-                    races=count("--races", races), race_laps=_positive_int("--race-laps", race_laps),
+                    races=count("--races", races), race_laps=positive_int("--race-laps", race_laps),
                     telemetry=telemetry, keep_runs=keep_runs)
     catalog.check_track(track)
     catalog.check_car(car)
     load_robot_class(robot).check_setup(RaceOptions(), track, car)
     _output("--json", json_file)
-    overlay = _ready(err)
+    overlay = ready(err)
     result = run_soak(spec, overlay, err)
     for table in tables(result):
         out.print(table)

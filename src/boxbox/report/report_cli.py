@@ -13,6 +13,7 @@ import click
 from rich.console import Console
 from rich.table import Table
 
+from boxbox.cliutil import positive_int, ready
 from boxbox.errors import RaceError, UsageError
 
 console = Console(stderr=True, soft_wrap=True)
@@ -30,16 +31,6 @@ def report_cmd(run_dir: Path, out_file: Path | None) -> None:
     if not run_dir.is_dir():
         raise UsageError(f"run dir {run_dir} does not exist")
     out.print(str(write_report(run_dir, out_file)))
-
-
-def _positive_int(name: str, text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise UsageError(f"{name} must be a whole number >= 1, got '{text}'") from None
-    if value < 1:
-        raise UsageError(f"{name} must be >= 1, got {value}")
-    return value
 
 
 def _bench_race(result, mode: str) -> dict:
@@ -114,11 +105,10 @@ def bench_telemetry(track, laps, runs, robot, json_file) -> None:
     """Drive step time with telemetry recorded and without, and their ratio (alternating races)."""
     from rich.progress import Progress
 
-    from boxbox.cli import _ready
 
-    laps_n = _positive_int("--laps", laps)
-    runs_n = _positive_int("--runs", runs)
-    overlay = _ready()
+    laps_n = positive_int("--laps", laps)
+    runs_n = positive_int("--runs", runs)
+    overlay = ready(console)
     with Progress(console=console, transient=True) as bar:
         task = bar.add_task(f"{track}, {laps_n} laps, telemetry on/off/alternate", total=3 * runs_n)
         res = run_telemetry_bench(overlay, track, laps_n, runs_n, robot, lambda: bar.advance(task))

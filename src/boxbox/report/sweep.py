@@ -18,7 +18,7 @@ from rich.console import Console
 from rich.table import Table
 
 from boxbox.files import write_json_atomic, write_text_atomic
-from boxbox.report.bench import BenchSpec, _load_cached, _race_all, _row, package_version, plan
+from boxbox.report.bench import BenchSpec, _row, package_version, plan, race_or_recall
 from boxbox.report.tables import fmt_time
 from boxbox.torcs import catalog
 from boxbox.torcs.setup import Overlay
@@ -163,15 +163,7 @@ def run_sweep(spec: SweepSpec, overlay: Overlay, console: Console | None = None)
         rows, _ = plan(bench)
         planned += [(part, *row) for row in rows]
     unique = list({job.key: job for *_, job in planned}.values())
-    outcomes = {}
-    if spec.use_cache:
-        for job in unique:
-            hit = _load_cached(job.key)
-            if hit is not None:
-                outcomes[job.key] = (hit, None, True)
-    todo = [job for job in unique if job.key not in outcomes]
-    if todo:
-        outcomes.update(_race_all(todo, overlay, min(spec.jobs, len(todo)), len(unique) - len(todo), console))
+    outcomes, todo = race_or_recall(unique, overlay, spec.jobs, spec.use_cache, console)
     result = SweepResult(spec=spec, raced=len(todo), cached=len(unique) - len(todo))
     for part, track, car, robot, job in planned:
         row = _row(track, car, robot, job, *outcomes[job.key])
