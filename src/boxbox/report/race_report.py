@@ -155,13 +155,19 @@ def fig_lap(c: dict, lap: int, length_m: float, title: str):
     # the target can be the robot's top speed on straights: the axis follows the car's own speed
     ax.set_ylim(0, max(50.0, float(np.nanmax(v, initial=0.0))) * 1.25)
     ax.set_xlim(0, length_m)
+    return _finish_speed_figure(fig, ax, gs, x, c, jump, title, "distance from the start line (m)",
+                                dict(loc="lower right", ncols=3))
+
+
+def _finish_speed_figure(fig, ax, gs, x, data: dict, jump, title: str, xlabel: str, legend: dict):
+    """Grid, legend and title of a speed panel, and the throttle/brake and gear panels below it."""
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8, loc="lower right", ncols=3)
+    ax.legend(fontsize=8, **legend)
     ax.set_title(title)
     ax.tick_params(labelbottom=False)
-    _, axg = _pedal_gear_panels(fig, [gs[1], gs[2]], x, c, jump, ax)
+    _, axg = _pedal_gear_panels(fig, [gs[1], gs[2]], x, data, jump, ax)
     fig.axes[1].tick_params(labelbottom=False)
-    axg.set_xlabel("distance from the start line (m)")
+    axg.set_xlabel(xlabel)
     return fig
 
 
@@ -277,14 +283,8 @@ def fig_pit(c: dict, event: dict, pit: dict, car_index: int, length_m: float, ti
     ax.set_ylim(0, max(limit * 1.5, float(np.nanmax(v, initial=0.0))) * 1.3)
     ax.set_xlim(min(-20.0, float(np.nanmin(x, initial=0.0))), max(rel(pit["exit_m"]) + 20.0,
                                                                    float(np.nanmax(x, initial=0.0))))
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=8, loc="upper center", ncols=2)
-    ax.set_title(title)
-    ax.tick_params(labelbottom=False)
-    _, axg = _pedal_gear_panels(fig, [gs[1], gs[2]], x, sub, jump, ax)
-    fig.axes[1].tick_params(labelbottom=False)
-    axg.set_xlabel("distance from the pit entry (m)")
-    return fig
+    return _finish_speed_figure(fig, ax, gs, x, sub, jump, title, "distance from the pit entry (m)",
+                                dict(loc="upper center", ncols=2))
 
 
 # --- the page ----------------------------------------------------------------------------------------
