@@ -19,7 +19,7 @@ def test_two_laps_g_track_1(tmp_path, overlay):
     [me] = r["drivers"]
     assert DRIVER_KEYS <= set(me)
     assert me["module"] == "boxbox" and me["laps"] == 2
-    assert len(me["lap_times"]) == 2 and all(40 < t < 200 for t in me["lap_times"])
+    assert len(me["lap_times"]) == 2 and all(30 < t < 200 for t in me["lap_times"])
     assert me["best_lap"] == min(me["lap_times"])
     # the race time TORCS reports covers both laps
     assert abs(me["time"] - sum(me["lap_times"])) < 5.0
