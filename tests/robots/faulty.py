@@ -2,7 +2,6 @@
 
 import os
 import signal
-import sys
 import time
 from pathlib import Path
 
@@ -153,9 +152,9 @@ class HangsInOnTrack(MiddleRobot):
 
 
 def torcs_pid() -> int:
-    """The TORCS process of this race: the host is its sibling, started as
-    `python -m boxbox.torcs.host RUN_DIR/host-spec.json`; TORCS runs `-r RUN_DIR/race.xml`."""
-    race_file = str(Path(sys.argv[-1]).parent / "race.xml")
+    """The TORCS process of this race: the host is its sibling and names the race's folder in
+    BOXBOX_RUN_DIR; TORCS runs `-r RUN_DIR/race.xml`."""
+    race_file = str(Path(os.environ["BOXBOX_RUN_DIR"]) / "race.xml")
     for pid in os.listdir("/proc"):
         if not pid.isdigit():
             continue

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import faulthandler
 import json
+import os
 import math
 import signal
 import socket
@@ -419,6 +420,7 @@ class Host:
 def main(argv: list[str]) -> int:
     spec = json.loads(Path(argv[0]).read_text())
     run_dir = Path(spec["run_dir"])
+    os.environ["BOXBOX_RUN_DIR"] = str(run_dir)  # robots may keep files of their race here
     hang_file = open(run_dir / "hang-traceback.txt", "w")
     faulthandler.register(signal.SIGUSR1, file=hang_file, all_threads=False)
     listener = socket.socket(fileno=int(spec["listen_fd"]))

@@ -73,6 +73,74 @@ def _child_setup(cpu: int | None) -> Callable[[], None]:
     return setup
 
 
+class ForkedHost:
+    """The robot host as a forked child of the launcher (a Popen look-alike).
+
+    A fresh `python -m boxbox.torcs.host` spends about 0.4 s importing numpy and the robot before
+    TORCS can start its race; a fork starts with what the launcher has imported already (it has
+    loaded the robot class to check it). BOXBOX_HOST_EXEC=1 goes back to a fresh interpreter.
+    """
+
+    def __init__(self, spec_path: Path, log_path: Path, cpu: int | None) -> None:
+        sys.stdout.flush()
+        sys.stderr.flush()
+        pid = os.fork()
+        if pid == 0:  # the child: never returns into the launcher's code
+            code = 1
+            try:
+                os.setsid()
+                for sig in (signal.SIGINT, signal.SIGTERM):
+                    signal.signal(sig, signal.SIG_DFL)
+                _child_setup(cpu)()
+                log = os.open(log_path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644)
+                null = os.open(os.devnull, os.O_RDONLY)
+                os.dup2(null, 0)
+                os.dup2(log, 1)
+                os.dup2(log, 2)
+                from boxbox.torcs import host
+
+                code = host.main([str(spec_path)])
+            except BaseException:  # noqa: BLE001  (anything here must end the child, reported)
+                import traceback
+
+                os.write(2, traceback.format_exc().encode(errors="replace"))
+            finally:
+                try:
+                    sys.stdout.flush()
+                    sys.stderr.flush()
+                finally:
+                    os._exit(code)
+        self.pid = pid
+        self.returncode: int | None = None
+        self.args = ["fork", "boxbox.torcs.host", str(spec_path)]
+
+    def poll(self) -> int | None:
+        if self.returncode is None:
+            try:
+                pid, status = os.waitpid(self.pid, os.WNOHANG)
+            except ChildProcessError:
+                self.returncode = self.returncode if self.returncode is not None else -signal.SIGKILL
+                return self.returncode
+            if pid:
+                self.returncode = os.waitstatus_to_exitcode(status)
+        return self.returncode
+
+    def wait(self, timeout: float | None = None) -> int:
+        deadline = None if timeout is None else time.monotonic() + timeout
+        while self.poll() is None:
+            if deadline is not None and time.monotonic() > deadline:
+                raise subprocess.TimeoutExpired(self.args, timeout)
+            time.sleep(0.002)
+        return self.returncode
+
+    def send_signal(self, sig: int) -> None:
+        if self.poll() is None:
+            os.kill(self.pid, sig)
+
+    def kill(self) -> None:
+        self.send_signal(signal.SIGKILL)
+
+
 def _pick_cpu() -> int | None:
     cpus = sorted(os.sched_getaffinity(0))
     return cpus[os.getpid() % len(cpus)] if cpus else None
@@ -179,11 +247,15 @@ def _run_race(cfg: RaceConfig, overlay: Overlay, progress: Progress | None, run_
                     "connect_timeout_s": wall_limit, "telemetry": cfg.telemetry,
                     "telemetry_alternate": cfg.telemetry_alternate}
             (run_dir / "host-spec.json").write_text(json.dumps(spec))
-            with open(run_dir / "host.log", "wb") as log:
-                host = subprocess.Popen([sys.executable, "-m", "boxbox.torcs.host", str(run_dir / "host-spec.json")],
-                                        stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
-                                        pass_fds=[listener.fileno()], preexec_fn=_child_setup(cpu),
-                                        start_new_session=True)
+            if os.environ.get("BOXBOX_HOST_EXEC") or not hasattr(os, "fork"):
+                with open(run_dir / "host.log", "wb") as log:
+                    host = subprocess.Popen([sys.executable, "-m", "boxbox.torcs.host",
+                                             str(run_dir / "host-spec.json")],
+                                            stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
+                                            pass_fds=[listener.fileno()], preexec_fn=_child_setup(cpu),
+                                            start_new_session=True)
+            else:
+                host = ForkedHost(run_dir / "host-spec.json", run_dir / "host.log", cpu)
             listener.close()
             listener = None
         cmd = [str(overlay.torcs.binary), "-l", f"{local}/", "-L", f"{overlay.lib_dir}/", "-D",
