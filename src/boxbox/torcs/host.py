@@ -198,7 +198,9 @@ class Host:
                     "step": step, "sim_time_s": slot.last_state.sim_time_s if slot and slot.last_state else 0.0}
             (self.run_dir / "fault.json").write_text(json.dumps(info, indent=1))
 
-    def _call(self, slot: Slot, robot: int, step: int, where: str, fn, *args):
+    @staticmethod
+    def _call(where: str, fn, *args):
+        """A robot call: any exception becomes a RobotFault naming the call, with its traceback."""
         try:
             return fn(*args)
         except Exception as exc:
@@ -285,7 +287,7 @@ class Host:
                 try:
                     slot.track, slot.car = decode_track(blob, self.spec["track"], self.spec["category"])
                     slot.car.name = self.spec["car"]
-                    fuel = self._call(slot, robot, step, "initial_fuel_l", slot.robot.initial_fuel_l, slot.track, slot.car)
+                    fuel = self._call("initial_fuel_l", slot.robot.initial_fuel_l, slot.track, slot.car)
                     if fuel is not None and not (isinstance(fuel, (int, float)) and 0 <= fuel < math.inf):
                         raise RobotFault("invalid-value", f"initial_fuel_l() returned {fuel!r}; expected litres >= 0 or None")
                 except RobotFault as fault:
@@ -298,7 +300,7 @@ class Host:
                 slot.max_gear = slot.car.max_gear
                 slot.pit_zone = pit_zone(slot.track)
                 try:
-                    self._call(slot, robot, step, "on_track", slot.robot.on_track, slot.track, slot.car)
+                    self._call("on_track", slot.robot.on_track, slot.track, slot.car)
                 except RobotFault as fault:
                     self._fail(conn, slot, robot, step, "on_track", fault, wire.ACK)
                     continue
@@ -311,7 +313,7 @@ class Host:
                 if slot.rec is not None:  # the stop itself: TORCS drives no car it holds in the pit
                     slot.rec.add(bytes(state_view), state)
                 try:
-                    order = self._call(slot, robot, step, "pit_stop", slot.robot.pit_stop, state)
+                    order = self._call("pit_stop", slot.robot.pit_stop, state)
                     problem = order.problem() if type(order) is PitOrder else f"pit_stop() returned {type(order).__name__}, not PitOrder"
                     if problem:
                         raise RobotFault("invalid-value", f"pit_stop() returned an invalid order: {problem}")
@@ -324,7 +326,7 @@ class Host:
                 state = make_state(state_rec(buf, hsize) + ((),))
                 self._lap(slot, state)
                 try:
-                    self._call(slot, robot, step, "on_race_end", slot.robot.on_race_end, state)
+                    self._call("on_race_end", slot.robot.on_race_end, state)
                 except RobotFault as fault:
                     self._fail(conn, slot, robot, step, "on_race_end", fault, wire.ACK)
                     continue
