@@ -343,14 +343,17 @@ def robots_cmd() -> None:
             out.print(f"torcs   {module}:{idx:<6} {info['name']} ({info['car']})")
 
 
-from boxbox.report.bench_cli import bench
-main_group.add_command(bench)
-from boxbox.report.report_cli import bench_telemetry, report_cmd  # noqa: E402
-main_group.add_command(report_cmd)
-main_group.add_command(bench_telemetry)
-from boxbox.report.reliability_cli import soak, sweep  # noqa: E402
-main_group.add_command(sweep)
-main_group.add_command(soak)
+def _register_report_commands() -> None:
+    """The commands that live in report/ (benchmarks, the HTML report, sweep, soak)."""
+    from boxbox.report.bench_cli import bench
+    from boxbox.report.reliability_cli import soak, sweep
+    from boxbox.report.report_cli import bench_telemetry, report_cmd
+
+    for command in (bench, report_cmd, bench_telemetry, sweep, soak):
+        main_group.add_command(command)
+
+
+_register_report_commands()
 
 
 def _sigterm_as_interrupt(signum, frame) -> None:

@@ -151,8 +151,9 @@ class SpeedProfile:
     @staticmethod
     def _backward_pass(limit: list[float], mu: list[float], model: CarModel, step_m: float,
                        lateral: tuple[list[float], list[float]] | None = None,
-                       max_entry_speed=entry_speed_function(BrakeModel.EXACT)) -> list[float]:
+                       max_entry_speed=None) -> list[float]:
         n = len(limit)
+        max_entry_speed = max_entry_speed or entry_speed_function(BrakeModel.EXACT)
         ca_per_kg = model.ca / model.mass_kg
         speeds = list(limit)
         # The slowest sample can never be forced lower (everything is >= the smallest limit), so a

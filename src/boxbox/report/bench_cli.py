@@ -10,7 +10,6 @@ import click
 from rich.console import Console
 
 from boxbox.cliutil import positive_int, ready
-from boxbox.errors import UsageError
 
 DEFAULT_TRACKS = "e-track-2,e-track-4,mixed-2,g-track-1,aalborg,michigan"
 DEFAULT_ROBOTS = "boxbox,bt:2,berniw:3,inferno:3,olethros:2"

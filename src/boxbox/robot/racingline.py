@@ -18,11 +18,15 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from boxbox.cache import cached_array
 from boxbox.model.track import LEFT, STRAIGHT, Track
+
+if TYPE_CHECKING:  # annotations only: scipy is imported where a line is computed
+    import scipy.sparse as sp
 
 TWO_PI = 2.0 * math.pi
 _DEBUG = False
@@ -101,7 +105,7 @@ def middle_line(track: Track, step_m: float = 2.0, margin_m: float = 0.0) -> Mid
                       friction=seg["friction"].astype(float)[ids], seg_id=ids, curvature_1pm=k)
 
 
-def _pivot_box_qp(h_csc: "sp.csc_matrix", g: np.ndarray, lo: np.ndarray, hi: np.ndarray,
+def _pivot_box_qp(h_csc: sp.csc_matrix, g: np.ndarray, lo: np.ndarray, hi: np.ndarray,
                   x0: np.ndarray, max_iter: int) -> tuple[np.ndarray, bool]:
     """Block active-set pivoting for min 1/2 x'Hx + g'x, lo <= x <= hi: solve on the free
     variables with the others held at their bounds, pin every free one that overshoots, release

@@ -95,7 +95,7 @@ def _deb_src_stanzas() -> str:
                     key, value = line.split(":", 1)
                     fields[key.strip()] = value.strip()
             if fields.get("Types", "").split() == ["deb"] and "debian" in fields.get("URIs", ""):
-                lines = [f"Types: deb-src"] + [f"{k}: {v}" for k, v in fields.items() if k != "Types"]
+                lines = ["Types: deb-src"] + [f"{k}: {v}" for k, v in fields.items() if k != "Types"]
                 stanzas.append("\n".join(lines))
     sources_list = Path("/etc/apt/sources.list")
     if sources_list.exists():
