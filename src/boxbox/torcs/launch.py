@@ -97,9 +97,15 @@ class ForkedHost:
                 os.dup2(null, 0)
                 os.dup2(log, 1)
                 os.dup2(log, 2)
+                import atexit
+
                 from boxbox.torcs import host
 
-                code = host.main([str(spec_path)])
+                atexit._clear()  # the launcher's exit handlers are not the host's to run
+                try:
+                    code = host.main([str(spec_path)])
+                finally:
+                    atexit._run_exitfuncs()  # a robot's own exit handlers run, as in a fresh interpreter
             except BaseException:  # noqa: BLE001  (anything here must end the child, reported)
                 import traceback
 
