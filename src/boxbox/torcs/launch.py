@@ -124,8 +124,8 @@ class ForkedHost:
         if self.returncode is None:
             try:
                 pid, status = os.waitpid(self.pid, os.WNOHANG)
-            except ChildProcessError:
-                self.returncode = self.returncode if self.returncode is not None else -signal.SIGKILL
+            except ChildProcessError:  # reaped elsewhere: it is gone, how is unknown
+                self.returncode = -signal.SIGKILL
                 return self.returncode
             if pid:
                 self.returncode = os.waitstatus_to_exitcode(status)
