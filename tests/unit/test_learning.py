@@ -231,15 +231,23 @@ def drive_lap_on_a_line(tl, errors, margin=0.2):
 
 def test_holding_the_racing_line_raises_the_factor():
     tl = learner(TWO_TURNS)
-    assert drive_lap_on_a_line(tl, {11: 0.2, 12: 0.4}) == 1  # within 0.5 m of the line all through
+    assert drive_lap_on_a_line(tl, {11: 0.2, 12: 0.8}) == 1  # within 1 m outside the line all through
     assert tl.turns[0].factor == pytest.approx(1.0 + 0.5 * 0.02)
 
 
 def test_fighting_to_stay_near_the_line_lowers_it_and_in_between_holds():
     tl = learner(TWO_TURNS)
-    drive_lap_on_a_line(tl, {11: 0.2, 12: 1.6, 26: 1.0})
-    assert tl.turns[0].factor == pytest.approx(0.99)  # more than 3 x 0.5 m off the line
+    drive_lap_on_a_line(tl, {11: 0.2, 12: 3.2, 26: 2.0})
+    assert tl.turns[0].factor == pytest.approx(0.98)  # pushed more than 3 x 1 m outside the line
     assert tl.turns[1].factor == 1.0  # between: unchanged
+
+
+def test_room_to_the_edge_does_not_raise_a_car_pushed_off_its_line():
+    """Understeer on a wide track: the car runs metres outside its line yet far from the edge."""
+    tl = learner(TWO_TURNS)
+    drive_lap_on_a_line(tl, {11: 4.0, 26: 0.2}, margin=2.5)
+    assert tl.turns[0].factor == pytest.approx(0.98)
+    assert tl.turns[1].factor == pytest.approx(1.0 + 0.5 * 0.02)  # on its line: the line rule, not the margin
 
 
 def test_line_errors_do_not_override_leaving_the_track():

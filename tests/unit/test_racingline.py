@@ -33,7 +33,7 @@ def build_track(pieces: list[tuple], width_m: float = 12.0, seg_len_m: float = 5
     names = ("type", "length_m", "width_m", "start_width_m", "end_width_m", "start_dist_m", "radius_m",
              "arc_rad", "center_x", "center_y", "start_left_x", "start_left_y", "start_right_x",
              "start_right_y", "end_left_x", "end_left_y", "end_right_x", "end_right_y", "start_angle_rad",
-             "friction")
+             "friction", "start_z_m", "end_z_m")
     cols: dict[str, list[float]] = {k: [] for k in names}
     x = y = h = dist = 0.0
     hw = width_m / 2
@@ -63,7 +63,7 @@ def build_track(pieces: list[tuple], width_m: float = 12.0, seg_len_m: float = 5
                 x, y = cx + sign * radius * math.sin(h), cy - sign * radius * math.cos(h)
             lx, ly = -math.sin(h), math.cos(h)
             row.update(end_left_x=x + hw * lx, end_left_y=y + hw * ly, end_right_x=x - hw * lx,
-                       end_right_y=y - hw * ly)
+                       end_right_y=y - hw * ly, start_z_m=0.0, end_z_m=0.0)  # flat
             for key, value in row.items():
                 cols[key].append(value)
             dist += seg_len

@@ -21,20 +21,36 @@ QUARTER_TURN_RAD = math.pi / 2.0
 
 
 def allowed_speed(
-    radius_m: float, mu: float, model: CarModel, max_speed_mps: float = DEFAULT_MAX_SPEED_MPS
+    radius_m: float, mu: float, model: CarModel, max_speed_mps: float = DEFAULT_MAX_SPEED_MPS,
+    vertical_curvature_1pm: float = 0.0,
 ) -> float:
-    """Highest speed through a turn of radius_m: sqrt(mu g r / (1 - min(1, r CA mu / m))).
+    """Highest speed through a turn of radius_m: sqrt(mu g r / (1 - min(1, r mu (CA / m + kv)))).
 
     Downforce grows with v^2 like the needed side force, so above r = m / (CA mu) any speed holds:
     then (and for r = inf) the result is max_speed_mps, which also caps every other result
-    (pass math.inf for no cap).
+    (pass math.inf for no cap).  `vertical_curvature_1pm` (kv, + in a dip, - over a crest) adds
+    v^2 kv per kg to the tyres' load like downforce does: a dip carries the car faster, a crest
+    slower.
     """
     if math.isinf(radius_m):
         return max_speed_mps
-    denom = 1.0 - min(1.0, radius_m * model.ca * mu / model.mass_kg)
+    denom = 1.0 - min(1.0, radius_m * mu * (model.ca / model.mass_kg + vertical_curvature_1pm))
     if denom <= 0.0:
         return max_speed_mps
     return min(max_speed_mps, math.sqrt(max(0.0, mu * G * radius_m) / denom))
+
+
+def crest_speed(vertical_curvature_1pm: float, model: CarModel, load_share: float = 0.5,
+                max_speed_mps: float = DEFAULT_MAX_SPEED_MPS) -> float:
+    """Highest speed over a crest that keeps `load_share` of the car's weight on its tyres.
+
+    Over a crest the road falls away: the load per kg is g + v^2 (CA / m + kv) with kv < 0, and at
+    load 0 the car takes off (and lands with damage).  Dips and flat road: max_speed_mps.
+    """
+    lift_per_v2 = -(vertical_curvature_1pm + model.ca / model.mass_kg)
+    if lift_per_v2 <= 0.0:
+        return max_speed_mps
+    return min(max_speed_mps, math.sqrt((1.0 - load_share) * G / lift_per_v2))
 
 
 def _turn_arc_fractions(seg_type: np.ndarray, arc_rad: np.ndarray, full_arc_rad: float) -> np.ndarray:
@@ -122,9 +138,12 @@ class SpeedProfile:
         curvature_1pm: Sequence[float] | np.ndarray | None = None,
         corner_mu: float | Sequence[float] | np.ndarray | None = None,
         brake_method: BrakeModel | str = BrakeModel.EXACT,
+        vertical_curvature_1pm: Sequence[float] | np.ndarray | None = None,
     ) -> None:
         """curvature_1pm and corner_mu (optional, per sample): share the tyres' grip between
-        cornering and braking (friction circle), so the car brakes less where it also turns."""
+        cornering and braking (friction circle), so the car brakes less where it also turns.
+        vertical_curvature_1pm (optional, per sample, + in a dip): braking grip follows the tyres'
+        load, less over a crest, more in a dip."""
         limit = np.minimum(np.asarray(limit_mps, dtype=float), max_speed_mps)
         if limit.ndim != 1 or len(limit) == 0:
             raise ValueError("limit_mps must be a non-empty 1-d sequence")
@@ -142,8 +161,11 @@ class SpeedProfile:
             cmu = np.broadcast_to(np.asarray(self.mu if corner_mu is None else corner_mu, dtype=float), limit.shape)
             lateral = (k.tolist(), cmu.tolist())
         self.brake_method = BrakeModel(brake_method)
+        vertical = None
+        if vertical_curvature_1pm is not None:
+            vertical = np.broadcast_to(np.asarray(vertical_curvature_1pm, dtype=float), limit.shape).tolist()
         speeds = self._backward_pass(limit.tolist(), self.mu.tolist(), model, self.step_m, lateral,
-                                     entry_speed_function(self.brake_method))
+                                     entry_speed_function(self.brake_method), vertical)
         self._speeds: list[float] = speeds + [speeds[0]]  # one extra so speed_at can wrap without a branch
         self._inv_step = 1.0 / self.step_m
         self.target_speeds = np.array(speeds)
@@ -151,7 +173,7 @@ class SpeedProfile:
     @staticmethod
     def _backward_pass(limit: list[float], mu: list[float], model: CarModel, step_m: float,
                        lateral: tuple[list[float], list[float]] | None = None,
-                       max_entry_speed=None) -> list[float]:
+                       max_entry_speed=None, vertical: list[float] | None = None) -> list[float]:
         n = len(limit)
         max_entry_speed = max_entry_speed or entry_speed_function(BrakeModel.EXACT)
         ca_per_kg = model.ca / model.mass_kg
@@ -165,10 +187,16 @@ class SpeedProfile:
                 i = (start - k) % n
                 v_next = speeds[(i + 1) % n]
                 mu_brake = mu[i]
+                v_sq = v_next * v_next
+                flat_load = G + ca_per_kg * v_sq  # per kg, as the braking model counts it
+                load = flat_load
+                if vertical is not None and vertical[i] != 0.0:
+                    # the braking model assumes a flat road: scale its grip by the load here
+                    load = max(0.1 * G, flat_load + vertical[i] * v_sq)
+                    mu_brake *= load / flat_load
                 if lateral is not None and lateral[0][i] > 0.0:
                     # grip left for braking once the turn takes its share: sqrt(1 - used^2)
-                    v_sq = v_next * v_next
-                    used = v_sq * lateral[0][i] / (lateral[1][i] * (G + ca_per_kg * v_sq))
+                    used = v_sq * lateral[0][i] / (lateral[1][i] * load)
                     mu_brake *= math.sqrt(1.0 - min(used, MAX_LATERAL_SHARE) ** 2)
                 v = min(limit[i], max_entry_speed(v_next, step_m, mu_brake, model))
                 if v < speeds[i]:

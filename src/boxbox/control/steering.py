@@ -30,15 +30,19 @@ def steer_to_point(x_m: float, y_m: float, yaw_rad: float, target_x_m: float, ta
 
 def steer_to_line(heading_error_rad: float, lateral_error_m: float, curvature_1pm: float, speed_mps: float,
                   yaw_rate_rps: float, wheelbase_m: float, steer_lock_rad: float, lateral_gain: float = 2.0,
-                  yaw_damping_s: float = 0.05, soft_speed_mps: float = 5.0) -> float:
+                  yaw_damping_s: float = 0.05, soft_speed_mps: float = 5.0,
+                  understeer_rad_per_mps2: float = 0.0) -> float:
     """Track a line: feed-forward for its curvature, plus corrections for heading and distance.
 
     heading_error_rad: line heading minus car yaw; lateral_error_m: line offset minus car offset
     (+ when the line is to the car's left); the last term damps yaw rate beyond what the line needs.
     The distance term is divided by speed (a Stanley-type law) so the correction takes about the same
-    distance at any speed, which keeps it stable at 80 m/s.
+    distance at any speed, which keeps it stable at 80 m/s.  `understeer_rad_per_mps2` adds steer
+    in proportion to the lateral acceleration the line asks for (v^2 k): the tyres' slip angles,
+    which a car that understeers needs on top of the geometric angle; without it the car settles
+    outside its line in every turn and only the distance term pulls it back.
     """
-    feed_forward = math.atan(wheelbase_m * curvature_1pm)
+    feed_forward = math.atan(wheelbase_m * curvature_1pm) + understeer_rad_per_mps2 * speed_mps * speed_mps * curvature_1pm
     correction = math.atan(lateral_gain * lateral_error_m / (abs(speed_mps) + soft_speed_mps))
     damping = yaw_damping_s * (speed_mps * curvature_1pm - yaw_rate_rps)
     return clamp_steer((feed_forward + heading_error_rad + correction + damping) / steer_lock_rad)

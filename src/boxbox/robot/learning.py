@@ -34,7 +34,7 @@ class TurnLearner:
     length_m: float
     gain: float = 0.5
     target_margin_m: float = 0.5  # keep at least this much room to the edge in every turn
-    steady_error_m: float = 0.5  # on a racing line: within this of the line counts as holding it
+    steady_error_m: float = 1.0  # on a racing line: within this of the line (outwards, near the apex) counts as holding it
     sample_index: list[int] = field(default_factory=list)  # turn index per profile sample, -1 outside
     last_turn: int = -1  # the turn driven most recently
 
@@ -99,17 +99,20 @@ class TurnLearner:
             if turn.min_margin_m < OFF_MARGIN_M or turn.damaged:
                 turn.ceiling = max(MIN_FACTOR, turn.factor * 0.98)
                 turn.factor = max(MIN_FACTOR, turn.factor * (0.96 if turn.min_margin_m < -1.0 or turn.damaged else 0.98))
-            elif turn.min_margin_m > self.target_margin_m:
-                # room to spare beyond the margin we keep: take part of it (equilibrium near the target,
-                # not at the edge, where one gust of understeer costs a wall)
-                spare = min(turn.min_margin_m - self.target_margin_m, 2.0)
-                turn.factor = min(turn.ceiling, turn.factor * (1.0 + self.gain * 0.05 * spare))
+            elif turn.max_error_m > 3.0 * self.steady_error_m:
+                # pushed off its racing line (understeer): the turn is taken faster than the line
+                # allows, even when the track is wide enough to leave room at the edge
+                turn.factor = max(MIN_FACTOR, turn.factor * 0.98)
             elif 0.0 <= turn.max_error_m < self.steady_error_m:
                 # a racing line uses the whole width, so the margin says little there; a car that
                 # stayed on its line through the turn had grip to spare
                 turn.factor = min(turn.ceiling, turn.factor * (1.0 + self.gain * 0.02))
-            elif turn.max_error_m > 3.0 * self.steady_error_m:
-                turn.factor = max(MIN_FACTOR, turn.factor * 0.99)  # fought to stay near the line
+            elif turn.max_error_m < 0.0 and turn.min_margin_m > self.target_margin_m:
+                # no line to hold (a middle-line robot): room to spare beyond the margin we keep: take
+                # part of it (equilibrium near the target, not at the edge, where one gust of
+                # understeer costs a wall)
+                spare = min(turn.min_margin_m - self.target_margin_m, 2.0)
+                turn.factor = min(turn.ceiling, turn.factor * (1.0 + self.gain * 0.05 * spare))
             turn.min_margin_m = 1e9
             turn.max_error_m = -1.0
             turn.damaged = False

@@ -36,13 +36,16 @@ class TutorialParams:
     line_preview_s: float = 0.05  # "line": take heading and curvature this far ahead (actuation lag)
     line_lateral_gain: float = 2.0
     line_yaw_damping_s: float = 0.05
+    line_understeer_rad_per_mps2: float = 0.002  # "line": extra steer per m/s^2 of lateral acceleration
     racing_line: float = 1.0  # 0 = the tutorial's middle line, 1 = the optimised line
     line_margin_m: float = 1.2  # racing line's distance from the track edge (car centre)
     # speed
     mu_scale: float = 0.8  # cornering grip relative to surface x tyre friction (the shipped robot: 0.69)
     brake_mu_scale: float = 0.8  # braking grip, same base (the shipped robot brakes on surface friction alone)
-    brake_method: str = "exact"
-    friction_circle: bool = True  # brake less where the line turns (grip shared with cornering)  # braking distance: "exact" or "approx" (the seed's formula)
+    brake_method: str = "exact"  # braking distance: "exact" or "approx" (the seed's formula)
+    friction_circle: bool = True  # brake less where the line turns (grip shared with cornering)
+    elevation: bool = True  # crests unload the tyres and dips load them: turn and brake accordingly
+    crest_load_share: float = 0.5  # over a crest keep at least this share of the car's weight on the tyres
     max_speed_mps: float = 100.0
     speed_lookahead_s: float = 0.06  # compare speed with the profile this far ahead (latency)
     full_accel_margin_mps: float = 1.0

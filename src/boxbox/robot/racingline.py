@@ -48,6 +48,7 @@ class MiddleLine:
     friction: np.ndarray
     seg_id: np.ndarray  # segment holding each sample
     curvature_1pm: np.ndarray  # exact curvature of the middle line from the segments, + left
+    z_m: np.ndarray  # elevation of the middle (linear along each segment, as TORCS has it)
 
     @property
     def n(self) -> int:
@@ -100,9 +101,11 @@ def middle_line(track: Track, step_m: float = 2.0, margin_m: float = 0.0) -> Mid
     half = np.maximum(0.5 * width.astype(float) - margin_m, 0.0)
     with np.errstate(divide="ignore"):
         k = np.where(turn, sign / np.where(radius > 0, radius, math.inf), 0.0)
+    z0 = seg["start_z_m"].astype(float)[ids]
     return MiddleLine(length_m=length_m, step_m=length_m / n, dist_m=dist_m, x_m=x, y_m=y,
                       heading_rad=heading, half_left_m=half, half_right_m=half.copy(),
-                      friction=seg["friction"].astype(float)[ids], seg_id=ids, curvature_1pm=k)
+                      friction=seg["friction"].astype(float)[ids], seg_id=ids, curvature_1pm=k,
+                      z_m=z0 + frac * (seg["end_z_m"].astype(float)[ids] - z0))
 
 
 def _pivot_box_qp(h_csc: sp.csc_matrix, g: np.ndarray, lo: np.ndarray, hi: np.ndarray,
@@ -315,6 +318,19 @@ def turn_regions(mid: MiddleLine, merge_m: float = 60.0) -> list[np.ndarray]:
     return regions
 
 
+def vertical_curvature(z_m: np.ndarray, step_m: float, smooth_m: float = 6.0) -> np.ndarray:
+    """Second derivative of the elevation along a closed lap (1/m, + in a dip, - over a crest).
+
+    TORCS elevations are linear per segment, so the raw second difference is a train of spikes
+    where the slope changes; a Gaussian of `smooth_m` (about the wheelbase and suspension travel
+    that the car itself smooths over) spreads each spike over the stretch the car feels it.
+    """
+    from scipy.ndimage import gaussian_filter1d
+
+    sigma = max(smooth_m / step_m, 0.5)
+    return gaussian_filter1d(np.asarray(z_m, dtype=float), sigma, order=2, mode="wrap") / (step_m * step_m)
+
+
 def _moving_average_wrap(a: np.ndarray, win: int) -> np.ndarray:
     """Centred moving average over an odd window on a closed loop."""
     half = win // 2
@@ -380,6 +396,7 @@ class RacingLine:
         self.curvature_1pm = closed(k)
         self.length_factor = closed(factor)
         self.path_length_m = float(chord.sum())
+        self.vertical_curvature_1pm = closed(vertical_curvature(mid.z_m[:n], self.step_m))
 
         # plain lists for the per-step lookups
         self._n = n

@@ -19,7 +19,7 @@ from boxbox.control.pit_brake import ENTRY, EXIT, FREE, GAVE_UP, HOLD, LANE, LIM
 from boxbox.control.stop import SpeedTracker
 from boxbox.control.carmodel import CarModel
 from boxbox.control.gears import GearBox
-from boxbox.control.speed import SpeedProfile, allowed_speed
+from boxbox.control.speed import SpeedProfile, allowed_speed, crest_speed
 from boxbox.control.steering import steer_to_line, steer_to_point
 from boxbox.control.traction import SlipParams, abs_filter, tcl_filter
 from boxbox.model import Car, Controls, PitOrder, State, Track
@@ -73,9 +73,11 @@ class TutorialRobot(Robot):
         self.tyre_model = CarModel.from_car(car, fuel_l=car.initial_fuel_l)
         self._friction = [float(f) for f in mid.friction[: self.n]]
         self._curv = [abs(k) for k in self.line.curvature_1pm[: self.n].tolist()]
+        self._vcurv = self.line.vertical_curvature_1pm[: self.n].tolist() if p.elevation else [0.0] * self.n
         self.learner = TurnLearner.from_limits(self._limits([1.0] * self.n, self.tyre_model), self.step_m,
                                                self.line.length_m, p.max_speed_mps, gain=p.learn_gain,
                                                target_margin_m=p.learn_margin_m)
+        self._apex_sign = self._apex_signs()
         if p.learning and self.options.learning_dir:
             self.learning_file = Path(self.options.learning_dir) / f"{track.name}--{car.name}.json"
             self.learner.load(self.learning_file)
@@ -216,12 +218,31 @@ class TutorialRobot(Robot):
         self.pit_events.append(self.event)
         self.event = None
 
+    def _apex_signs(self) -> list[float]:
+        """Per sample: the turn direction (+1 left, -1 right) where the line curves at least half as
+        much as at its tightest in that turn, else 0.  The learner judges understeer there: turning
+        in, the car may still be settling onto the line, which says nothing about the turn's grip."""
+        signs = [0.0] * self.n
+        k_signed = self.line.curvature_1pm[: self.n].tolist()
+        for t in range(len(self.learner.turns)):
+            members = [i for i, ti in enumerate(self.learner.sample_index) if ti == t]
+            if not members:
+                continue
+            peak = max(self._curv[i] for i in members)
+            for i in members:
+                if self._curv[i] >= 0.5 * peak:
+                    signs[i] = 1.0 if k_signed[i] > 0.0 else -1.0
+        return signs
+
     def _limits(self, factors: list[float], model: CarModel) -> list[float]:
         p = self.params
         out = []
-        for k, f, g in zip(self._curv, self._friction, factors):
+        for k, kv, f, g in zip(self._curv, self._vcurv, self._friction, factors):
             mu = model.mu * f * p.mu_scale * g
-            out.append(allowed_speed(1.0 / k if k > 1e-9 else math.inf, mu, model, p.max_speed_mps))
+            v = allowed_speed(1.0 / k if k > 1e-9 else math.inf, mu, model, p.max_speed_mps, kv)
+            if kv < 0.0:
+                v = min(v, crest_speed(kv, model, p.crest_load_share, p.max_speed_mps))
+            out.append(v)
         return out
 
     def _build_profile(self) -> None:
@@ -234,7 +255,8 @@ class TutorialRobot(Robot):
         corner_mu = [model.mu * f * p.mu_scale * g for f, g in zip(self._friction, factors)]
         self.profile = SpeedProfile(limits, brake_mu, model, self.step_m, max_speed_mps=p.max_speed_mps,
                                     curvature_1pm=self._curv if p.friction_circle else None, corner_mu=corner_mu,
-                                    brake_method=p.brake_method)
+                                    brake_method=p.brake_method,
+                                    vertical_curvature_1pm=self._vcurv if p.elevation else None)
         self.model = model
         method = p.brake_method
         self._brakedist = lambda v1, v2, mu=model.mu: brake_distance(v1, v2, mu, model, method)
@@ -253,7 +275,10 @@ class TutorialRobot(Robot):
         if self.learner.turns:
             i = int(dist / self.step_m) % self.n
             half_width = 0.5 * self.car.width_m
-            error = abs(s.to_middle_m - self.line.offset_at(dist) - self.offset_m) if p.steering == "line" else None
+            error = None
+            if p.steering == "line":  # how far the car was pushed outside its line near the apex
+                sign = self._apex_sign[i]
+                error = max(0.0, (self.line.offset_at(dist) + self.offset_m - s.to_middle_m) * sign) if sign else 0.0
             self.learner.observe(i, min(s.to_left_m, s.to_right_m) - half_width, s.damage > self.last_damage, error)
             self.last_damage = s.damage
 
@@ -277,7 +302,8 @@ class TutorialRobot(Robot):
             heading_error = (heading_error + math.pi) % TWO_PI - math.pi
             steer = steer_to_line(heading_error, line_off - s.to_middle_m, self.line.curvature_at(ahead), v,
                                   s.yaw_rate_rps, self.wheelbase_m, self.car.steer_lock_rad,
-                                  p.line_lateral_gain, p.line_yaw_damping_s)
+                                  p.line_lateral_gain, p.line_yaw_damping_s,
+                                  understeer_rad_per_mps2=p.line_understeer_rad_per_mps2)
         else:
             target_dist = dist + p.lookahead_m + p.lookahead_s * v
             tx, ty = self.line.point_at(target_dist)
