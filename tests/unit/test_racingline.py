@@ -12,7 +12,7 @@ import pytest
 from trackdata import TRACKS, load
 
 from boxbox.model import Track
-from boxbox.robot.racingline import RacingLine, middle_line, turn_regions
+from boxbox.robot.racingline import RacingLine, middle_line, turn_regions, vertical_curvature
 
 # the restored active-set solver (chosen by race results) takes up to ~4 s CPU, ~8 s wall on a busy machine, on e-track-2
 MAX_SECONDS = 20.0
@@ -250,3 +250,43 @@ def test_blend_between_middle_and_racing_line() -> None:
     assert middle.offset_at(500.0) == 0.0
     half = RacingLine(track, blend=0.5)
     assert np.allclose(half.offset_m, 0.5 * full.offset_m)
+
+
+# --- vertical curvature -----------------------------------------------------------------------------
+
+@pytest.mark.parametrize("mean_z_m", [0.0, 100.0])
+def test_vertical_curvature_of_a_sine_is_its_second_derivative(mean_z_m: float) -> None:
+    """z = A sin(2 pi x / L) has z'' = -A (2 pi / L)^2 sin(2 pi x / L); 6 m of smoothing barely touch a 2 km wave."""
+    lap_m, step_m, amp_m = 2000.0, 2.0, 10.0
+    x = np.arange(0.0, lap_m, step_m)
+    kv = vertical_curvature(mean_z_m + amp_m * np.sin(2 * math.pi * x / lap_m), step_m)
+    expected = -amp_m * (2 * math.pi / lap_m) ** 2 * np.sin(2 * math.pi * x / lap_m)
+    assert np.max(np.abs(kv - expected)) < 0.03 * amp_m * (2 * math.pi / lap_m) ** 2
+
+
+@pytest.mark.parametrize("z_m", [0.0, 0.5, 50.0])
+def test_vertical_curvature_of_a_flat_road_is_zero(z_m: float) -> None:
+    """A level road has no vertical curvature at any altitude."""
+    assert np.allclose(vertical_curvature(np.full(1000, z_m), 2.0), 0.0, atol=1e-9)
+
+
+def test_vertical_curvature_of_a_parabolic_crest() -> None:
+    """Slope 0 -> +0.1 -> (parabola, z'' = -0.2 / 200 m) -> -0.1 -> 0: -0.001 1/m on top, + at the foot."""
+    step_m = 2.0
+    x = np.arange(0.0, 1200.0, step_m)
+    z = np.select([x < 300, x < 500, x < 700, x < 900],
+                  [0.0, 0.1 * (x - 300), 20 + 0.1 * (x - 500) - 0.0005 * (x - 500) ** 2, 20 - 0.1 * (x - 700)], 0.0)
+    kv = vertical_curvature(z, step_m)
+    top = (x > 520) & (x < 680)
+    assert np.all(kv[top] < 0.0)
+    assert kv[top] == pytest.approx(np.full(top.sum(), -0.001), rel=0.02)
+    assert kv[x == 300][0] > 0.0 and kv[x == 900][0] > 0.0  # the foot of each ramp is a dip
+    assert np.allclose(kv[(x > 1000) | (x < 200)], 0.0, atol=1e-6)  # level road away from the hill
+
+
+@pytest.mark.parametrize("name", TRACKS)
+def test_vertical_curvature_averages_to_zero_round_a_lap(name: str) -> None:
+    """The slope returns to its start value after a lap, so z'' integrates to zero over it."""
+    line, _ = built(name)
+    kv = line.vertical_curvature_1pm[: line.middle.n]
+    assert abs(float(kv.mean())) < 1e-3 * float(np.abs(kv).max())

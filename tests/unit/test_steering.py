@@ -175,6 +175,24 @@ def test_steer_to_line_clamps():
             assert -1.0 <= _line(he=he, e=e, k=0.05, yr=-2.0) <= 1.0
 
 
+def test_steer_to_line_understeer_term_is_u_v2_k():
+    """Extra steer for the tyres' slip angles: understeer gradient times the lateral acceleration v^2 k."""
+    u = 0.002
+    assert _line(k=0.0, v=60.0, understeer_rad_per_mps2=u) == 0.0  # a straight asks no lateral acceleration
+    # 30 m/s on R = 100 m: 9 m/s^2 -> 0.018 rad on top of atan(0.027)
+    assert _line(k=0.01, v=30.0, lock=0.5, understeer_rad_per_mps2=u) == pytest.approx(
+        (math.atan(WHEELBASE_M * 0.01) + 0.018) / 0.5, rel=1e-12)
+    extra = [_line(k=k, v=v, understeer_rad_per_mps2=u) - _line(k=k, v=v) for k, v in
+             ((0.005, 20.0), (0.005, 40.0), (-0.005, 20.0))]
+    assert extra[0] > 0.0 and extra[2] < 0.0  # towards the turn: left turn left, right turn right
+    assert extra[1] == pytest.approx(4.0 * extra[0], rel=1e-9)  # twice the speed, four times the term
+    assert extra[2] == pytest.approx(-extra[0], rel=1e-12)
+    # 80 m/s on R = 33 m: 0.384 rad + atan(0.081) = 0.465 rad, beyond the 0.366 rad lock (0.85 without the term)
+    assert _line(k=0.03, v=80.0) < 1.0
+    assert _line(k=0.03, v=80.0, understeer_rad_per_mps2=u) == 1.0
+    assert _line(k=-0.03, v=80.0, understeer_rad_per_mps2=u) == -1.0
+
+
 # --- steer_to_line closing the loop: a kinematic bicycle model ------------------------------------
 
 DT_S = 0.02

@@ -137,6 +137,26 @@ def test_the_recorded_tracks_include_pit_lanes():
     assert sum(load(name)[0].pit is not None for name in TRACKS) >= 5
 
 
+@pytest.mark.parametrize("name", TRACKS)
+def test_apex_signs_mark_the_tight_part_of_each_turn(name):
+    """The learner judges understeer where the line curves at least half as much as at the turn's tightest:
+    only inside turns, in the direction the line turns, and somewhere in every turn."""
+    robot = robot_for(name)
+    signs = np.array(robot._apex_sign)
+    k = robot.line.curvature_1pm[: robot.n]
+    turn = np.array(robot.learner.sample_index)
+    assert len(signs) == robot.n and set(np.unique(signs)) <= {-1.0, 0.0, 1.0}
+    assert np.all(signs[turn < 0] == 0.0)
+    marked = signs != 0.0
+    assert np.all(signs[marked] == np.sign(k[marked]))
+    for t in range(len(robot.learner.turns)):
+        members = turn == t
+        peak = np.abs(k[members]).max()
+        assert peak > 0.0
+        assert np.any(marked & members)
+        assert np.all(marked[members] == (np.abs(k[members]) >= 0.5 * peak))
+
+
 # --- drive: start, braking, unsticking ------------------------------------------------------------
 
 @pytest.mark.parametrize("name", TRACKS)

@@ -328,7 +328,10 @@ def vertical_curvature(z_m: np.ndarray, step_m: float, smooth_m: float = 6.0) ->
     from scipy.ndimage import gaussian_filter1d
 
     sigma = max(smooth_m / step_m, 0.5)
-    return gaussian_filter1d(np.asarray(z_m, dtype=float), sigma, order=2, mode="wrap") / (step_m * step_m)
+    # smooth, then difference: a Gaussian second-derivative kernel cut at 4 sigma does not sum to
+    # zero and would read altitude itself as a crest; a plain second difference is exact for it
+    z = gaussian_filter1d(np.asarray(z_m, dtype=float), sigma, mode="wrap")
+    return (np.roll(z, -1) - 2.0 * z + np.roll(z, 1)) / (step_m * step_m)
 
 
 def _moving_average_wrap(a: np.ndarray, win: int) -> np.ndarray:

@@ -35,6 +35,7 @@ TWO_PI = 2.0 * math.pi
 # the pit brake filter's phase as a number for telemetry (0: no pit business)
 PIT_PHASE_CODES = {None: 0, FREE: 0, ENTRY: 1, LIMIT: 2, LANE: 3, STOP: 4, HOLD: 5, EXIT: 6, GAVE_UP: 7}
 STEP_S = 0.02
+PIT_HOLD_GAIN_PER_MPS = 1.0  # throttle per m/s below the pit lane's target speed
 
 
 class TutorialRobot(Robot):
@@ -197,10 +198,11 @@ class TutorialRobot(Robot):
             steer = steer_to_point(s.x_m, s.y_m, s.yaw_rad, mx + off * nx, my + off * ny, self.car.steer_lock_rad)
         brake = r.brake
         self.pit_clutch_open = r.phase in (STOP, HOLD)
-        if self.stop_wanted and on_path:
+        if self.stop_wanted and on_path and self.options.pit_mode == "bang-bang":
             # no throttle towards the box beyond the speed from which half the grip still stops the
             # car there: the filter only brakes, so the speed profile would otherwise accelerate
-            # between its full-brake calls (bang-bang) and overshoot the box
+            # between its full-brake calls and overshoot the box (constant-decel tracks a speed
+            # command instead and needs no such guard)
             left = path.box_m - pos
             if left > 0.0 and v > max(3.0, math.sqrt(self._coast_decel * left)):
                 accel = 0.0
@@ -208,7 +210,9 @@ class TutorialRobot(Robot):
             if v > r.target_speed_mps:
                 accel = 0.0
             else:
-                accel = min(accel, max(0.0, 0.3 * (r.target_speed_mps - v)))
+                # proportional hold: holding the limit takes about 0.2 throttle, so a gain of 1 per
+                # m/s settles 0.2 m/s below the target (inside the limit's 0.5 m/s margin)
+                accel = min(accel, max(0.0, PIT_HOLD_GAIN_PER_MPS * (r.target_speed_mps - v)))
         if brake > 0.0:
             accel = 0.0
         return brake, accel, steer, r.phase

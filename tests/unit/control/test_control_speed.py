@@ -6,7 +6,7 @@ from trackdata import TRACKS, load
 
 from boxbox.control.braking import brake_distance_exact, max_entry_speed
 from boxbox.control.carmodel import G, CarModel
-from boxbox.control.speed import SpeedProfile, allowed_speed, segment_speed_limits
+from boxbox.control.speed import SpeedProfile, allowed_speed, crest_speed, segment_speed_limits
 from boxbox.model.track import LEFT, RIGHT, STRAIGHT, Track
 
 NO_AERO = CarModel(mass_kg=1000.0, ca=0.0, cw=0.0, mu=1.0)
@@ -57,6 +57,60 @@ def test_allowed_speed_is_capped():
     assert allowed_speed(1000.0, 1.0, NO_AERO) == pytest.approx(math.sqrt(9810.0))  # 99.05 < 100
     assert allowed_speed(2000.0, 1.0, NO_AERO) == 100.0
     assert allowed_speed(2000.0, 1.0, NO_AERO, max_speed_mps=150.0) == pytest.approx(math.sqrt(19620.0))
+
+
+def test_allowed_speed_vertical_curvature_zero_is_unchanged():
+    for r, mu, model in ((100.0, 1.0, NO_AERO), (100.0, 1.5, AERO), (25.0, 1.6, NO_AERO)):
+        assert allowed_speed(r, mu, model, vertical_curvature_1pm=0.0) == allowed_speed(r, mu, model)
+
+
+@pytest.mark.parametrize("model, mu", [(NO_AERO, 1.0), (AERO, 1.5)])
+@pytest.mark.parametrize("kv", [0.002, -0.002, -0.02])
+def test_allowed_speed_with_vertical_curvature_balances_side_force(model, mu, kv):
+    """At the limit the side force v^2 / r equals the grip mu (g + v^2 (CA/m + kv)) per kg."""
+    r = 100.0
+    v = allowed_speed(r, mu, model, vertical_curvature_1pm=kv)
+    assert v ** 2 / r == pytest.approx(mu * (G + v ** 2 * (model.ca / model.mass_kg + kv)), rel=1e-9)
+    flat = allowed_speed(r, mu, model)
+    assert (v > flat) if kv > 0 else (v < flat)  # a dip loads the tyres, a crest unloads them
+
+
+def test_allowed_speed_vertical_curvature_no_aero_by_hand():
+    # r mu kv = 100 * 1 * 0.002 = 0.2: v^2 = 981 / 0.8 in a dip, 981 / 1.2 over a crest
+    assert allowed_speed(100.0, 1.0, NO_AERO, vertical_curvature_1pm=0.002) == pytest.approx(math.sqrt(1226.25))
+    assert allowed_speed(100.0, 1.0, NO_AERO, vertical_curvature_1pm=-0.002) == pytest.approx(math.sqrt(817.5))
+
+
+def test_allowed_speed_strong_dip_is_unlimited():
+    # r mu kv >= 1: the extra load grows as fast as the needed side force
+    assert allowed_speed(100.0, 1.0, NO_AERO, vertical_curvature_1pm=0.01) == 100.0
+    assert allowed_speed(100.0, 1.0, NO_AERO, max_speed_mps=70.0, vertical_curvature_1pm=0.02) == 70.0
+    # just below: finite, v^2 = 981 / 0.01
+    assert allowed_speed(100.0, 1.0, NO_AERO, math.inf, vertical_curvature_1pm=0.0099) == pytest.approx(
+        math.sqrt(98100.0))
+
+
+# --- crest_speed ---------------------------------------------------------------------------------
+
+def test_crest_speed_flat_and_dip_are_unlimited():
+    for kv in (0.0, 0.001, 0.05):
+        assert crest_speed(kv, NO_AERO) == 100.0
+        assert crest_speed(kv, AERO, max_speed_mps=80.0) == 80.0
+    assert crest_speed(-0.001, AERO) == 100.0  # downforce (CA/m = 0.002) outweighs a gentle crest
+
+
+def test_crest_speed_no_aero_take_off_and_half_load():
+    """Load per kg g + v^2 kv: zero at take-off (v^2 = g / |kv|), half the weight at v^2 = g / 2|kv|."""
+    assert crest_speed(-0.01, NO_AERO, load_share=0.0) == pytest.approx(math.sqrt(G / 0.01))  # 31.3 m/s
+    assert crest_speed(-0.01, NO_AERO, load_share=0.5) == pytest.approx(math.sqrt(0.5 * G / 0.01))
+    assert crest_speed(-0.01, NO_AERO, load_share=1.0) == pytest.approx(0.0, abs=1e-9)
+    assert crest_speed(-1e-5, NO_AERO) == 100.0  # 700 m/s, capped
+
+
+def test_crest_speed_downforce_raises_it():
+    v = crest_speed(-0.01, AERO, load_share=0.5)
+    assert v > crest_speed(-0.01, NO_AERO, load_share=0.5)
+    assert G + v ** 2 * (AERO.ca / AERO.mass_kg - 0.01) == pytest.approx(0.5 * G)  # exactly half the weight
 
 
 # --- segment_speed_limits ------------------------------------------------------------------------
@@ -237,3 +291,55 @@ def test_profile_from_track_turn_across_start_line():
     assert p.speed_at(track.length_m - 1.0) == pytest.approx(turn)
     assert p.speed_at(10 * math.pi + 2.5) > turn  # after the turn, limited only by the straight
     _assert_consistent(p)
+
+
+# --- SpeedProfile over crests and dips -------------------------------------------------------------
+
+def _slow_after_straight(kv_value: float, model: CarModel = NO_AERO) -> tuple[SpeedProfile, np.ndarray]:
+    """60 m/s everywhere, 20 m/s at 800-820 m; vertical curvature kv_value over the 800 m before it."""
+    limit = [60.0] * 1000
+    limit[400:410] = [20.0] * 10
+    kv = np.zeros(1000)
+    kv[:400] = kv_value
+    return SpeedProfile(limit, 1.0, model, step_m=2.0, vertical_curvature_1pm=kv), kv
+
+
+def _assert_feasible_no_aero(p: SpeedProfile, kv: np.ndarray) -> None:
+    """Each step: v_i^2 <= v_(i+1)^2 + 2 s mu (g + kv v_(i+1)^2) (load at the step's end, at least 0.1 g),
+    and the profile is the fastest such."""
+    v = p.target_speeds
+    n = len(v)
+    assert np.all(np.isfinite(v)) and np.all(v <= p.limits_mps + 1e-12)
+    for i in range(n):
+        v2 = float(v[(i + 1) % n])
+        decel = p.mu[i] * max(0.1 * G, G + kv[i] * v2 * v2)
+        reachable = math.sqrt(v2 * v2 + 2.0 * p.step_m * decel)
+        assert v[i] <= reachable * (1 + 1e-12)
+        assert v[i] == pytest.approx(min(p.limits_mps[i], reachable), rel=1e-12)
+
+
+@pytest.mark.parametrize("model", [NO_AERO, AERO])
+def test_profile_brakes_earlier_over_a_crest_later_in_a_dip(model):
+    """Braking grip follows the load g + v^2 (CA/m + kv): less over a crest, more in a dip."""
+    flat = SpeedProfile([60.0] * 400 + [20.0] * 10 + [60.0] * 590, 1.0, model).target_speeds
+    crest = _slow_after_straight(-0.002, model)[0].target_speeds
+    dip = _slow_after_straight(0.002, model)[0].target_speeds
+    approach = slice(200, 400)
+    assert np.all(crest[approach] <= flat[approach]) and np.any(crest[approach] < flat[approach] - 1.0)
+    assert np.all(dip[approach] >= flat[approach]) and np.any(dip[approach] > flat[approach] + 1.0)
+    assert np.sum(crest < 60.0) > np.sum(flat < 60.0) > np.sum(dip < 60.0)
+    assert crest[400] == flat[400] == dip[400] == 20.0
+
+
+@pytest.mark.parametrize("kv_value", [0.0, -0.002, 0.002])
+def test_profile_braking_zone_over_constant_vertical_curvature_by_hand(kv_value):
+    """No aero, constant kv: dv^2/ds = -2 mu (g + kv v^2), so s = ln((g + kv v1^2) / (g + kv v2^2)) / (2 mu kv)."""
+    p, kv = _slow_after_straight(kv_value)
+    _assert_feasible_no_aero(p, kv)
+    v = p.target_speeds
+    zone_m = (400 - int(np.argmax(v < 60.0))) * 2.0
+    if kv_value == 0.0:
+        expected = (60.0 ** 2 - 20.0 ** 2) / (2 * G)  # 163 m
+    else:
+        expected = math.log((G + kv_value * 3600.0) / (G + kv_value * 400.0)) / (2 * kv_value)  # 310 m / 118 m
+    assert zone_m == pytest.approx(expected, abs=4.0)

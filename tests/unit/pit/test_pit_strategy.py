@@ -162,7 +162,7 @@ def test_plan_stops_minimises_time(laps: int, fpl: float, loss: float, k: float)
 
 @pytest.mark.parametrize("laps", [30, 45])
 def test_plan_at_a_stop_minimises_time_too(laps: int):
-    plan = plan_stops(laps, 4.3, TANK_L, first_stint_fuelled=False)
+    plan = plan_stops(laps, 4.3, TANK_L, s_per_lap_per_kg=0.03, first_stint_fuelled=False)
     times = {n: brute_force_time(laps, 4.3, TANK_L, n, 15.0, 0.03, 0.3, first_free=False)
              for n in range(0, plan.stops + 2)}
     assert plan.time_cost_s == pytest.approx(min(times.values()))
