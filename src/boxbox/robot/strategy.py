@@ -8,7 +8,8 @@ Order: enough fuel to finish plus a margin, split over as many stops as minimise
                    + repair * 0.007 s                       (TORCS race defaults, TORCS.md)
   carried fuel costs  s_per_lap_per_kg * fuel mass per lap  (a heavier car is slower).
 The default 0.022 s/lap/kg is measured: car1-trb1 on e-track-2 lapped 1.5 s slower with 68 kg more
-fuel (4 laps with 26 l and with 94 l, laps 2-4); TORCS adds the fuel to the car's mass as litres == kilograms (kg_per_l = 1).
+fuel (4 laps with 26 l and with 94 l, laps 2-4); TORCS adds the fuel to the car's mass as
+litres == kilograms (kg_per_l = 1).
 More stops carry less fuel, so with a cheap pit lane and a heavy fuel load two short stints can beat
 one long one; `plan_stops` compares the numbers of stops.
 

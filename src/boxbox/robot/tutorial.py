@@ -228,12 +228,13 @@ class TutorialRobot(Robot):
         in, the car may still be settling onto the line, which says nothing about the turn's grip."""
         signs = [0.0] * self.n
         k_signed = self.line.curvature_1pm[: self.n].tolist()
-        for t in range(len(self.learner.turns)):
-            members = [i for i, ti in enumerate(self.learner.sample_index) if ti == t]
-            if not members:
-                continue
-            peak = max(self._curv[i] for i in members)
-            for i in members:
+        members: dict[int, list[int]] = {}
+        for i, t in enumerate(self.learner.sample_index):
+            if t >= 0:
+                members.setdefault(t, []).append(i)
+        for samples in members.values():
+            peak = max(self._curv[i] for i in samples)
+            for i in samples:
                 if self._curv[i] >= 0.5 * peak:
                     signs[i] = 1.0 if k_signed[i] > 0.0 else -1.0
         return signs
