@@ -53,11 +53,14 @@ def plan_stops(race_laps: float, fuel_per_lap_l: float, tank_l: float, *, pit_lo
     before the start), which makes a longer first stint pay; False when planning at a stop, where
     every stint is refuelled.  From the fewest stops the tank allows, more stops are tried until
     max_extra_stops past the best so far; for each number, every first-stint length with the rest split evenly (the weight cost is convex,
-    so even is best for the refuelled stints).  Called per stop, not per step.
+    so even is best for the refuelled stints).  A fractional race_laps (at a stop: the rest of this
+    lap plus the laps after it) is planned as whole laps, but the last stint is fuelled for the
+    fraction only.  Called per stop, not per step.
     """
     laps = max(0, math.ceil(race_laps - 1e-9))
+    short = max(0.0, laps - race_laps)  # the last stint is this much shorter than its whole laps
     if fuel_per_lap_l <= 0.0 or laps == 0:
-        return StopPlan(0, (laps,), (max(0.0, (laps + margin_laps) * fuel_per_lap_l),), 0.0)
+        return StopPlan(0, (laps,), (max(0.0, (laps - short + margin_laps) * fuel_per_lap_l),), 0.0)
     max_stint = math.floor(tank_l / fuel_per_lap_l - margin_laps + 1e-9)
     if max_stint < 1:
         raise ValueError(f"tank of {tank_l} l holds less than one lap (+ margin) at {fuel_per_lap_l} l/lap")
@@ -86,7 +89,9 @@ def plan_stops(race_laps: float, fuel_per_lap_l: float, tank_l: float, *, pit_lo
         stops += 1
     assert best is not None
     c, stints = best
-    return StopPlan(len(stints) - 1, tuple(stints), tuple((n + margin_laps) * fuel_per_lap_l for n in stints), c)
+    fuel = [(n + margin_laps) * fuel_per_lap_l for n in stints]
+    fuel[-1] -= short * fuel_per_lap_l
+    return StopPlan(len(stints) - 1, tuple(stints), tuple(fuel), c)
 
 
 def pit_lane_loss_s(lane_length_m: float, speed_limit_mps: float, race_speed_mps: float,
@@ -126,7 +131,8 @@ class PitStrategy:
         self.kg_per_l = kg_per_l
         self.repair_keep_damage = repair_keep_damage
         self.s_per_lap_per_damage = s_per_lap_per_damage
-        self.measured_l: list[float] = []  # fuel used per lap, laps without a stop
+        self.measured_l: list[float] = []  # fuel used per lap, laps without a stop, from lap 2 on
+        self.first_lap_l: float | None = None  # the first lap's use (the standing start burns more)
         self._laps_done: int | None = None
         self._lap_start_fuel_l = 0.0
         self._added_l = 0.0  # ordered in the current lap
@@ -137,9 +143,12 @@ class PitStrategy:
 
     @property
     def fuel_per_lap_l(self) -> float:
-        """Largest measured use (running dry costs the race), else the per-metre estimate."""
+        """Largest measured use from lap 2 on (running dry costs the race), else the first lap's, else
+        the per-metre estimate."""
         if self.measured_l:
             return max(self.measured_l)
+        if self.first_lap_l is not None:
+            return self.first_lap_l
         return self.fuel_per_m_l * self.track_length_m
 
     def on_lap(self, laps_done: int, fuel_l: float, damage: float) -> None:
@@ -150,7 +159,10 @@ class PitStrategy:
             used = self._lap_start_fuel_l + self._added_l - fuel_l
             # a lap with a stop the strategy did not order cannot be measured
             if used > 0.0 and (self._added_l > 0.0 or fuel_l <= self._lap_start_fuel_l):
-                self.measured_l.append(used)
+                if laps_done == 1:
+                    self.first_lap_l = used
+                else:
+                    self.measured_l.append(used)
             if damage >= self._lap_start_damage:  # a lap with a repair is skipped
                 self.damage_gained += damage - self._lap_start_damage
                 self.damage_laps += 1

@@ -78,7 +78,7 @@ class TutorialRobot(Robot):
         self.learner = TurnLearner.from_limits(self._limits([1.0] * self.n, self.tyre_model), self.step_m,
                                                self.line.length_m, p.max_speed_mps, gain=p.learn_gain,
                                                target_margin_m=p.learn_margin_m)
-        self._apex_sign = self._apex_signs()
+        self._apex_sign, self._turn_sign = self._apex_signs()
         if p.learning and self.options.learning_dir:
             self.learning_file = Path(self.options.learning_dir) / f"{track.name}--{car.name}.json"
             self.learner.load(self.learning_file)
@@ -222,11 +222,15 @@ class TutorialRobot(Robot):
         self.pit_events.append(self.event)
         self.event = None
 
-    def _apex_signs(self) -> list[float]:
+    def _apex_signs(self) -> tuple[list[float], list[float]]:
         """Per sample: the turn direction (+1 left, -1 right) where the line curves at least half as
         much as at its tightest in that turn, else 0.  The learner judges understeer there: turning
-        in, the car may still be settling onto the line, which says nothing about the turn's grip."""
+        in, the car may still be settling onto the line, which says nothing about the turn's grip.
+        Second list: the same where the line curves at least a quarter as much; there only the outer
+        edge counts as leaving the track (a wheel over the inside kerb is a steering matter, and
+        slowing the turn down does not bring it back)."""
         signs = [0.0] * self.n
+        sides = [0.0] * self.n
         k_signed = self.line.curvature_1pm[: self.n].tolist()
         members: dict[int, list[int]] = {}
         for i, t in enumerate(self.learner.sample_index):
@@ -235,9 +239,12 @@ class TutorialRobot(Robot):
         for samples in members.values():
             peak = max(self._curv[i] for i in samples)
             for i in samples:
+                direction = 1.0 if k_signed[i] > 0.0 else -1.0
                 if self._curv[i] >= 0.5 * peak:
-                    signs[i] = 1.0 if k_signed[i] > 0.0 else -1.0
-        return signs
+                    signs[i] = direction
+                if self._curv[i] >= 0.25 * peak:
+                    sides[i] = direction
+        return signs, sides
 
     def _limits(self, factors: list[float], model: CarModel) -> list[float]:
         p = self.params
@@ -281,10 +288,14 @@ class TutorialRobot(Robot):
             i = int(dist / self.step_m) % self.n
             half_width = 0.5 * self.car.width_m
             error = None
+            margin = min(s.to_left_m, s.to_right_m)
             if p.steering == "line":  # how far the car was pushed outside its line near the apex
                 sign = self._apex_sign[i]
                 error = max(0.0, (self.line.offset_at(dist) + self.offset_m - s.to_middle_m) * sign) if sign else 0.0
-            self.learner.observe(i, min(s.to_left_m, s.to_right_m) - half_width, s.damage > self.last_damage, error)
+                side = self._turn_sign[i]
+                if side:
+                    margin = s.to_right_m if side > 0.0 else s.to_left_m
+            self.learner.observe(i, margin - half_width, s.damage > self.last_damage, error)
             self.last_damage = s.damage
 
         cars = nearby(s, self.car.length_m, self.track.length_m, p.back_range_m, p.front_range_m) \

@@ -30,12 +30,15 @@ def test_fuel_per_lap_measured_each_lap():
     st.on_lap(0, 94.0, 0.0)  # race start: the reference
     assert st.measured_l == []
     st.on_lap(0, 93.0, 0.0)  # same lap again: nothing
-    st.on_lap(1, 90.0, 0.0)
-    assert st.fuel_per_lap_l == pytest.approx(4.0)
-    st.on_lap(2, 85.5, 0.0)
-    st.on_lap(3, 81.3, 0.0)
+    st.on_lap(1, 89.0, 0.0)
+    assert st.fuel_per_lap_l == pytest.approx(5.0)  # the first lap, until another is measured
+    st.on_lap(2, 85.0, 0.0)
+    st.on_lap(3, 80.5, 0.0)
+    st.on_lap(4, 76.3, 0.0)
+    assert st.first_lap_l == pytest.approx(5.0)
     assert st.measured_l == pytest.approx([4.0, 4.5, 4.2])
-    assert st.fuel_per_lap_l == pytest.approx(4.5)  # the largest: running dry costs the race
+    # the largest from lap 2 on (running dry costs the race); the standing start's lap is left out
+    assert st.fuel_per_lap_l == pytest.approx(4.5)
 
 
 def test_lap_with_ordered_fuel_is_measured_with_the_fuel_added():
@@ -190,3 +193,19 @@ def test_stop_cost_figures():
     assert (STOP_BASE_S, FUEL_RATE_LPS, REPAIR_S_PER_POINT) == (2.0, 8.0, 0.007)
     loss = pit_lane_loss_s(644.0, 24.5, 60.0)
     assert 644.0 / 24.5 - 644.0 / 60.0 < loss < 40.0
+
+
+def test_part_lap_left_is_fuelled_as_a_part():
+    # at a stop 12.4 laps are left (the rest of this lap + 12): 13 whole laps are planned, but the
+    # last stint carries fuel for 12.4 (+ margin), not for 13
+    plan = plan_stops(12.4, 4.0, TANK_L, margin_laps=0.3, first_stint_fuelled=False)
+    assert plan.stint_laps == (13,)
+    assert plan.fuel_per_stint_l[0] == pytest.approx(12.7 * 4.0)
+    two = plan_stops(40.5, 4.0, TANK_L, margin_laps=0.3, first_stint_fuelled=False)
+    assert two.stint_laps == (20, 21)
+    assert two.fuel_per_stint_l == pytest.approx((20.3 * 4.0, 20.8 * 4.0))  # only the last is short
+    st = strat(margin_laps=0.3)
+    st.on_lap(0, 94.0, 0.0)
+    st.on_lap(1, 90.0, 0.0)  # 4 l/lap
+    fuel, _ = st.order(remaining_laps=12.4, fuel_l=3.0, damage=0.0, tank_l=TANK_L)
+    assert fuel == pytest.approx(12.7 * 4.0 - 3.0)
