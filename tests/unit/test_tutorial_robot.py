@@ -248,6 +248,47 @@ def test_line_to_the_left_steers_left(name):
     assert left_of_line < 0.0 and left_of_line < on_line - 0.1
 
 
+@pytest.mark.parametrize("name", TRACKS)
+def test_throttle_is_capped_at_full_lock_above_10_mps(name):
+    """Far off the line and pointing away from it, the steering is at its lock: the tyres have no
+    grip to spare for power (full throttle there spun the car on mixed-2), except when leaving the grid."""
+    robot = robot_for(name)
+    d = straight_dist(robot)
+    fast = line_state(robot, d, 20.0, yaw_error_rad=-0.5, side_m=-2.0)
+    require(robot.profile.speed_at(d) > 25.0, "target speed well above 20 m/s on the straight")
+    c = robot.drive(fast)
+    assert c.steer >= 0.95
+    assert 0.0 < c.accel <= robot.params.lock_accel == 0.4
+    straight = robot.drive(line_state(robot, d, 20.0))
+    assert straight.accel == 1.0  # same speed, steering free: full throttle
+    slow = robot.drive(line_state(robot, d, 5.0, yaw_error_rad=-0.5, side_m=-2.0))
+    assert slow.steer >= 0.95 and slow.accel > 0.4
+
+
+@pytest.mark.parametrize("name", TRACKS)
+def test_learner_counts_only_the_outer_edge_where_the_line_turns(name):
+    """On a racing line a wheel over the inside kerb is a steering matter: in a turn, the margin the
+    learner sees is the one to the outer edge; between turns, to the nearer edge."""
+    robot = robot_for(name)
+    k = robot.line.curvature_1pm[: robot.n]
+    sides = np.array(robot._turn_sign)
+    turn = np.array(robot.learner.sample_index)
+    assert np.all(sides[turn < 0] == 0.0)
+    assert np.all(sides[sides != 0.0] == np.sign(k[sides != 0.0]))
+    assert np.all(np.abs(sides) >= np.abs(np.array(robot._apex_sign)))  # the apex part and more
+    j = int(np.argmax(np.abs(k) * (turn >= 0)))  # the tightest point of any turn
+    d = j * robot.step_m
+    inward = float(np.sign(k[j]))  # + left turn: the inside is to the left
+    t = robot.learner.turns[turn[j]]
+    # the car 1.5 m inside its line (over the inner edge at the apex, where the line is at its margin)
+    robot.drive(line_state(robot, d, 20.0, side_m=1.5 * inward))
+    half = 0.5 * robot.car.width_m
+    s = line_state(robot, d, 20.0, side_m=1.5 * inward)
+    outer = (s.to_right_m if inward > 0 else s.to_left_m) - half
+    assert t.min_margin_m == pytest.approx(outer, abs=0.6)
+    assert t.min_margin_m > 1.0  # not the inner edge's negative margin
+
+
 @pytest.mark.parametrize("name", ["e-track-2", "aalborg"])
 def test_lookahead_steering_heading_error_to_the_right_steers_left(name):
     robot, _ = build(name, robot_args={"set": {"steering": "lookahead"}})

@@ -40,7 +40,7 @@ class TurnLearner:
 
     @classmethod
     def from_limits(cls, limits_mps: list[float], step_m: float, length_m: float, max_speed_mps: float,
-                    gain: float = 0.5, target_margin_m: float = 0.5) -> "TurnLearner":
+                    gain: float = 0.5, target_margin_m: float = 0.5, steady_error_m: float = 1.0) -> "TurnLearner":
         """Turns are the runs of samples whose limit is below the top speed."""
         n = len(limits_mps)
         limited = [v < 0.95 * max_speed_mps for v in limits_mps]
@@ -64,7 +64,8 @@ class TurnLearner:
             last = turns[-1]
             last.end_m = first.end_m + length_m
             index = [len(turns) - 1 if t == 0 else (t - 1 if t > 0 else -1) for t in index]
-        return cls(turns=turns, length_m=length_m, gain=gain, target_margin_m=target_margin_m, sample_index=index)
+        return cls(turns=turns, length_m=length_m, gain=gain, target_margin_m=target_margin_m,
+                   steady_error_m=steady_error_m, sample_index=index)
 
     def factors_per_sample(self) -> list[float]:
         return [self.turns[t].factor if t >= 0 else 1.0 for t in self.sample_index]

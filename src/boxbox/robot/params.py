@@ -62,6 +62,7 @@ class TutorialParams:
     tcl_slip_mps: float = 2.0
     tcl_range_mps: float = 10.0
     slip_min_speed_mps: float = 3.0
+    lock_accel: float = 0.4  # most throttle while the steering is at its lock (the car cannot follow its line)
     # getting unstuck
     stuck_angle_deg: float = 30.0
     stuck_speed_mps: float = 5.0
@@ -87,6 +88,7 @@ class TutorialParams:
     learning: bool = True
     learn_gain: float = 0.5  # fraction of the spare margin turned into turn-speed grip per lap
     learn_margin_m: float = 0.5  # room to the track edge the learning keeps in every turn
+    learn_steady_error_m: float = 1.5  # racing line: within this of the line near the apex raises a turn, 3x lowers it
 
 
 CHOICES = {"steering": ("line", "lookahead"), "brake_method": ("exact", "approx"), "pit_mu_source": ("surface", "constant"),

@@ -35,6 +35,8 @@ TWO_PI = 2.0 * math.pi
 # the pit brake filter's phase as a number for telemetry (0: no pit business)
 PIT_PHASE_CODES = {None: 0, FREE: 0, ENTRY: 1, LIMIT: 2, LANE: 3, STOP: 4, HOLD: 5, EXIT: 6, GAVE_UP: 7}
 STEP_S = 0.02
+LOCK_SHARE = 0.95  # |steer| from which the steering counts as at its lock
+LOCK_MIN_SPEED_MPS = 10.0  # below this (leaving the grid onto the line) full lock is no sign of a slide
 PIT_HOLD_GAIN_PER_MPS = 1.0  # throttle per m/s below the pit lane's target speed
 
 
@@ -77,7 +79,8 @@ class TutorialRobot(Robot):
         self._vcurv = self.line.vertical_curvature_1pm[: self.n].tolist() if p.elevation else [0.0] * self.n
         self.learner = TurnLearner.from_limits(self._limits([1.0] * self.n, self.tyre_model), self.step_m,
                                                self.line.length_m, p.max_speed_mps, gain=p.learn_gain,
-                                               target_margin_m=p.learn_margin_m)
+                                               target_margin_m=p.learn_margin_m,
+                                               steady_error_m=p.learn_steady_error_m)
         self._apex_sign, self._turn_sign = self._apex_signs()
         if p.learning and self.options.learning_dir:
             self.learning_file = Path(self.options.learning_dir) / f"{track.name}--{car.name}.json"
@@ -357,6 +360,8 @@ class TutorialRobot(Robot):
             accel = 0.0
         else:
             accel = tcl_filter(accel, v, spins, self.radii, self.car.drivetrain, self.slip)
+            if abs(steer) >= LOCK_SHARE and v > LOCK_MIN_SPEED_MPS:  # no grip left to spare for power
+                accel = min(accel, p.lock_accel)
 
         gear = self.gears.select(int(s.gear), v)
         clutch = 0.0
