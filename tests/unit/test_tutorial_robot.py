@@ -211,6 +211,24 @@ def test_reverses_when_stuck_sideways_for_more_than_2_s(name, to_middle_m, angle
     assert c.gear == 1
 
 
+def test_keeps_backing_until_pointing_along_the_track_for_at_most_4_s():
+    """Once reversing, the car backs until it points along the track (|angle| < 15 deg), even where the
+    conditions that started it no longer hold (closer than 3 m to the middle), and for at most 4 s."""
+    robot = robot_for("e-track-2")
+    s = line_state(robot, 300.0, 1.0, to_middle_m=4.0, angle_rad=-0.8, gear=1.0)
+    gears = [robot.drive(s).gear for _ in range(110)]
+    require(gears[-1] == -1, "reversing after 2 s stuck")
+    backing = s._replace(to_middle_m=2.0, angle_rad=-0.6, speed_x_mps=-3.0, gear=-1.0)
+    gears = [robot.drive(backing).gear for _ in range(190)]
+    assert all(g == -1 for g in gears)  # 3.8 s: still sideways, still backing
+    gears = [robot.drive(backing).gear for _ in range(30)]
+    assert gears[0] == -1 and all(g >= 1 for g in gears[15:])  # past 4 s: forward again
+    robot = robot_for("e-track-2")
+    for _ in range(110):
+        robot.drive(s)
+    assert robot.drive(backing._replace(angle_rad=-0.2)).gear >= 1  # 11 deg: along the track, forward
+
+
 @pytest.mark.parametrize("fields", [
     dict(angle_rad=0.8),  # pointing away from the near edge (to_middle 4 m): it can drive out forwards
     dict(angle_rad=-0.3),  # less than 30 deg

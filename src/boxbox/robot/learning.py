@@ -15,6 +15,9 @@ from pathlib import Path
 
 MIN_FACTOR, MAX_FACTOR = 0.8, 1.5
 OFF_MARGIN_M = -0.3  # a wheel this far over the edge counts as leaving the track
+CRASH_MARGIN_M = -2.0  # this far over the edge, or CRASH_DAMAGE points in one lap, is a crash:
+CRASH_DAMAGE = 50.0  # the turn loses CRASH_FACTOR at once (a few per cent a lap crashed dirt-3
+CRASH_FACTOR = 0.9  # in the same turn lap after lap)
 
 
 @dataclass
@@ -26,6 +29,7 @@ class Turn:
     min_margin_m: float = 1e9  # this lap's smallest distance from the car's side to the edge
     max_error_m: float = -1.0  # this lap's largest distance from the racing line (-1: not measured)
     damaged: bool = False
+    damage_points: float = 0.0  # damage taken in (or just after) this turn this lap
 
 
 @dataclass
@@ -70,9 +74,10 @@ class TurnLearner:
     def factors_per_sample(self) -> list[float]:
         return [self.turns[t].factor if t >= 0 else 1.0 for t in self.sample_index]
 
-    def observe(self, sample: int, margin_m: float, damage_up: bool, line_error_m: float | None = None) -> None:
-        """One drive step inside the lap: the car's margin to the edge at a profile sample and,
-        for a robot on a racing line, how far it is from that line."""
+    def observe(self, sample: int, margin_m: float, damage_up: float, line_error_m: float | None = None) -> None:
+        """One drive step inside the lap: the car's margin to the edge at a profile sample, the damage
+        points it took in this step (0: none) and, for a robot on a racing line, how far it is
+        from that line."""
         t = self.sample_index[sample]
         if t >= 0:
             self.last_turn = t
@@ -83,10 +88,12 @@ class TurnLearner:
                 turn.max_error_m = line_error_m
             if damage_up:
                 turn.damaged = True
+                turn.damage_points += float(damage_up)
         elif self.last_turn >= 0 and (damage_up or margin_m < 0.0):
             # leaving the track or hitting something on the way out of a turn is that turn's doing
             turn = self.turns[self.last_turn]
-            turn.damaged |= damage_up
+            turn.damaged |= bool(damage_up)
+            turn.damage_points += float(damage_up)
             if margin_m < turn.min_margin_m:
                 turn.min_margin_m = margin_m
 
@@ -97,7 +104,10 @@ class TurnLearner:
             before = turn.factor
             if turn.min_margin_m == 1e9:
                 continue  # not driven (pit lane, start)
-            if turn.min_margin_m < OFF_MARGIN_M or turn.damaged:
+            if turn.min_margin_m < CRASH_MARGIN_M or turn.damage_points >= CRASH_DAMAGE:
+                turn.factor = max(MIN_FACTOR, turn.factor * CRASH_FACTOR)
+                turn.ceiling = turn.factor
+            elif turn.min_margin_m < OFF_MARGIN_M or turn.damaged:
                 turn.ceiling = max(MIN_FACTOR, turn.factor * 0.98)
                 turn.factor = max(MIN_FACTOR, turn.factor * (0.96 if turn.min_margin_m < -1.0 or turn.damaged else 0.98))
             elif turn.max_error_m > 3.0 * self.steady_error_m:
@@ -117,6 +127,7 @@ class TurnLearner:
             turn.min_margin_m = 1e9
             turn.max_error_m = -1.0
             turn.damaged = False
+            turn.damage_points = 0.0
             changed += turn.factor != before
         return changed
 

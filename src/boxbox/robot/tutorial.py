@@ -35,6 +35,8 @@ TWO_PI = 2.0 * math.pi
 # the pit brake filter's phase as a number for telemetry (0: no pit business)
 PIT_PHASE_CODES = {None: 0, FREE: 0, ENTRY: 1, LIMIT: 2, LANE: 3, STOP: 4, HOLD: 5, EXIT: 6, GAVE_UP: 7}
 STEP_S = 0.02
+REVERSE_MAX_S = 4.0  # longest time backing out in one go
+REVERSE_MAX_MPS = 4.0  # no throttle in reverse beyond this speed
 LOCK_SHARE = 0.95  # |steer| from which the steering counts as at its lock
 LOCK_MIN_SPEED_MPS = 10.0  # below this (leaving the grid onto the line) full lock is no sign of a slide
 PIT_HOLD_GAIN_PER_MPS = 1.0  # throttle per m/s below the pit lane's target speed
@@ -99,6 +101,7 @@ class TutorialRobot(Robot):
         self.target_mps = 0.0  # the speed profile's target the last drive step used
         self.stuck_steps = 0
         self.reversing = False
+        self.reverse_steps = 0
         self.laps_seen = 0
         self.last_damage = 0.0
         self._setup_pit(track, car, p)
@@ -285,7 +288,9 @@ class TutorialRobot(Robot):
             self._new_lap(s)
         if self._stuck(s):
             steer = max(-1.0, min(1.0, -s.angle_rad * self._inv_lock))
-            return Controls(steer=steer, accel=0.6, brake=0.0, clutch=0.0, gear=-1)
+            # backing out is for turning round, not for speed: off the track it slid into walls at 11 m/s
+            accel = 0.6 if v > -REVERSE_MAX_MPS else 0.0
+            return Controls(steer=steer, accel=accel, brake=0.0, clutch=0.0, gear=-1)
 
         if self.learner.turns:
             i = int(dist / self.step_m) % self.n
@@ -298,7 +303,7 @@ class TutorialRobot(Robot):
                 side = self._turn_sign[i]
                 if side:
                     margin = s.to_right_m if side > 0.0 else s.to_left_m
-            self.learner.observe(i, margin - half_width, s.damage > self.last_damage, error)
+            self.learner.observe(i, margin - half_width, max(0.0, s.damage - self.last_damage), error)
             self.last_damage = s.damage
 
         cars = nearby(s, self.car.length_m, self.track.length_m, p.back_range_m, p.front_range_m) \
@@ -372,16 +377,24 @@ class TutorialRobot(Robot):
         return Controls(steer=steer, accel=accel, brake=brake, clutch=clutch, gear=gear, pit_request=pit_request)
 
     def _stuck(self, s: State) -> bool:
-        """Reverse out after stuck_time_s of being slow, sideways and off the middle."""
+        """Reverse out after stuck_time_s of being slow, sideways and off the middle; once backing,
+        go on until the car points along the track again (at most REVERSE_MAX_S): a car that drives
+        forward still sideways hits the same wall again (dirt-3 hit it six times in a row)."""
         p = self.params
+        if self.reversing:
+            self.reverse_steps += 1
+            if abs(s.angle_rad) < 0.5 * self._stuck_angle or self.reverse_steps * STEP_S > REVERSE_MAX_S:
+                self.reversing = False
+                self.stuck_steps = 0
+            return self.reversing
         if abs(s.angle_rad) > self._stuck_angle and s.speed_x_mps < p.stuck_speed_mps \
                 and abs(s.to_middle_m) > p.stuck_offset_m and s.angle_rad * s.to_middle_m < 0:
             self.stuck_steps += 1
         else:
             self.stuck_steps = 0
-            self.reversing = False
         if self.stuck_steps * STEP_S > p.stuck_time_s:
             self.reversing = True
+            self.reverse_steps = 0
         return self.reversing
 
     def _new_lap(self, s: State) -> None:
