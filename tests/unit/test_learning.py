@@ -141,6 +141,26 @@ def test_going_far_off_or_damage_lowers_more():
     assert tl.turns[1].ceiling == pytest.approx(1.2 * 0.98)
 
 
+@pytest.mark.parametrize("margins, damage", [({12: -2.5}, 0.0), ({12: 1.0}, 60.0)])
+def test_a_crash_costs_the_turn_ten_per_cent_at_once(margins, damage):
+    """More than 2 m off, or 50 damage points in one lap, is a crash: the turn drops 10 % and stays
+    capped there (a few per cent a lap let dirt-3 crash in the same turn lap after lap)."""
+    tl = learner(TWO_TURNS)
+    tl.turns[0].factor = 1.2
+    for i, m in margins.items():
+        tl.observe(i, m, 0.0)
+    tl.observe(13, 1.0, damage / 2)  # the damage in two steps adds up
+    tl.observe(14, 1.0, damage / 2)
+    tl.end_lap()
+    assert tl.turns[0].factor == pytest.approx(1.2 * 0.9)
+    assert tl.turns[0].ceiling == pytest.approx(1.2 * 0.9)
+    assert tl.turns[0].damage_points == 0.0  # forgotten for the next lap
+    tl.turns[0].factor = 1.2
+    tl.observe(12, 1.0, 40.0)  # below the crash level: the ordinary damage rule
+    tl.end_lap()
+    assert tl.turns[0].factor == pytest.approx(1.2 * 0.96)
+
+
 def test_observations_outside_turns_are_ignored():
     tl = learner(TWO_TURNS)
     assert drive_lap(tl, {0: -3.0, 20: -3.0, 29: 5.0}, damaged={0, 20}) == 0

@@ -219,8 +219,10 @@ def test_keeps_backing_until_pointing_along_the_track_for_at_most_4_s():
     gears = [robot.drive(s).gear for _ in range(110)]
     require(gears[-1] == -1, "reversing after 2 s stuck")
     backing = s._replace(to_middle_m=2.0, angle_rad=-0.6, speed_x_mps=-3.0, gear=-1.0)
-    gears = [robot.drive(backing).gear for _ in range(190)]
-    assert all(g == -1 for g in gears)  # 3.8 s: still sideways, still backing
+    controls = [robot.drive(backing) for _ in range(190)]
+    assert all(c.gear == -1 for c in controls)  # 3.8 s: still sideways, still backing
+    assert all(c.accel > 0.0 for c in controls)  # backing at 3 m/s: throttle
+    assert robot.drive(backing._replace(speed_x_mps=-5.0)).accel == 0.0  # past 4 m/s backwards: none
     gears = [robot.drive(backing).gear for _ in range(30)]
     assert gears[0] == -1 and all(g >= 1 for g in gears[15:])  # past 4 s: forward again
     robot = robot_for("e-track-2")
