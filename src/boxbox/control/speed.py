@@ -53,6 +53,19 @@ def crest_speed(vertical_curvature_1pm: float, model: CarModel, load_share: floa
     return min(max_speed_mps, math.sqrt((1.0 - load_share) * G / lift_per_v2))
 
 
+def bump_speed(roughness_1pm: float, bump_accel_mps2: float, max_speed_mps: float = DEFAULT_MAX_SPEED_MPS) -> float:
+    """Highest speed over short bumps (a washboard of a few metres' wavelength) of the given
+    short-wave vertical curvature: the one where v^2 |kv| reaches `bump_accel_mps2`.
+
+    Unlike a long dip, which the suspension follows, bumps a car length apart shake it at its own
+    frequency: at dirt-2's washboard (0.45 m high, 10 m apart) 15 m/s bottomed the car out on
+    every bump.  Smooth road (roughness 0): max_speed_mps.
+    """
+    if roughness_1pm <= 0.0:
+        return max_speed_mps
+    return min(max_speed_mps, math.sqrt(bump_accel_mps2 / roughness_1pm))
+
+
 def _turn_arc_fractions(seg_type: np.ndarray, arc_rad: np.ndarray, full_arc_rad: float) -> np.ndarray:
     """Per segment: the arc of the whole turn it belongs to / full_arc_rad, at most 1 (1 on straights).
 

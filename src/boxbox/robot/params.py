@@ -46,6 +46,7 @@ class TutorialParams:
     friction_circle: bool = True  # brake less where the line turns (grip shared with cornering)
     elevation: bool = True  # crests unload the tyres and dips load them: turn and brake accordingly
     crest_load_share: float = 0.5  # over a crest keep at least this share of the car's weight on the tyres
+    bump_accel_mps2: float = 4.0  # over short bumps (a washboard) keep v^2 x their curvature below this
     max_speed_mps: float = 100.0
     speed_lookahead_s: float = 0.06  # compare speed with the profile this far ahead (latency)
     full_accel_margin_mps: float = 1.0
@@ -62,6 +63,7 @@ class TutorialParams:
     tcl_slip_mps: float = 2.0
     tcl_range_mps: float = 10.0
     slip_min_speed_mps: float = 3.0
+    spin_yaw_rate_rps: float = 0.7  # no throttle while turning this much faster than the line, against the steering
     lock_accel: float = 0.4  # most throttle while the steering is at its lock (the car cannot follow its line)
     # getting unstuck
     stuck_angle_deg: float = 30.0

@@ -19,7 +19,7 @@ from boxbox.control.pit_brake import ENTRY, EXIT, FREE, GAVE_UP, HOLD, LANE, LIM
 from boxbox.control.stop import SpeedTracker
 from boxbox.control.carmodel import CarModel
 from boxbox.control.gears import GearBox
-from boxbox.control.speed import SpeedProfile, allowed_speed, crest_speed
+from boxbox.control.speed import bump_speed, SpeedProfile, allowed_speed, crest_speed
 from boxbox.control.steering import steer_to_line, steer_to_point
 from boxbox.control.traction import SlipParams, abs_filter, tcl_filter
 from boxbox.model import Car, Controls, PitOrder, State, Track
@@ -79,6 +79,7 @@ class TutorialRobot(Robot):
         self._friction = [float(f) for f in mid.friction[: self.n]]
         self._curv = [abs(k) for k in self.line.curvature_1pm[: self.n].tolist()]
         self._vcurv = self.line.vertical_curvature_1pm[: self.n].tolist() if p.elevation else [0.0] * self.n
+        self._rough = self.line.roughness_1pm[: self.n].tolist() if p.elevation else [0.0] * self.n
         self.learner = TurnLearner.from_limits(self._limits([1.0] * self.n, self.tyre_model), self.step_m,
                                                self.line.length_m, p.max_speed_mps, gain=p.learn_gain,
                                                target_margin_m=p.learn_margin_m,
@@ -255,11 +256,13 @@ class TutorialRobot(Robot):
     def _limits(self, factors: list[float], model: CarModel) -> list[float]:
         p = self.params
         out = []
-        for k, kv, f, g in zip(self._curv, self._vcurv, self._friction, factors):
+        for k, kv, rough, f, g in zip(self._curv, self._vcurv, self._rough, self._friction, factors):
             mu = model.mu * f * p.mu_scale * g
             v = allowed_speed(1.0 / k if k > 1e-9 else math.inf, mu, model, p.max_speed_mps, kv)
             if kv < 0.0:
                 v = min(v, crest_speed(kv, model, p.crest_load_share, p.max_speed_mps))
+            if rough > 0.0:
+                v = min(v, bump_speed(rough, p.bump_accel_mps2, p.max_speed_mps))
             out.append(v)
         return out
 
@@ -367,6 +370,11 @@ class TutorialRobot(Robot):
             accel = tcl_filter(accel, v, spins, self.radii, self.car.drivetrain, self.slip)
             if abs(steer) >= LOCK_SHARE and v > LOCK_MIN_SPEED_MPS:  # no grip left to spare for power
                 accel = min(accel, p.lock_accel)
+            # the car turns faster than its line and against the steering: the rear is stepping out,
+            # and power would spin it (dirt-2's S-bends at 13 m/s in first gear)
+            excess = s.yaw_rate_rps - v * self.line.curvature_at(dist)
+            if excess * steer < 0.0 and abs(excess) > p.spin_yaw_rate_rps:
+                accel = 0.0
 
         gear = self.gears.select(int(s.gear), v)
         clutch = 0.0
