@@ -12,7 +12,7 @@ import pytest
 from trackdata import TRACKS, load
 
 from boxbox.model import Track
-from boxbox.robot.racingline import RacingLine, middle_line, turn_regions, vertical_curvature
+from boxbox.robot.racingline import RacingLine, middle_line, road_roughness, turn_regions, vertical_curvature
 
 # the restored active-set solver (chosen by race results) takes up to ~4 s CPU, ~8 s wall on a busy machine, on e-track-2
 MAX_SECONDS = 20.0
@@ -290,3 +290,28 @@ def test_vertical_curvature_averages_to_zero_round_a_lap(name: str) -> None:
     line, _ = built(name)
     kv = line.vertical_curvature_1pm[: line.middle.n]
     assert abs(float(kv.mean())) < 1e-3 * float(np.abs(kv).max())
+
+
+# --- road roughness -----------------------------------------------------------------------------------
+
+def test_roughness_finds_a_washboard_and_ignores_long_hills() -> None:
+    """dirt-2's washboard as TORCS draws it (0.45 m high, every 10 m, linear between points) on a long
+    hill: rough over the washboard and about 5 m either side, zero on the hill (which the car's own
+    scale, vertical_curvature, handles)."""
+    step_m = 2.0
+    x = np.arange(0.0, 2000.0, step_m)
+    hill = 10.0 * np.sin(2 * math.pi * x / 2000.0)
+    board = (x >= 800) & (x < 900)
+    washboard = np.where(board, np.interp(x % 10.0, [0.0, 4.0, 6.0, 10.0], [0.0, 0.45, 0.35, 0.0]), 0.0)
+    rough = road_roughness(hill + washboard, step_m)
+    assert np.all(rough[(x >= 806) & (x < 894)] > 0.02)  # every sample of it, bumps and gaps alike
+    assert np.all(rough[(x < 780) | (x >= 920)] == 0.0)
+    assert np.all(road_roughness(hill, step_m) == 0.0)
+
+
+@pytest.mark.parametrize("name", TRACKS)
+def test_recorded_road_tracks_are_smooth(name: str) -> None:
+    """The kinks where TORCS's linear segments meet stay below the roughness floor on every recorded
+    track: the bump limit never slows the car there."""
+    line, _ = built(name)
+    assert np.all(line.roughness_1pm == 0.0)

@@ -286,6 +286,28 @@ def test_throttle_is_capped_at_full_lock_above_10_mps(name):
 
 
 @pytest.mark.parametrize("name", TRACKS)
+def test_no_throttle_while_the_rear_steps_out(name):
+    """The car yawing faster than its line asks, against the steering, is oversteering: power would
+    spin it.  A yaw rate the line explains, or excess in the steering's direction, keeps the throttle."""
+    robot = robot_for(name)
+    d = straight_dist(robot)
+    v = 20.0
+    line_yaw = v * robot.line.curvature_at(d)
+    base = dict(side_m=-0.5)  # right of the line: it steers left (+)
+    calm = robot.drive(line_state(robot, d, v, yaw_rate_rps=line_yaw, **base))
+    require(calm.steer > 0.0 and calm.accel > 0.0, "steering left with throttle on the straight")
+    # yawing right (against the left steer) 1 rad/s beyond the line: the rear steps out
+    sliding = robot.drive(line_state(robot, d, v, yaw_rate_rps=line_yaw - 1.0, **base))
+    assert sliding.steer > 0.0 and sliding.accel == 0.0
+    # far right of the line, yawing left 0.8 rad/s beyond it, still steering left: turning in, not a spin
+    turning_in = robot.drive(line_state(robot, d, v, yaw_rate_rps=line_yaw + 0.8, side_m=-4.0))
+    require(turning_in.steer > 0.0, "still steering left")
+    assert turning_in.accel > 0.0
+    # 0.5 rad/s against the steering: within 0.7 rad/s, throttle kept
+    assert robot.drive(line_state(robot, d, v, yaw_rate_rps=line_yaw - 0.5, **base)).accel > 0.0
+
+
+@pytest.mark.parametrize("name", TRACKS)
 def test_learner_counts_only_the_outer_edge_where_the_line_turns(name):
     """On a racing line a wheel over the inside kerb is a steering matter: in a turn, the margin the
     learner sees is the one to the outer edge; between turns, to the nearer edge."""

@@ -6,7 +6,7 @@ from trackdata import TRACKS, load
 
 from boxbox.control.braking import brake_distance_exact, max_entry_speed
 from boxbox.control.carmodel import G, CarModel
-from boxbox.control.speed import SpeedProfile, allowed_speed, crest_speed, segment_speed_limits
+from boxbox.control.speed import SpeedProfile, allowed_speed, bump_speed, crest_speed, segment_speed_limits
 from boxbox.model.track import LEFT, RIGHT, STRAIGHT, Track
 
 NO_AERO = CarModel(mass_kg=1000.0, ca=0.0, cw=0.0, mu=1.0)
@@ -111,6 +111,14 @@ def test_crest_speed_downforce_raises_it():
     v = crest_speed(-0.01, AERO, load_share=0.5)
     assert v > crest_speed(-0.01, NO_AERO, load_share=0.5)
     assert G + v ** 2 * (AERO.ca / AERO.mass_kg - 0.01) == pytest.approx(0.5 * G)  # exactly half the weight
+
+
+def test_bump_speed_by_hand():
+    """v^2 |kv| = bump_accel: 4 m/s^2 over a washboard of 0.04 1/m is 10 m/s; smooth road is free."""
+    assert bump_speed(0.04, 4.0) == pytest.approx(10.0)
+    assert bump_speed(0.01, 4.0) == pytest.approx(20.0)
+    assert bump_speed(0.0, 4.0) == 100.0
+    assert bump_speed(1e-6, 4.0, max_speed_mps=80.0) == 80.0
 
 
 # --- segment_speed_limits ------------------------------------------------------------------------
