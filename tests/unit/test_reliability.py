@@ -14,7 +14,7 @@ from boxbox.files import write_json_atomic
 from boxbox.model import State
 from boxbox.model.state import CAR_STATE_PIT
 from boxbox.model.track import LEFT
-from boxbox.report.soak import Series, slope
+from boxbox.report.soak import Series, forked_children, slope
 from boxbox.report.sweep import MAX_DAMAGE, misses
 from boxbox.robot import params as params_mod
 from boxbox.torcs import host
@@ -138,3 +138,29 @@ def test_the_final_lap_comes_from_the_race_time():
                        lap_times=[70.0, 20.0])
     _add_final_lap(odd)  # 10 s is faster than the best lap: not a lap time, left out
     assert odd.lap_times == [70.0, 20.0]
+
+
+def test_forked_children_finds_a_forked_copy_of_this_process():
+    """The robot host is forked from the launcher, so its command line is the launcher's: the soak
+    finds it as a child running the same program (and counts it as left over if it outlives a race)."""
+    import os
+    import signal
+    import time
+
+    before = forked_children()
+    pid = os.fork()
+    if pid == 0:  # the child: wait to be killed, never return into pytest
+        try:
+            time.sleep(30)
+        finally:
+            os._exit(0)
+    try:
+        deadline = time.monotonic() + 5.0
+        while pid not in forked_children() and time.monotonic() < deadline:
+            time.sleep(0.01)
+        assert pid in forked_children()
+        assert pid not in before
+    finally:
+        os.kill(pid, signal.SIGKILL)
+        os.waitpid(pid, 0)
+    assert pid not in forked_children()

@@ -77,6 +77,45 @@ def test_round_trip_columns_target_and_signals(tmp_path):
     assert t.meta["cars"][0]["signals"] == ["target_speed_mps", "phase"] and t.meta["cars"][0]["error"] is None
 
 
+def test_spilled_steps_come_back_in_order_and_the_spool_goes(tmp_path):
+    """The host spills the buffer to a spool file every SPILL_STEPS steps (flat memory in long
+    races); the file written at the end holds the same rows as a recorder that never spilled."""
+    kept, spilled = Recorder(0, "sig 1", "s"), Recorder(0, "sig 1", "s", spool_dir=tmp_path)
+    for rec in (kept, spilled):
+        rec.start(Signals())
+    for chunk in (7, 5, 3):  # three spills, then 4 steps left in memory
+        for rec in (kept, spilled):
+            record(rec, chunk)
+        spilled.spill()
+        assert spilled.rows == bytearray() and spilled.signals == []
+    for rec in (kept, spilled):
+        record(rec, 4)
+    assert spilled.spilled_steps == 15 and spilled.steps == kept.steps == 19
+    assert (tmp_path / ".telemetry-0.rows").stat().st_size == 15 * 8 * ROW_DOUBLES
+    a, b = kept.columns(), spilled.columns()
+    assert list(a) == list(b)
+    for name in a:
+        assert np.array_equal(a[name], b[name]), name
+    out = tmp_path / "out"
+    out.mkdir()
+    assert write_telemetry(out / FILE_NAME, [spilled]) == 19
+    assert not list(tmp_path.glob(".telemetry-*"))  # the spool is gone once the file is written
+
+
+def test_signals_dropped_after_a_spill_drop_their_spool(tmp_path):
+    rec = Recorder(0, "sig 1", "s", spool_dir=tmp_path)
+    rec.start(Signals())
+    record(rec, 5)
+    rec.spill()
+    assert (tmp_path / ".telemetry-0.sig").exists()
+    rec.drop_signals(RuntimeError("boom"))
+    assert not (tmp_path / ".telemetry-0.sig").exists()
+    record(rec, 3)
+    cols = rec.columns()
+    assert len(cols["time_s"]) == 8 and not any(k.startswith("sig_") for k in cols)
+    assert "target_speed_mps" not in cols
+
+
 def test_no_signals_and_a_robot_without_target(tmp_path):
     rec = Recorder(1, "plain 2", "middle")
     rec.start(Robot())  # the base robot names nothing: no call per step

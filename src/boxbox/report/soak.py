@@ -83,6 +83,25 @@ def processes_mentioning(text: str) -> list[int]:
     return found
 
 
+def forked_children() -> list[int]:
+    """Live children of this process running this same program: the robot host, which the
+    launcher forks (its command line is the launcher's, so it cannot be found by the run dir)."""
+    me = os.getpid()
+    mine = Path(f"/proc/{me}/cmdline").read_bytes()
+    found = []
+    for pid in os.listdir("/proc"):
+        if not pid.isdigit() or int(pid) == me:
+            continue
+        try:
+            stat = Path(f"/proc/{pid}/stat").read_text()
+            ppid = int(stat[stat.rindex(")") + 2:].split()[1])  # after "pid (comm) state"
+            if ppid == me and Path(f"/proc/{pid}/cmdline").read_bytes() == mine:
+                found.append(int(pid))
+        except (OSError, ValueError, IndexError):
+            continue
+    return found
+
+
 def slope(xs: list[float], ys: list[float]) -> float | None:
     """Least-squares slope of ys over xs."""
     pairs = [(x, y) for x, y in zip(xs, ys) if y is not None]
@@ -161,7 +180,7 @@ def run_long(spec: SoakSpec, overlay: Overlay, work: Path, console: Console) -> 
 
     def progress(lap: int, sim: float) -> None:
         if not host_pid:
-            host_pid.extend(processes_mentioning(spec_path)[:1])
+            host_pid.extend((processes_mentioning(spec_path) or forked_children())[:1])
         if host_pid:
             host_rss.add(lap, rss_kb(host_pid[0]))
             host_fds.add(lap, open_fds(host_pid[0]))
@@ -179,7 +198,7 @@ def run_long(spec: SoakSpec, overlay: Overlay, work: Path, console: Console) -> 
             "laps_done": me.laps if me else 0, "race_time_s": me.time if me else 0.0,
             "pit_stops": me.pit_stops if me else 0, "damage": me.damage if me else 0,
             "lap_times_recorded": len(me.lap_times) if me else 0,
-            "leftover_processes": len(processes_mentioning(str(run_dir))),
+            "leftover_processes": len(processes_mentioning(str(run_dir))) + len(forked_children()),
             "series": [s.figures() for s in (host_rss, host_fds, me_rss, me_fds)]}
 
 
@@ -200,7 +219,7 @@ def run_many(spec: SoakSpec, overlay: Overlay, work: Path, console: Console,
         result = launch.run_race(cfg, overlay)
         errors += bool(result.error)
         finished += any(d.module == "boxbox" and d.laps >= spec.race_laps for d in result.drivers)
-        leftovers += len(processes_mentioning(str(run_dir)))
+        leftovers += len(processes_mentioning(str(run_dir))) + len(forked_children())
         rss.add(i, rss_kb())
         fds.add(i, open_fds())
         thr.add(i, threads())

@@ -30,7 +30,7 @@ from boxbox.model.track import LEFT
 from boxbox.robot.base import RaceOptions, Robot
 from boxbox.robot.loader import load_robot_class
 from boxbox.torcs import wire
-from boxbox.torcs.telemetry import FILE_NAME as TELEMETRY_FILE, Recorder, write_telemetry
+from boxbox.torcs.telemetry import FILE_NAME as TELEMETRY_FILE, SPILL_BYTES, Recorder, write_telemetry
 
 STATE_SIZE = wire.STATE_REC.size
 OPP_SIZE = wire.OPPONENT_REC.size
@@ -174,7 +174,7 @@ class Host:
             self.slots.append(Slot(robot=cls(options), spec=entry["spec"], name=entry["name"]))
         if spec.get("telemetry", True):
             for i, slot in enumerate(self.slots):
-                slot.rec = slot.recorder = Recorder(i, slot.name, slot.spec)
+                slot.rec = slot.recorder = Recorder(i, slot.name, slot.spec, spool_dir=self.run_dir)
         self.alternate = bool(spec.get("telemetry_alternate"))  # bench-telemetry: record odd laps only
         self.other_laps: dict[int, list[float]] = {}
         self._other_seen: dict[int, int] = {}
@@ -276,6 +276,8 @@ class Host:
                             rec.sig_append(rec.tel(state))
                         except Exception as exc:
                             rec.drop_signals(exc)
+                    if len(rec.rows) >= SPILL_BYTES:
+                        rec.spill()
                 record_step_time(slot, perf_counter_ns() - t0)
             elif kind == wire.NEW_TRACK:
                 slot = slots[robot]

@@ -1,10 +1,12 @@
-"""Telemetry: every drive step of every Python car, kept in memory and written once as Parquet.
+"""Telemetry: every drive step of every Python car, buffered, spilled to disk, written as Parquet.
 
 The robot host records a step with one byte copy (the state record as the bridge sent it, followed
 in the host's buffer by the CONTROLS reply as it was sent: header and controls record) and, when
-the robot names telemetry fields, one list append of the tuple `Robot.telemetry(state)` returns.  Nothing is decoded or converted while the
-race runs; `write_telemetry` turns the bytes into columns at the end (also after a robot fault:
-the host's `finally` calls it), so partial telemetry survives a failed race.
+the robot names telemetry fields, one list append of the tuple `Robot.telemetry(state)` returns.
+Every SPILL_STEPS steps the buffer goes to a spool file in the run dir (`spill`), so the host's
+memory stays flat over a race of any length (a 200-lap race grew it by 200 MB before).  Nothing is
+decoded while the race runs; `write_telemetry` turns spool and buffer into columns at the end (also
+after a robot fault: the host's `finally` calls it), so partial telemetry survives a failed race.
 
 File: RUN_DIR/telemetry.parquet, one row per drive step per Python car, columns in `COLUMNS`
 order, then `sig_<name>` for each robot signal.  The schema metadata key `boxbox` holds JSON with
@@ -36,6 +38,9 @@ ROW_DOUBLES = N_STATE + N_HEADER + N_CONTROLS
 _S = {f: i for i, f in enumerate(wire.STATE_FIELDS)}
 _C = {f: N_STATE + N_HEADER + i for i, f in enumerate(wire.CONTROLS_FIELDS)}
 RAD_S_TO_RPM = 60.0 / (2.0 * math.pi)
+ROW_BYTES = 8 * ROW_DOUBLES
+SPILL_STEPS = 5000  # steps kept in memory before they go to the spool file (100 s of racing, ~2.5 MB)
+SPILL_BYTES = SPILL_STEPS * ROW_BYTES
 NO_CONTROLS = wire.CONTROLS_REC.pack(*[math.nan] * N_CONTROLS)  # a pit stop row: the race engine holds the car
 _NO_HEADER = bytes(wire.HEADER.size)
 
@@ -66,16 +71,21 @@ COLUMNS = [
 
 
 class Recorder:
-    """One Python car's telemetry while the race runs (the host appends to `rows` and `signals`)."""
+    """One Python car's telemetry while the race runs (the host appends to `rows` and `signals`, and
+    calls `spill` when `rows` holds SPILL_BYTES).
+
+    spool_dir: where the steps go when the buffer is full (None: all kept in memory, for tests)."""
 
     __slots__ = ("index", "name", "spec", "rows", "signals", "sig_append", "tel", "names", "error", "alt_lap",
-                 "alt_mark", "lap_step_us")
+                 "alt_mark", "lap_step_us", "spool_dir", "spilled_steps")
 
-    def __init__(self, index: int, name: str, spec: str) -> None:
+    def __init__(self, index: int, name: str, spec: str, spool_dir: Path | None = None) -> None:
         self.index, self.name, self.spec = index, name, spec
         self.rows = bytearray()  # ROW_DOUBLES little-endian float64 per step (see ROW_DOUBLES)
         self.signals: list[tuple] = []  # one tuple per step, in `names` order
         self.sig_append = self.signals.append
+        self.spool_dir = spool_dir
+        self.spilled_steps = 0
         self.tel = None  # the robot's bound telemetry method, or None: no signals
         self.names: tuple[str, ...] = ()
         self.error: str | None = None
@@ -85,7 +95,40 @@ class Recorder:
 
     @property
     def steps(self) -> int:
-        return len(self.rows) // (8 * ROW_DOUBLES)
+        return self.spilled_steps + len(self.rows) // ROW_BYTES
+
+    def _spool(self, kind: str) -> Path:
+        return self.spool_dir / f".telemetry-{self.index}.{kind}"
+
+    def spill(self) -> None:
+        """Move the buffered steps to the spool files (rows as recorded, signals as float64)."""
+        if self.spool_dir is None or not self.rows:
+            return
+        n = len(self.rows) // ROW_BYTES
+        if self.names:
+            try:
+                sig = np.array(self.signals, dtype="<f8")
+                if sig.shape != (n, len(self.names)):
+                    raise ValueError(f"expected {n} steps x {len(self.names)} values, got shape {sig.shape}")
+            except (ValueError, TypeError) as exc:
+                self.error = (f"telemetry() values do not match telemetry_fields() {self.names}: {exc}; "
+                              "robot signals dropped")
+                self.tel = None
+                self.names = ()
+                self._spool("sig").unlink(missing_ok=True)
+            else:
+                with open(self._spool("sig"), "ab") as f:
+                    f.write(sig.tobytes())
+        with open(self._spool("rows"), "ab") as f:
+            f.write(self.rows)
+        self.spilled_steps += n
+        self.rows = bytearray()
+        self.signals.clear()
+
+    def remove_spool(self) -> None:
+        if self.spool_dir is not None:
+            for kind in ("rows", "sig"):
+                self._spool(kind).unlink(missing_ok=True)
 
     def start(self, robot) -> None:
         """Ask the robot for its signal names once (after on_track).  A robot error here costs only
@@ -118,12 +161,17 @@ class Recorder:
         self.tel = None
         self.names = ()
         self.signals.clear()
+        if self.spool_dir is not None:
+            self._spool("sig").unlink(missing_ok=True)
 
     # --- at the end ----------------------------------------------------------------------------
     def columns(self) -> dict[str, np.ndarray]:
         """The recorded steps as named numpy columns (the signals as sig_<name>, the target apart)."""
         n = self.steps
-        a = np.frombuffer(self.rows, dtype="<f8", count=n * ROW_DOUBLES).reshape(n, ROW_DOUBLES)
+        rows = bytes(self.rows)
+        if self.spilled_steps:
+            rows = self._spool("rows").read_bytes()[: self.spilled_steps * ROW_BYTES] + rows
+        a = np.frombuffer(rows, dtype="<f8", count=n * ROW_DOUBLES).reshape(n, ROW_DOUBLES)
         cols: dict[str, np.ndarray] = {
             "car": np.full(n, self.index, dtype=np.int16),
             "time_s": a[:, _S["sim_time_s"]].copy(),
@@ -147,7 +195,10 @@ class Recorder:
         }
         if self.names:
             try:
-                sig = np.array(self.signals, dtype=np.float64)
+                sig = np.array(self.signals, dtype=np.float64).reshape(-1, len(self.names))
+                if self.spilled_steps:
+                    done = np.fromfile(self._spool("sig"), dtype="<f8").reshape(-1, len(self.names))
+                    sig = np.concatenate([done, sig])
                 if sig.shape != (n, len(self.names)):
                     raise ValueError(f"expected {n} steps x {len(self.names)} values, got shape {sig.shape}")
             except (ValueError, TypeError) as exc:
@@ -223,6 +274,8 @@ def write_telemetry(path: Path, recorders: list[Recorder], track=None, cars: dic
     tmp = path.with_name(f".{path.name}.tmp")
     pq.write_table(table, tmp, compression="zstd")
     os.replace(tmp, path)
+    for rec in recorders:
+        rec.remove_spool()
     return table.num_rows
 
 
