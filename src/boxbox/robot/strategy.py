@@ -25,7 +25,9 @@ import math
 from collections.abc import Iterable
 from dataclasses import dataclass
 
-FUEL_PER_M_L = 0.0008  # first guess before a lap is measured (about 4.3 l/lap on e-track-2)
+from boxbox.robot.base import FUEL_L_PER_M_ESTIMATE
+
+FUEL_PER_M_L = FUEL_L_PER_M_ESTIMATE  # first guess before a lap is measured (x the car's consumption factor)
 STOP_BASE_S = 2.0  # TORCS: fixed part of a pit stop
 FUEL_RATE_LPS = 8.0  # TORCS: refuelling speed
 REPAIR_S_PER_POINT = 0.007  # TORCS: repair time per damage point
