@@ -286,6 +286,30 @@ def test_throttle_is_capped_at_full_lock_above_10_mps(name):
 
 
 @pytest.mark.parametrize("name", TRACKS)
+def test_less_throttle_when_counter_steering_at_the_lock(name):
+    """At the lock against the line's turn (the rear is out: mixed-2's hairpin spun the car at 0.4),
+    the throttle cap is counter_lock_accel (0.2) instead of lock_accel (0.4)."""
+    robot = robot_for(name)
+    k = robot.line.curvature_1pm[: robot.n]
+    j = int(np.argmax(np.abs(k)))
+    d = j * robot.step_m
+    inward = float(np.sign(k[j]))
+    v = min(12.0, robot.profile.speed_at(d) - 1.5)  # below the target: the throttle is on
+    require(v > 10.5, "target speed above 12 m/s at the tightest point (the lock cap acts above 10 m/s)")
+    # pointing 0.6 rad into the turn beyond the line, 3 m inside it (the rear swung out): the law
+    # steers against the turn, to the lock
+    counter = robot.drive(line_state(robot, d, v, yaw_error_rad=0.6 * inward, side_m=3.0 * inward,
+                                     yaw_rate_rps=v * k[j]))
+    require(counter.steer * inward <= -0.95, "counter-steering at the lock")
+    assert 0.0 < counter.accel <= robot.params.counter_lock_accel == 0.2
+    # pointing 0.6 rad out of the turn, 3 m outside the line: steering into the turn, at the lock
+    into = robot.drive(line_state(robot, d, v, yaw_error_rad=-0.6 * inward, side_m=-3.0 * inward,
+                                  yaw_rate_rps=v * k[j]))
+    require(into.steer * inward >= 0.95, "steering into the turn at the lock")
+    assert 0.2 < into.accel <= robot.params.lock_accel
+
+
+@pytest.mark.parametrize("name", TRACKS)
 def test_no_throttle_while_the_rear_steps_out(name):
     """The car yawing faster than its line asks, against the steering, is oversteering: power would
     spin it.  A yaw rate the line explains, or excess in the steering's direction, keeps the throttle."""

@@ -64,6 +64,7 @@ class TutorialParams:
     tcl_range_mps: float = 10.0
     slip_min_speed_mps: float = 3.0
     spin_yaw_rate_rps: float = 0.7  # no throttle while turning this much faster than the line, against the steering
+    counter_lock_accel: float = 0.2  # the same while counter-steering at the lock (the rear is out)
     lock_accel: float = 0.4  # most throttle while the steering is at its lock (the car cannot follow its line)
     # getting unstuck
     stuck_angle_deg: float = 30.0

@@ -369,7 +369,9 @@ class TutorialRobot(Robot):
         else:
             accel = tcl_filter(accel, v, spins, self.radii, self.car.drivetrain, self.slip)
             if abs(steer) >= LOCK_SHARE and v > LOCK_MIN_SPEED_MPS:  # no grip left to spare for power
-                accel = min(accel, p.lock_accel)
+                # counter-steering at the lock (steer against the line's turn): the rear is out
+                counter = steer * self.line.curvature_at(dist) < 0.0
+                accel = min(accel, p.counter_lock_accel if counter else p.lock_accel)
             # the car turns faster than its line and against the steering: the rear is stepping out,
             # and power would spin it (dirt-2's S-bends at 13 m/s in first gear)
             excess = s.yaw_rate_rps - v * self.line.curvature_at(dist)
