@@ -368,13 +368,13 @@ class TutorialRobot(Robot):
             accel = 0.0
         else:
             accel = tcl_filter(accel, v, spins, self.radii, self.car.drivetrain, self.slip)
+            line_k = self.line.curvature_at(dist)
             if abs(steer) >= LOCK_SHARE and v > LOCK_MIN_SPEED_MPS:  # no grip left to spare for power
                 # counter-steering at the lock (steer against the line's turn): the rear is out
-                counter = steer * self.line.curvature_at(dist) < 0.0
-                accel = min(accel, p.counter_lock_accel if counter else p.lock_accel)
+                accel = min(accel, p.counter_lock_accel if steer * line_k < 0.0 else p.lock_accel)
             # the car turns faster than its line and against the steering: the rear is stepping out,
             # and power would spin it (dirt-2's S-bends at 13 m/s in first gear)
-            excess = s.yaw_rate_rps - v * self.line.curvature_at(dist)
+            excess = s.yaw_rate_rps - v * line_k
             if excess * steer < 0.0 and abs(excess) > p.spin_yaw_rate_rps:
                 accel = 0.0
 
