@@ -104,26 +104,33 @@ class Recorder:
         """Move the buffered steps to the spool files (rows as recorded, signals as float64)."""
         if self.spool_dir is None or not self.rows:
             return
-        n = len(self.rows) // ROW_BYTES
         if self.names:
-            try:
-                sig = np.array(self.signals, dtype="<f8")
-                if sig.shape != (n, len(self.names)):
-                    raise ValueError(f"expected {n} steps x {len(self.names)} values, got shape {sig.shape}")
-            except (ValueError, TypeError) as exc:
-                self.error = (f"telemetry() values do not match telemetry_fields() {self.names}: {exc}; "
-                              "robot signals dropped")
-                self.tel = None
-                self.names = ()
-                self._spool("sig").unlink(missing_ok=True)
-            else:
+            sig = self._signal_array()
+            if sig is not None:
                 with open(self._spool("sig"), "ab") as f:
                     f.write(sig.tobytes())
         with open(self._spool("rows"), "ab") as f:
             f.write(self.rows)
-        self.spilled_steps += n
+        self.spilled_steps += len(self.rows) // ROW_BYTES
         self.rows = bytearray()
         self.signals.clear()
+
+    def _signal_array(self, spilled: bool = False) -> np.ndarray | None:
+        """The buffered signal tuples (after the spooled ones, when spilled) as a (steps, names)
+        float64 array, or None when they do not fit the names: then the signals are dropped."""
+        k = len(self.names)
+        try:
+            sig = np.array(self.signals, dtype="<f8") if self.signals else np.empty((0, k))
+            if spilled and self.spilled_steps:
+                sig = np.concatenate([np.fromfile(self._spool("sig"), dtype="<f8").reshape(self.spilled_steps, k), sig])
+            n = (self.spilled_steps if spilled else 0) + len(self.rows) // ROW_BYTES
+            if sig.shape != (n, k):
+                raise ValueError(f"expected {n} steps x {k} values, got shape {sig.shape}")
+        except (ValueError, TypeError, OSError) as exc:
+            self.drop_signals(exc, f"telemetry() values do not match telemetry_fields() {self.names}: {exc}; "
+                                   "robot signals dropped")
+            return None
+        return sig
 
     def remove_spool(self) -> None:
         if self.spool_dir is not None:
@@ -155,9 +162,10 @@ class Recorder:
             except Exception as exc:
                 self.drop_signals(exc)
 
-    def drop_signals(self, exc: BaseException) -> None:
-        """telemetry() raised: keep recording the car, without the robot's signals."""
-        self.error = f"telemetry() raised {type(exc).__name__}: {exc}; robot signals dropped"
+    def drop_signals(self, exc: BaseException, why: str | None = None) -> None:
+        """telemetry() raised (or its values did not fit): keep recording the car, without the
+        robot's signals."""
+        self.error = why or f"telemetry() raised {type(exc).__name__}: {exc}; robot signals dropped"
         self.tel = None
         self.names = ()
         self.signals.clear()
@@ -193,20 +201,11 @@ class Recorder:
             "in_pit": (a[:, _S["car_state"]].astype(np.int64) & 1) != 0,
             "pit_request": a[:, _C["pit_request"]] > 0.5,
         }
-        if self.names:
-            try:
-                sig = np.array(self.signals, dtype=np.float64).reshape(-1, len(self.names))
-                if self.spilled_steps:
-                    done = np.fromfile(self._spool("sig"), dtype="<f8").reshape(-1, len(self.names))
-                    sig = np.concatenate([done, sig])
-                if sig.shape != (n, len(self.names)):
-                    raise ValueError(f"expected {n} steps x {len(self.names)} values, got shape {sig.shape}")
-            except (ValueError, TypeError) as exc:
-                self.error = (f"telemetry() values do not match telemetry_fields() {self.names}: {exc}; "
-                              "robot signals dropped")
-            else:
-                for j, name in enumerate(self.names):
-                    cols[name if name == TARGET_FIELD else SIGNAL_PREFIX + name] = sig[:, j]
+        names = self.names
+        sig = self._signal_array(spilled=True) if names else None
+        if sig is not None:
+            for j, name in enumerate(names):
+                cols[name if name == TARGET_FIELD else SIGNAL_PREFIX + name] = sig[:, j]
         return cols
 
 
