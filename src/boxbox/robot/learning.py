@@ -74,7 +74,7 @@ class TurnLearner:
     def factors_per_sample(self) -> list[float]:
         return [self.turns[t].factor if t >= 0 else 1.0 for t in self.sample_index]
 
-    def observe(self, sample: int, margin_m: float, damage_up: float, line_error_m: float | None = None) -> None:
+    def observe(self, sample: int, margin_m: float, damage_taken: float, line_error_m: float | None = None) -> None:
         """One drive step inside the lap: the car's margin to the edge at a profile sample, the damage
         points it took in this step (0: none) and, for a robot on a racing line, how far it is
         from that line."""
@@ -86,14 +86,14 @@ class TurnLearner:
                 turn.min_margin_m = margin_m
             if line_error_m is not None and line_error_m > turn.max_error_m:
                 turn.max_error_m = line_error_m
-            if damage_up:
+            if damage_taken:
                 turn.damaged = True
-                turn.damage_points += float(damage_up)
-        elif self.last_turn >= 0 and (damage_up or margin_m < 0.0):
+                turn.damage_points += float(damage_taken)
+        elif self.last_turn >= 0 and (damage_taken or margin_m < 0.0):
             # leaving the track or hitting something on the way out of a turn is that turn's doing
             turn = self.turns[self.last_turn]
-            turn.damaged |= bool(damage_up)
-            turn.damage_points += float(damage_up)
+            turn.damaged |= bool(damage_taken)
+            turn.damage_points += float(damage_taken)
             if margin_m < turn.min_margin_m:
                 turn.min_margin_m = margin_m
 
