@@ -86,18 +86,13 @@ def processes_mentioning(text: str) -> list[int]:
 def forked_children() -> list[int]:
     """Live children of this process running this same program: the robot host, which the
     launcher forks (its command line is the launcher's, so it cannot be found by the run dir)."""
-    me = os.getpid()
-    mine = Path(f"/proc/{me}/cmdline").read_bytes()
+    mine = Path("/proc/self/cmdline").read_bytes()
     found = []
-    for pid in os.listdir("/proc"):
-        if not pid.isdigit() or int(pid) == me:
-            continue
+    for pid in children():
         try:
-            stat = Path(f"/proc/{pid}/stat").read_text()
-            ppid = int(stat[stat.rindex(")") + 2:].split()[1])  # after "pid (comm) state"
-            if ppid == me and Path(f"/proc/{pid}/cmdline").read_bytes() == mine:
-                found.append(int(pid))
-        except (OSError, ValueError, IndexError):
+            if Path(f"/proc/{pid}/cmdline").read_bytes() == mine:
+                found.append(pid)
+        except OSError:
             continue
     return found
 
