@@ -37,9 +37,11 @@ class Car:
     brake_front_rear: float = 0.5
     # from the car structure (known when the race starts)
     car_index: int = 0
-    gear_count: int = 0  # including reverse and neutral
+    # TORCS's _gearNb: simuv2 sets it to the top forward gear + 1 (transmission.cpp, TransmInit), not
+    # to the count of gears with reverse and neutral that car.h's comment suggests
+    gear_count: int = 0
     gear_offset: int = 1  # gear_ratios[gear + gear_offset] is the ratio of `gear`
-    gear_ratios: tuple[float, ...] = field(default_factory=tuple)  # including the final drive
+    gear_ratios: tuple[float, ...] = field(default_factory=tuple)  # all MAX_GEARS slots, with the final drive
     rpm_redline: float = 0.0  # rad/s
     rpm_max: float = 0.0
     rpm_max_torque: float = 0.0
@@ -65,7 +67,13 @@ class Car:
 
     @property
     def max_gear(self) -> int:
-        return max(1, self.gear_count - 1 - self.gear_offset) if self.gear_count else 6
+        """The top forward gear: the highest gear with a non-zero ratio (TORCS's gearbox.gearMax,
+        which it also reports as _gearNb - 1). 6 before the race has started."""
+        forward = self.gear_ratios[self.gear_offset + 1:]
+        top = max((g for g, ratio in enumerate(forward, start=1) if ratio > 0.0), default=0)
+        if top:
+            return top
+        return max(1, self.gear_count - 1) if self.gear_count else 6
 
     def gear_ratio(self, gear: int) -> float:
         return self.gear_ratios[gear + self.gear_offset]

@@ -31,6 +31,7 @@ class MiddleRobot(Robot):
         self.speed_limit = [min(limits[i], limits[(i + 1) % n], limits[(i + 2) % n]) for i in range(n)]
         self.redline = car.rpm_redline
         self.ratios = car.gear_ratios
+        self.top_gear = car.max_gear
         self.offset = car.gear_offset
         self.wheel_radius = car.wheel_radius_rr_m
         self.steer_lock = car.steer_lock_rad
@@ -44,7 +45,7 @@ class MiddleRobot(Robot):
         gear = int(s.gear)
         if gear <= 0:
             gear = 1
-        elif gear + self.offset + 1 < len(self.ratios):
+        elif gear < self.top_gear:
             if self.redline / self.ratios[gear + self.offset] * self.wheel_radius * 0.9 < v:
                 gear += 1
             elif gear > 1 and self.redline / self.ratios[gear + self.offset - 1] * self.wheel_radius * 0.9 > v + 4:

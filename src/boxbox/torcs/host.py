@@ -102,7 +102,7 @@ def complete_car(car: Car, payload: bytes) -> None:
         if key.startswith("gear_ratio_"):
             continue
         setattr(car, key, int(value) if key in ints else value)
-    car.gear_ratios = tuple(r[f"gear_ratio_{i}"] for i in range(car.gear_count))
+    car.gear_ratios = tuple(r[f"gear_ratio_{i}"] for i in range(wire.MAX_GEARS))
 
 
 def pit_zone(track: Track | None) -> bytes:

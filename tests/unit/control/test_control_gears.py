@@ -3,7 +3,7 @@ from trackdata import load
 
 from boxbox.control.gears import GearBox
 
-_, CAR = load("e-track-2")  # car1-trb1: 5 forward gears
+_, CAR = load("e-track-2")  # car1-trb1: 6 forward gears
 
 
 def shift_speed(gear: int, shift: float = 0.9) -> float:
@@ -13,8 +13,8 @@ def shift_speed(gear: int, shift: float = 0.9) -> float:
 
 def test_top_gear_and_thresholds():
     box = GearBox(CAR)
-    assert box.top_gear == 5
-    for gear in range(1, 6):
+    assert box.top_gear == 6
+    for gear in range(1, 7):
         assert box.upshift_speed_mps[gear] == pytest.approx(shift_speed(gear), rel=1e-12)
     assert shift_speed(1) == pytest.approx(20.93, abs=0.01)
 
@@ -25,7 +25,7 @@ def test_neutral_or_reverse_goes_to_first(gear, speed_mps):
     assert GearBox(CAR).select(gear, speed_mps) == 1
 
 
-@pytest.mark.parametrize("gear", [1, 2, 3, 4])
+@pytest.mark.parametrize("gear", [1, 2, 3, 4, 5])
 def test_upshift_just_above_shift_speed(gear):
     box = GearBox(CAR)
     v = shift_speed(gear)
@@ -35,11 +35,11 @@ def test_upshift_just_above_shift_speed(gear):
 
 def test_no_upshift_past_top_gear():
     box = GearBox(CAR)
-    assert box.select(5, shift_speed(5) + 1.0) == 5
-    assert box.select(5, 200.0) == 5
+    assert box.select(6, shift_speed(6) + 1.0) == 6
+    assert box.select(6, 200.0) == 6
 
 
-@pytest.mark.parametrize("gear", [2, 3, 4, 5])
+@pytest.mark.parametrize("gear", [2, 3, 4, 5, 6])
 def test_downshift_with_margin(gear):
     box = GearBox(CAR)
     lower = shift_speed(gear - 1)
@@ -56,7 +56,7 @@ def test_never_down_to_neutral():
 
 def test_no_oscillation_after_upshift():
     box = GearBox(CAR)
-    for gear in range(1, 5):
+    for gear in range(1, 6):
         v = shift_speed(gear) + 0.01
         new = box.select(gear, v)
         assert new == gear + 1
@@ -71,3 +71,10 @@ def test_custom_shift_and_margin():
     assert box.select(2, v - 0.01) == 2
     assert box.select(3, v - 2.01) == 2
     assert box.select(3, v - 1.99) == 3
+
+
+def test_fifth_shifts_into_sixth_the_top_gear():
+    # car1-trb1's sixth gear (0.77 x final drive 4.5) was never used while max_gear said 5
+    box = GearBox(CAR)
+    assert CAR.gear_ratio(6) == pytest.approx(0.77 * 4.5, rel=1e-6)
+    assert box.select(5, shift_speed(5) + 0.5) == 6

@@ -1,0 +1,19 @@
+"""A robot that writes the car's gear data as the host sees it (for the gear tests), then drives
+like the middle robot."""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+from boxbox.model import Car, Track
+from boxbox.robot.simple import MiddleRobot
+
+
+class GearRecorder(MiddleRobot):
+    def on_track(self, track: Track, car: Car) -> None:
+        super().on_track(track, car)
+        out = Path(os.environ["BOXBOX_RUN_DIR"]) / "gears.json"
+        out.write_text(json.dumps({"max_gear": car.max_gear, "gear_nb": car.gear_count,
+                                   "gear_offset": car.gear_offset, "ratios": list(car.gear_ratios)}))
