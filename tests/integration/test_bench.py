@@ -5,13 +5,20 @@ from __future__ import annotations
 import csv
 
 import pytest
-from helpers import ROBOTS, read_json, run_boxbox
 
 from boxbox.errors import UsageError
-from boxbox.report.bench import (BenchSpec, cache_key, classify_robot, parse_list, plan, python_robot_version,
-                                 torcs_robot_version)
+from boxbox.report.bench import (
+    BenchSpec,
+    cache_key,
+    classify_robot,
+    parse_list,
+    plan,
+    python_robot_version,
+    torcs_robot_version,
+)
 from boxbox.report.tables import fmt_time
 from boxbox.torcs import catalog
+from helpers import ROBOTS, read_json, run_boxbox
 
 
 def test_robot_entries_are_told_apart():

@@ -7,6 +7,7 @@ from __future__ import annotations
 import time
 
 import pytest
+
 from helpers import ROBOTS, processes_mentioning, read_json, run_boxbox
 
 FAULTY = ROBOTS / "faulty.py"

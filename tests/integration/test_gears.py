@@ -7,10 +7,10 @@ import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import pyarrow.parquet as pq
-from helpers import ROBOTS
 
 from boxbox.torcs import catalog, launch
 from boxbox.torcs.paths import system_torcs
+from helpers import ROBOTS
 
 FORWARD_GEARS = [str(g) for g in range(1, 9)]  # TORCS names forward gears "1".."8"
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import pytest
+
 from helpers import ROBOTS, processes_mentioning, read_json, run_boxbox
 
 EVENT_KEYS = {"lap", "entry_time", "stop_time", "leave_time", "exit_time", "stop_error_m", "fuel", "repair", "mode"}

@@ -51,15 +51,14 @@ def test_two_python_cars_and_a_user_robot_file(tmp_path, overlay):
 
 
 def test_fuel_laps_sets_the_starting_fuel(tmp_path, overlay):
-    from boxbox.torcs import launch
     from boxbox.robot.base import RaceOptions
+    from boxbox.torcs import launch
 
     cfg = launch.RaceConfig(track="g-track-1", category="road", laps=1, robots=["middle"],
                             options=RaceOptions(fuel_laps=2.0), run_dir=tmp_path)
     result = launch.run_race(cfg, overlay)
     assert result.error is None
     from boxbox.robot.base import FUEL_L_PER_M_ESTIMATE
-
     from trackdata import load
 
     track, car = load("g-track-1")

@@ -11,9 +11,9 @@ import subprocess
 
 import numpy as np
 import pytest
-from helpers import ROOT, read_json, run_boxbox
 
 from boxbox.torcs.telemetry import FILE_NAME, load_telemetry
+from helpers import ROOT, read_json, run_boxbox
 
 ARTIFACTS = ROOT / "test-artifacts"
 

@@ -13,11 +13,11 @@ import time
 from pathlib import Path
 
 import pytest
-from helpers import BOXBOX, ROBOTS, ROOT, processes_mentioning, read_json, run_boxbox
 
 from boxbox.cache import cache_dir
 from boxbox.torcs.paths import system_torcs
 from boxbox.torcs.setup import overlay_intact
+from helpers import BOXBOX, ROBOTS, ROOT, processes_mentioning, read_json, run_boxbox
 
 FAULTY = ROBOTS / "faulty.py"
 

@@ -3,12 +3,12 @@
 from __future__ import annotations
 
 import pytest
-from helpers import ROBOTS
 
 from boxbox.errors import UsageError
 from boxbox.robot.base import Robot
 from boxbox.robot.loader import BUILTIN, load_robot_class
 from boxbox.torcs import racefile
+from helpers import ROBOTS
 
 
 @pytest.mark.parametrize("name", sorted(BUILTIN))

@@ -7,8 +7,8 @@ import json
 from pathlib import Path
 
 import pytest
-import trackdata
 
+import trackdata
 from boxbox.errors import UsageError
 from boxbox.files import write_json_atomic
 from boxbox.model import State

@@ -10,7 +10,6 @@ import re
 
 import numpy as np
 import pytest
-from trackdata import load
 
 import boxbox.robot.params as params_mod
 from boxbox.model import State
@@ -18,8 +17,17 @@ from boxbox.report.race_report import braking_points, build_report, write_report
 from boxbox.robot.base import RaceOptions, Robot
 from boxbox.robot.tutorial import PIT_PHASE_CODES, TutorialRobot
 from boxbox.torcs import wire
-from boxbox.torcs.telemetry import (COLUMNS, FILE_NAME, RAD_S_TO_RPM, ROW_DOUBLES, Recorder, load_telemetry,
-                                    track_info, write_telemetry)
+from boxbox.torcs.telemetry import (
+    COLUMNS,
+    FILE_NAME,
+    RAD_S_TO_RPM,
+    ROW_DOUBLES,
+    Recorder,
+    load_telemetry,
+    track_info,
+    write_telemetry,
+)
+from trackdata import load
 
 
 def state_bytes(**fields) -> bytes:

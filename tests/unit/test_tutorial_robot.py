@@ -9,12 +9,12 @@ import time
 
 import numpy as np
 import pytest
-from trackdata import load
 
 import boxbox.robot.params as params_mod
 from boxbox.model import Opponent, State
 from boxbox.robot.base import RaceOptions
 from boxbox.robot.tutorial import TutorialRobot
+from trackdata import load
 
 TRACKS = ["e-track-2", "g-track-1", "aalborg", "michigan", "mixed-2", "e-track-4"]
 STEP_S = 0.02

@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 from enum import Enum
 
-from boxbox.control.carmodel import G, CarModel
+from boxbox.control.carmodel import CarModel, G
 
 _MAX_EXP_ARG = 700.0  # exp() overflows a float just above 709
 

@@ -13,7 +13,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from boxbox.control.braking import BrakeModel, entry_speed_function
-from boxbox.control.carmodel import G, CarModel
+from boxbox.control.carmodel import CarModel, G
 from boxbox.model.track import STRAIGHT, Track
 
 DEFAULT_MAX_SPEED_MPS = 100.0

@@ -9,8 +9,8 @@ from pathlib import Path
 import click
 from rich.console import Console
 
-from boxbox.errors import BoxboxError, UsageError
 from boxbox.cliutil import positive_int, ready
+from boxbox.errors import BoxboxError, UsageError
 
 
 class SweepFailed(BoxboxError):

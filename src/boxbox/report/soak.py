@@ -20,9 +20,9 @@ import os
 import shutil
 import tempfile
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable
 
 from rich.console import Console
 from rich.table import Table
@@ -30,7 +30,6 @@ from rich.table import Table
 from boxbox.robot.base import RaceOptions
 from boxbox.torcs import catalog, launch
 from boxbox.torcs.setup import Overlay
-
 
 # --- /proc readings ----------------------------------------------------------------------------
 

@@ -44,7 +44,7 @@ class TurnLearner:
 
     @classmethod
     def from_limits(cls, limits_mps: list[float], step_m: float, length_m: float, max_speed_mps: float,
-                    gain: float = 0.5, target_margin_m: float = 0.5, steady_error_m: float = 1.0) -> "TurnLearner":
+                    gain: float = 0.5, target_margin_m: float = 0.5, steady_error_m: float = 1.0) -> TurnLearner:
         """Turns are the runs of samples whose limit is below the top speed."""
         n = len(limits_mps)
         limited = [v < 0.95 * max_speed_mps for v in limits_mps]

@@ -15,12 +15,12 @@ import math
 from pathlib import Path
 
 from boxbox.control.braking import brake_distance
-from boxbox.control.pit_brake import ENTRY, EXIT, FREE, GAVE_UP, HOLD, LANE, LIMIT, STOP, PitBrakeFilter
-from boxbox.control.stop import SpeedTracker
 from boxbox.control.carmodel import CarModel
 from boxbox.control.gears import GearBox
+from boxbox.control.pit_brake import ENTRY, EXIT, FREE, GAVE_UP, HOLD, LANE, LIMIT, STOP, PitBrakeFilter
 from boxbox.control.speed import SpeedProfile, allowed_speed, bump_speed, crest_speed
 from boxbox.control.steering import steer_to_line, steer_to_point
+from boxbox.control.stop import SpeedTracker
 from boxbox.control.traction import SlipParams, abs_filter, tcl_filter
 from boxbox.model import Car, Controls, PitOrder, State, Track
 from boxbox.robot.base import FUEL_L_PER_M_ESTIMATE, RaceOptions, Robot

@@ -5,7 +5,7 @@ from __future__ import annotations
 import difflib
 import re
 import xml.etree.ElementTree as ET
-from functools import lru_cache
+from functools import cache, lru_cache
 from pathlib import Path
 
 from boxbox.errors import UsageError
@@ -42,7 +42,7 @@ def _sections(xml: Path) -> ET.Element | None:
         return None
 
 
-@lru_cache(maxsize=None)
+@cache
 def robot_indices(module: str) -> dict[int, dict[str, str]]:
     """idx -> {name, car} for a TORCS robot module, from drivers/NAME/NAME.xml."""
     root = _sections(system_torcs().data_dir / "drivers" / module / f"{module}.xml")
@@ -72,7 +72,7 @@ def robot_modules() -> list[str]:
     return sorted(p.name for p in root.iterdir() if (p / f"{p.name}.so").exists() and p.name != "human")
 
 
-@lru_cache(maxsize=None)
+@cache
 def has_pit_lane(track: str) -> bool:
     """Whether the track's file defines a pit lane (a Pits section with an entry)."""
     category = tracks().get(track)

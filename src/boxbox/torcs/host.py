@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import faulthandler
 import json
-import os
 import math
+import os
 import signal
 import socket
 import sys
@@ -30,7 +30,8 @@ from boxbox.model.track import LEFT
 from boxbox.robot.base import RaceOptions, Robot
 from boxbox.robot.loader import load_robot_class
 from boxbox.torcs import wire
-from boxbox.torcs.telemetry import FILE_NAME as TELEMETRY_FILE, SPILL_BYTES, Recorder, write_telemetry
+from boxbox.torcs.telemetry import FILE_NAME as TELEMETRY_FILE
+from boxbox.torcs.telemetry import SPILL_BYTES, Recorder, write_telemetry
 
 STATE_SIZE = wire.STATE_REC.size
 OPP_SIZE = wire.OPPONENT_REC.size
@@ -439,7 +440,7 @@ def main(argv: list[str]) -> int:
     listener.settimeout(float(spec.get("connect_timeout_s", 60)))
     try:
         conn, _ = listener.accept()
-    except socket.timeout:
+    except TimeoutError:
         return 2
     conn.settimeout(None)
     (run_dir / "host-connected").touch()  # tells the launcher that TORCS's bridge got through

@@ -23,9 +23,9 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable
 
 from boxbox.errors import RaceError, UsageError
 from boxbox.files import write_json_atomic
@@ -33,8 +33,14 @@ from boxbox.robot.base import RaceOptions
 from boxbox.torcs import catalog
 from boxbox.torcs.paths import MAX_PYTHON_CARS, ROBOT_MODULE, cache_dir
 from boxbox.torcs.racefile import Entry, race_xml, robot_xml
-from boxbox.torcs.results import (DriverResult, RaceResult, driver_from_rank, find_results_file,
-                                  leader_lap_times, parse_results_file)
+from boxbox.torcs.results import (
+    DriverResult,
+    RaceResult,
+    driver_from_rank,
+    find_results_file,
+    leader_lap_times,
+    parse_results_file,
+)
 from boxbox.torcs.setup import Overlay
 
 PROGRESS_LINE = re.compile(r"Sim Time:\s*([\d.]+)\s*\[s\], Leader Laps:\s*(\d+)")

@@ -14,14 +14,13 @@ import shutil
 import subprocess
 import tarfile
 import tempfile
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
 
 from boxbox.errors import SetupError
 from boxbox.torcs import wire
-from boxbox.torcs.paths import (BRIDGE_SOURCE, HEADER_MEMBERS, ROBOT_MODULE, TorcsInstall, cache_dir,
-                                system_torcs)
+from boxbox.torcs.paths import BRIDGE_SOURCE, HEADER_MEMBERS, ROBOT_MODULE, TorcsInstall, cache_dir, system_torcs
 
 Report = Callable[[str], None]
 PACKAGES = ["torcs", "libplib-dev"]

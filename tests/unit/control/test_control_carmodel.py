@@ -2,10 +2,10 @@ import dataclasses
 import math
 
 import pytest
-from trackdata import load
 
-from boxbox.control.carmodel import G, CarModel, downforce_coefficient, drag_coefficient
+from boxbox.control.carmodel import CarModel, G, downforce_coefficient, drag_coefficient
 from boxbox.model.car import Car
+from trackdata import load
 
 
 def _car(**kw) -> Car:

@@ -1,7 +1,7 @@
 import pytest
-from trackdata import load
 
 from boxbox.control.gears import GearBox
+from trackdata import load
 
 _, CAR = load("e-track-2")  # car1-trb1: 6 forward gears
 

@@ -2,12 +2,12 @@ import math
 
 import numpy as np
 import pytest
-from trackdata import TRACKS, load
 
 from boxbox.control.braking import brake_distance_exact, max_entry_speed
-from boxbox.control.carmodel import G, CarModel
+from boxbox.control.carmodel import CarModel, G
 from boxbox.control.speed import SpeedProfile, allowed_speed, bump_speed, crest_speed, segment_speed_limits
 from boxbox.model.track import LEFT, RIGHT, STRAIGHT, Track
+from trackdata import TRACKS, load
 
 NO_AERO = CarModel(mass_kg=1000.0, ca=0.0, cw=0.0, mu=1.0)
 AERO = CarModel(mass_kg=1000.0, ca=2.0, cw=0.5, mu=1.5)

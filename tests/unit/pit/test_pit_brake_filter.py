@@ -5,7 +5,17 @@ from __future__ import annotations
 import pytest
 
 from boxbox.control.pit_brake import (
-    ENTRY, EXIT, FREE, GAVE_UP, HOLD, LANE, LIMIT, PIT_BRAKE_AHEAD_M, PIT_LOOKAHEAD_M, PIT_MU, STOP,
+    ENTRY,
+    EXIT,
+    FREE,
+    GAVE_UP,
+    HOLD,
+    LANE,
+    LIMIT,
+    PIT_BRAKE_AHEAD_M,
+    PIT_LOOKAHEAD_M,
+    PIT_MU,
+    STOP,
     PitBrakeFilter,
 )
 from boxbox.control.stop import SpeedTracker

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from trackdata import load
 
 from boxbox.control.pit_brake import PitBrakeFilter
 from boxbox.robot.pitpath import PitPath
+from trackdata import load
 
 PIT_TRACKS = ["aalborg", "e-track-2", "e-track-4", "g-track-1", "michigan"]
 

@@ -8,7 +8,13 @@ import math
 import pytest
 
 from boxbox.robot.strategy import (
-    FUEL_PER_M_L, FUEL_RATE_LPS, REPAIR_S_PER_POINT, STOP_BASE_S, PitStrategy, pit_lane_loss_s, plan_stops,
+    FUEL_PER_M_L,
+    FUEL_RATE_LPS,
+    REPAIR_S_PER_POINT,
+    STOP_BASE_S,
+    PitStrategy,
+    pit_lane_loss_s,
+    plan_stops,
 )
 
 LENGTH_M = 5380.5  # e-track-2
