@@ -1,8 +1,9 @@
-"""A robot that writes the car's gear data as the host sees it (for the gear tests), then drives
-like the middle robot."""
+"""A robot that writes the car's gear data (gears.json) and all its constants (car.json) as the host
+sees them, then drives like the middle robot."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 from pathlib import Path
@@ -17,3 +18,4 @@ class GearRecorder(MiddleRobot):
         out = Path(os.environ["BOXBOX_RUN_DIR"]) / "gears.json"
         out.write_text(json.dumps({"max_gear": car.max_gear, "gear_nb": car.gear_count,
                                    "gear_offset": car.gear_offset, "ratios": list(car.gear_ratios)}))
+        (out.parent / "car.json").write_text(json.dumps(dataclasses.asdict(car)))

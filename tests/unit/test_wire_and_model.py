@@ -20,8 +20,11 @@ def test_state_and_opponent_follow_the_wire_layout():
 
 def test_every_car_constant_on_the_wire_is_a_car_field():
     fields = {f.name for f in dataclasses.fields(Car)}
-    wire_names = set(wire.HANDLE_FIELDS) | {f for f in wire.CAR_FIELDS if not f.startswith("gear_ratio_")}
+    arrays = ("gear_ratio_", "torque_rpm_", "torque_nm_")  # arrive as the tuples below
+    wire_names = {f for f in [*wire.HANDLE_FIELDS, *wire.CAR_FIELDS] if not f.startswith(arrays)}
+    wire_names -= {"torque_points"}
     assert wire_names <= fields
+    assert {"gear_ratios", "torque_curve_radps", "torque_curve_nm"} <= fields
 
 
 def test_c_header_declares_every_record_in_order():

@@ -9,7 +9,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, replace
 
+from boxbox.control.tyre import skid_grip_gain
 from boxbox.model.car import Car
+from boxbox.model.skill import SkillLevel
 
 G = 9.81  # m/s^2
 
@@ -44,8 +46,13 @@ def drag_coefficient(car: Car) -> float:
 
 
 def tyre_mu(car: Car) -> float:
-    """The weakest tyre limits the car, so use the smallest of the four."""
-    return min(car.mu_fr, car.mu_fl, car.mu_rr, car.mu_rl)
+    """The weakest tyre limits the car, so use the smallest of the four, each with what the car's
+    skill level adds at the slip of its peak (control/tyre.py; nothing at pro)."""
+    skid = SkillLevel(car.skill_level).skid_factor
+    wheels = (("fr", car.mu_fr), ("fl", car.mu_fl), ("rr", car.mu_rr), ("rl", car.mu_rl))
+    return min(mu * (skid_grip_gain(getattr(car, f"tyre_stiffness_{w}"), getattr(car, f"tyre_dynamic_friction_{w}"),
+                                    getattr(car, f"tyre_elasticity_{w}"), skid) if skid else 1.0)
+               for w, mu in wheels)
 
 
 @dataclass(frozen=True)

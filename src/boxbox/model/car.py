@@ -35,6 +35,23 @@ class Car:
     fuel_cons_factor: float = 1.0
     brake_pressure_max: float = 0.0
     brake_front_rear: float = 0.5
+    # tyres (the car file's "stiffness", "dynamic friction", "elasticity factor" per wheel; TORCS's
+    # defaults where it is silent): the shape of the magic formula, see control/tyre.py
+    tyre_stiffness_fr: float = 30.0
+    tyre_stiffness_fl: float = 30.0
+    tyre_stiffness_rr: float = 30.0
+    tyre_stiffness_rl: float = 30.0
+    tyre_dynamic_friction_fr: float = 0.8
+    tyre_dynamic_friction_fl: float = 0.8
+    tyre_dynamic_friction_rr: float = 0.8
+    tyre_dynamic_friction_rl: float = 0.8
+    tyre_elasticity_fr: float = 0.7
+    tyre_elasticity_fl: float = 0.7
+    tyre_elasticity_rr: float = 0.7
+    tyre_elasticity_rl: float = 0.7
+    # the engine's torque curve from the car file: engine speed (rad/s) and torque (N m) per point
+    torque_curve_radps: tuple[float, ...] = field(default_factory=tuple)
+    torque_curve_nm: tuple[float, ...] = field(default_factory=tuple)
     # from the car structure (known when the race starts)
     car_index: int = 0
     # TORCS's _gearNb: simuv2 sets it to the top forward gear + 1 (transmission.cpp, TransmInit), not
@@ -58,6 +75,10 @@ class Car:
     height_m: float = 1.2
     start_rank: int = 0
     race_laps: int = 0
+    # TORCS's skill level of this car: 0 rookie, 1 amateur, 2 semi-pro, 3 pro. It sets the tyres'
+    # skid factor and the damage factor (simuv2). Pro until the race says otherwise: its tyres have
+    # no skid bonus, the cautious assumption.
+    skill_level: int = 3
     # this car's own pit box (None without pits)
     pit_seg: int = -1
     pit_to_start: float = 0.0

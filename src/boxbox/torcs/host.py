@@ -93,12 +93,16 @@ def decode_track(blob: bytes, name: str, category: str) -> tuple[Track, Car]:
                       count=int(t["pit_count"]))
     track = Track(name=name, category=category, length_m=t["length_m"], width_m=t["width_m"], seg=seg, pit=pit)
     handle["drivetrain"] = int(handle["drivetrain"])
+    points = int(handle.pop("torque_points"))
+    rpm = [handle.pop(f"torque_rpm_{i}") for i in range(wire.MAX_TORQUE_POINTS)]
+    torque = [handle.pop(f"torque_nm_{i}") for i in range(wire.MAX_TORQUE_POINTS)]
+    handle["torque_curve_radps"], handle["torque_curve_nm"] = tuple(rpm[:points]), tuple(torque[:points])
     return track, Car(**handle)
 
 
 def complete_car(car: Car, payload: bytes) -> None:
     r = dict(zip(wire.CAR_FIELDS, wire.CAR_REC.unpack_from(payload, 0)))
-    ints = {"car_index", "gear_count", "gear_offset", "pit_seg", "start_rank", "race_laps"}
+    ints = {"car_index", "gear_count", "gear_offset", "pit_seg", "start_rank", "race_laps", "skill_level"}
     for key, value in r.items():
         if key.startswith("gear_ratio_"):
             continue

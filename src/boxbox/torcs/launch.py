@@ -32,7 +32,8 @@ from boxbox.files import write_json_atomic
 from boxbox.robot.base import RaceOptions
 from boxbox.torcs import catalog
 from boxbox.torcs.paths import MAX_PYTHON_CARS, ROBOT_MODULE, cache_dir
-from boxbox.torcs.racefile import Entry, race_xml, robot_xml
+from boxbox.model.skill import DEFAULT_SKILL_LEVEL, SkillLevel
+from boxbox.torcs.racefile import Entry, race_xml, robot_xml, with_skill_level
 from boxbox.torcs.results import (
     DriverResult,
     RaceResult,
@@ -68,6 +69,7 @@ class RaceConfig:
     run_dir: Path | None = None
     telemetry: bool = True  # record every drive step of the Python cars in RUN_DIR/telemetry.parquet
     telemetry_alternate: bool = False  # bench-telemetry: record odd laps only (step times per lap compared)
+    skill_level: SkillLevel = DEFAULT_SKILL_LEVEL  # for every car in the race, boxbox's and TORCS's
 
 
 def _child_setup(cpu: int | None) -> Callable[[], None]:
@@ -171,12 +173,27 @@ def prepare_local_dir(run_dir: Path, overlay: Overlay, cfg: RaceConfig) -> Path:
     drivers = local / "drivers" / ROBOT_MODULE
     drivers.mkdir(parents=True, exist_ok=True)
     names = cfg.robot_names or [f"boxbox {i + 1}" for i in range(len(cfg.robots))]
-    (drivers / f"{ROBOT_MODULE}.xml").write_text(robot_xml([(n, cfg.car) for n in names]))
+    (drivers / f"{ROBOT_MODULE}.xml").write_text(robot_xml([(n, cfg.car) for n in names], cfg.skill_level))
+    write_driver_files(local, overlay.torcs.data_dir, cfg.opponents, cfg.skill_level)
     entries = [Entry(ROBOT_MODULE, i) for i in range(len(cfg.robots))]
     entries += [Entry(m, i) for m, i in cfg.opponents]
     race_file = run_dir / "race.xml"
     race_file.write_text(race_xml(cfg.track, cfg.category, cfg.laps, entries))
     return local
+
+
+def write_driver_files(local: Path, data_dir: Path, opponents: list[tuple[str, int]], level: SkillLevel) -> None:
+    """The race's own copy of each TORCS robot's driver file, with `skill level` set for the
+    indices that race: TORCS reads LOCAL/drivers/NAME/NAME.xml before the installed one, so nothing
+    installed changes and races side by side keep their own levels."""
+    indices: dict[str, set[int]] = {}
+    for module, idx in opponents:
+        indices.setdefault(module, set()).add(idx)
+    for module, wanted in indices.items():
+        installed = data_dir / "drivers" / module / f"{module}.xml"
+        copy = local / "drivers" / module / f"{module}.xml"
+        copy.parent.mkdir(parents=True, exist_ok=True)
+        copy.write_text(with_skill_level(installed.read_text(errors="replace"), wanted, level))
 
 
 def _kill_group(proc: subprocess.Popen | None) -> None:
@@ -360,7 +377,8 @@ def _dump_hang(host: subprocess.Popen | None) -> None:
 
 
 def _collect(cfg, run_dir: Path, local: Path, names, laps_seen, wall: float) -> RaceResult:
-    result = RaceResult(track=cfg.track, category=cfg.category, car=cfg.car, laps=cfg.laps, wall_s=round(wall, 3),
+    result = RaceResult(track=cfg.track, category=cfg.category, car=cfg.car, laps=cfg.laps,
+                        skill_level=cfg.skill_level.torcs_name, wall_s=round(wall, 3),
                         run_dir=str(run_dir))
     host_info = _host_info(run_dir)
     ours = {c["robot_index"]: c for c in host_info.get("cars", [])}

@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 from xml.sax.saxutils import quoteattr
+
+from boxbox.model.skill import DEFAULT_SKILL_LEVEL, SkillLevel
 
 RACE_NAME = "Quick Race"
 
@@ -50,12 +53,12 @@ def race_xml(track: str, category: str, laps: int, entries: list[Entry]) -> str:
 """
 
 
-def robot_xml(drivers: list[tuple[str, str]]) -> str:
-    """drivers/boxbox/boxbox.xml: (name, car) per robot index 0.."""
+def robot_xml(drivers: list[tuple[str, str]], level: SkillLevel = DEFAULT_SKILL_LEVEL) -> str:
+    """drivers/boxbox/boxbox.xml: (name, car) per robot index 0.., all at one skill level."""
     rows = "\n".join(
         f'      <section name="{i}">{_str("name", name)}{_str("team", "boxbox")}{_str("desc", "Python robot")}'
         f'{_str("author", "boxbox")}{_str("car name", car)}{_num("race number", i + 1)}{_str("type", "robot")}'
-        f'{_str("skill level", "pro")}</section>'
+        f'{_str("skill level", level.torcs_name)}</section>'
         for i, (name, car) in enumerate(drivers))
     return f"""<?xml version="1.0" encoding="UTF-8"?>
 <!DOCTYPE params SYSTEM "../../config/params.dtd">
@@ -67,3 +70,48 @@ def robot_xml(drivers: list[tuple[str, str]]) -> str:
   </section>
 </params>
 """
+
+
+_SECTION_OPEN = re.compile(r'<section\s+name\s*=\s*"([^"]*)"\s*>')
+_SECTION_TAG = re.compile(r"<section\b[^>]*?(/?)>|</section\s*>")
+_LEVEL_ATTR = re.compile(r'<attstr\s+name\s*=\s*"skill level"[^>]*?(?:/>|>\s*</attstr>)')
+
+
+def with_skill_level(driver_xml: str, indices: set[int], level: SkillLevel) -> str:
+    """A TORCS robot's driver file (drivers/NAME/NAME.xml) with `skill level` set for `indices`.
+
+    Only the sections of Robots/index are touched, and the text is edited in place, not
+    re-serialised, so comments, the DOCTYPE and everything else the robot's author wrote stay as
+    they are. Raises ValueError when an index has no section.
+    """
+    index_open = re.search(r'<section\s+name="index"\s*>', driver_xml)
+    if index_open is None:
+        raise ValueError("the driver file has no Robots/index section")
+    index_end = _section_end(driver_xml, index_open.end())
+    out, pos, found = [], 0, set()
+    for match in _SECTION_OPEN.finditer(driver_xml, index_open.end(), index_end):
+        name = match.group(1)
+        if match.start() < pos or not name.isdigit() or int(name) not in indices or int(name) in found:
+            continue
+        end = _section_end(driver_xml, match.end())
+        body = _LEVEL_ATTR.sub("", driver_xml[match.end():end])
+        out += [driver_xml[pos:match.end()], _str("skill level", level.torcs_name), body]
+        pos = end
+        found.add(int(name))
+    missing = indices - found
+    if missing:
+        raise ValueError(f"no robot index {sorted(missing)} in the driver file")
+    return "".join(out) + driver_xml[pos:]
+
+
+def _section_end(text: str, start: int) -> int:
+    """Offset of the `</section>` that closes the section whose body starts at `start`."""
+    depth = 1
+    for tag in _SECTION_TAG.finditer(text, start):
+        if tag.group(0).startswith("</"):
+            depth -= 1
+        elif not tag.group(1):  # not self-closing
+            depth += 1
+        if depth == 0:
+            return tag.start()
+    raise ValueError(f"unclosed section at offset {start}")

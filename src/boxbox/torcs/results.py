@@ -45,6 +45,7 @@ class RaceResult:
     drivers: list[DriverResult] = field(default_factory=list)
     run_dir: str = ""
     error: str | None = None  # set when the race did not end properly
+    skill_level: str = "semi-pro"  # TORCS's skill level of every car in the race
 
     def to_json(self) -> dict:
         return asdict(self)

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import struct
 
-PROTOCOL_VERSION = 3
+PROTOCOL_VERSION = 4
 
 # message kinds
 HELLO, NEW_TRACK, NEW_RACE, DRIVE, PIT_CMD, END_RACE, SHUTDOWN, FUEL, ACK, CONTROLS, PIT_ORDER = range(1, 12)
@@ -31,6 +31,7 @@ HEADER = struct.Struct("<iiii")
 MAX_MESSAGE_BYTES = 60_000  # SOCK_SEQPACKET message limit we stay under (chunked above it)
 MAX_OPPONENTS = 40
 MAX_GEARS = 10
+MAX_TORQUE_POINTS = 24  # engine curve points sent (TORCS cars have up to about 20)
 
 HELLO_FIELDS = ["protocol_version", "car_struct_bytes", "pid"]
 
@@ -61,6 +62,14 @@ HANDLE_FIELDS = [
     "mu_fr", "mu_fl", "mu_rr", "mu_rl",
     "drivetrain",  # 0 RWD, 1 FWD, 2 4WD
     "fuel_cons_factor", "brake_pressure_max", "brake_front_rear",
+    # tyres: the magic formula's stiffness, dynamic friction and elasticity factor, per wheel
+    "tyre_stiffness_fr", "tyre_stiffness_fl", "tyre_stiffness_rr", "tyre_stiffness_rl",
+    "tyre_dynamic_friction_fr", "tyre_dynamic_friction_fl", "tyre_dynamic_friction_rr", "tyre_dynamic_friction_rl",
+    "tyre_elasticity_fr", "tyre_elasticity_fl", "tyre_elasticity_rr", "tyre_elasticity_rl",
+    # the engine's torque curve (rad/s, N m), torque_points of them
+    "torque_points",
+    *[f"torque_rpm_{i}" for i in range(MAX_TORQUE_POINTS)],
+    *[f"torque_nm_{i}" for i in range(MAX_TORQUE_POINTS)],
 ]
 
 # car constants known once the car exists (NEW_RACE), plus this car's own pit
@@ -72,6 +81,7 @@ CAR_FIELDS = [
     "steer_lock_rad", "length_m", "width_m", "height_m", "tank_l",
     "pit_seg", "pit_to_start", "pit_to_middle_m", "pit_lmin_m", "pit_lmax_m",
     "start_rank", "race_laps",
+    "skill_level",  # 0 rookie, 1 amateur, 2 semi-pro, 3 pro (TORCS's _skillLevel)
 ]
 
 STATE_FIELDS = [
@@ -127,6 +137,7 @@ def c_header() -> str:
            f"#define BB_PROTOCOL_VERSION {PROTOCOL_VERSION}",
            f"#define BB_MAX_MESSAGE_BYTES {MAX_MESSAGE_BYTES}",
            f"#define BB_MAX_OPPONENTS {MAX_OPPONENTS}",
+           f"#define BB_MAX_TORQUE_POINTS {MAX_TORQUE_POINTS}",
            f"#define BB_FLAG_FAULT {FLAG_FAULT}"]
     out += [f"#define BB_{name} {i}" for i, name in enumerate(_KINDS, start=1)]
     out.append("typedef struct { int32_t kind, robot, step, count; } bb_header;")

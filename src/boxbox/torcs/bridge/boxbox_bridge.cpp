@@ -163,6 +163,22 @@ static void fill_segment(bb_segment *r, tTrackSeg *s) {
     r->banking_start_rad = s->angle[TR_XS]; r->banking_end_rad = s->angle[TR_XE];
 }
 
+// The engine's torque curve as the car file lists it: "Engine/data points/1".."n", rpm (read in
+// rad/s: TORCS converts units) and Tq (N m).
+static void fill_torque_curve(bb_handle *r, void *h) {
+    char path[256];
+    snprintf(path, sizeof path, "%s/%s", SECT_ENGINE, ARR_DATAPTS);
+    int n = GfParmGetEltNb(h, path);
+    if (n > BB_MAX_TORQUE_POINTS) n = BB_MAX_TORQUE_POINTS;
+    double *rpm = &r->torque_rpm_0, *tq = &r->torque_nm_0;
+    for (int i = 0; i < n; i++) {
+        snprintf(path, sizeof path, "%s/%s/%d", SECT_ENGINE, ARR_DATAPTS, i + 1);
+        rpm[i] = GfParmGetNum(h, path, PRM_RPM, NULL, 0.0);
+        tq[i] = GfParmGetNum(h, path, PRM_TQ, NULL, 0.0);
+    }
+    r->torque_points = n;
+}
+
 static void fill_handle(bb_handle *r, void *h) {
     r->mass_kg = GfParmGetNum(h, SECT_CAR, PRM_MASS, NULL, 1000.0);
     r->tank_l = GfParmGetNum(h, SECT_CAR, PRM_TANK, NULL, 100.0);
@@ -182,6 +198,14 @@ static void fill_handle(bb_handle *r, void *h) {
         *ride[i] = GfParmGetNum(h, wheels[i], PRM_RIDEHEIGHT, NULL, 0.2);
         *mu[i] = GfParmGetNum(h, wheels[i], PRM_MU, NULL, 1.0);
     }
+    double *stiffness = &r->tyre_stiffness_fr, *dyn_friction = &r->tyre_dynamic_friction_fr;
+    double *elasticity = &r->tyre_elasticity_fr;
+    for (int i = 0; i < 4; i++) {  // TORCS's own defaults where the car file is silent (simuv2)
+        stiffness[i] = GfParmGetNum(h, wheels[i], PRM_CA, NULL, 30.0);
+        dyn_friction[i] = GfParmGetNum(h, wheels[i], PRM_RFACTOR, NULL, 0.8);
+        elasticity[i] = GfParmGetNum(h, wheels[i], PRM_EFACTOR, NULL, 0.7);
+    }
+    fill_torque_curve(r, h);
     const char *train = GfParmGetStr(h, SECT_DRIVETRAIN, PRM_TYPE, VAL_TRANS_RWD);
     r->drivetrain = strcmp(train, VAL_TRANS_FWD) == 0 ? 1 : (strcmp(train, VAL_TRANS_4WD) == 0 ? 2 : 0);
     r->fuel_cons_factor = GfParmGetNum(h, SECT_ENGINE, PRM_FUELCONS, NULL, 1.0);
@@ -255,6 +279,7 @@ static void newRace(int index, tCarElt *car, tSituation *s) {
         r.pit_seg = -1;
     }
     r.start_rank = car->_startRank; r.race_laps = s->_totLaps;
+    r.skill_level = car->_skillLevel;
     int flags = 0;
     if (!bb_send(BB_NEW_RACE, index, 0, 0, &r, sizeof r)) { bb_fault("host-gone", index, 0); return; }
     bb_recv(BB_ACK, index, 0, g_setup_budget_ms, &flags);
