@@ -1,0 +1,46 @@
+"""Equal rules: one skill level for every car in the race, TORCS's robots included."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+
+from helpers import ROBOTS
+
+from boxbox.model.skill import SkillLevel
+from boxbox.torcs import launch
+from boxbox.torcs.paths import system_torcs
+
+
+def race_bt(tmp_path, overlay, level: SkillLevel | None):
+    kwargs = {} if level is None else {"skill_level": level}
+    cfg = launch.RaceConfig(track="g-track-1", category="road", laps=2, robots=[], opponents=[("bt", 2)],
+                            run_dir=tmp_path / (level.torcs_name if level else "default"), **kwargs)
+    result = launch.run_race(cfg, overlay)
+    assert result.error is None, result.error
+    return result
+
+
+def test_a_torcs_robot_races_at_the_chosen_level(tmp_path, overlay):
+    installed = system_torcs().data_dir / "drivers" / "bt" / "bt.xml"
+    before = hashlib.sha256(installed.read_bytes()).hexdigest()
+    default = race_bt(tmp_path, overlay, None)
+    pro = race_bt(tmp_path, overlay, SkillLevel.PRO)
+    assert (default.skill_level, pro.skill_level) == ("semi-pro", "pro")
+    [bt_default], [bt_pro] = default.drivers, pro.drivers
+    # at pro the tyres lose their skid bonus: bt is slower from the first lap on
+    assert bt_pro.lap_times[0] > bt_default.lap_times[0]
+    assert bt_pro.time > bt_default.time
+    copy = (tmp_path / "pro" / "local" / "drivers" / "bt" / "bt.xml").read_text()
+    assert 'name="skill level" val="pro"' in copy
+    assert hashlib.sha256(installed.read_bytes()).hexdigest() == before  # nothing installed changed
+
+
+def test_boxbox_cars_know_their_level(tmp_path, overlay):
+    cfg = launch.RaceConfig(track="michigan", category="oval", laps=1, telemetry=False, run_dir=tmp_path / "run",
+                            robots=[f"{ROBOTS / 'gear_recorder.py'}:GearRecorder"], skill_level=SkillLevel.ROOKIE)
+    result = launch.run_race(cfg, overlay)
+    assert result.error is None, result.error
+    car = json.loads((tmp_path / "run" / "car.json").read_text())
+    assert car["skill_level"] == SkillLevel.ROOKIE
+    assert json.loads((tmp_path / "run" / "result.json").read_text())["skill_level"] == "rookie"
