@@ -5,11 +5,10 @@ from __future__ import annotations
 import hashlib
 import json
 
-from helpers import ROBOTS
-
 from boxbox.model.skill import SkillLevel
 from boxbox.torcs import launch
 from boxbox.torcs.paths import system_torcs
+from helpers import ROBOTS
 
 
 def race_bt(tmp_path, overlay, level: SkillLevel | None):
