@@ -70,3 +70,15 @@ def test_levels_parse_and_name_the_valid_ones():
     assert SkillLevel.SEMI_PRO.skid_factor == 0.3 and SkillLevel.PRO.damage_factor == 1.0
     with pytest.raises(ValueError, match="rookie, amateur, semi-pro, pro"):
         SkillLevel.parse("expert")
+
+
+def test_grid_puts_the_python_cars_at_their_slot():
+    from boxbox.torcs.racefile import Entry, grid
+
+    field = [("inferno", 4), ("berniw", 3), ("bt", 2)]
+    assert grid(1, field) == [Entry("boxbox", 0), Entry("inferno", 4), Entry("berniw", 3), Entry("bt", 2)]
+    assert grid(1, field, 4) == [Entry("inferno", 4), Entry("berniw", 3), Entry("bt", 2), Entry("boxbox", 0)]
+    assert grid(2, field, 2) == [Entry("inferno", 4), Entry("boxbox", 0), Entry("boxbox", 1), Entry("berniw", 3),
+                                 Entry("bt", 2)]
+    with pytest.raises(ValueError, match="outside the grid"):
+        grid(1, field, 5)

@@ -33,7 +33,7 @@ from boxbox.robot.base import RaceOptions
 from boxbox.torcs import catalog
 from boxbox.torcs.paths import MAX_PYTHON_CARS, ROBOT_MODULE, cache_dir
 from boxbox.model.skill import DEFAULT_SKILL_LEVEL, SkillLevel
-from boxbox.torcs.racefile import Entry, race_xml, robot_xml, with_skill_level
+from boxbox.torcs.racefile import grid, race_xml, robot_xml, with_skill_level
 from boxbox.torcs.results import (
     DriverResult,
     RaceResult,
@@ -70,6 +70,7 @@ class RaceConfig:
     telemetry: bool = True  # record every drive step of the Python cars in RUN_DIR/telemetry.parquet
     telemetry_alternate: bool = False  # bench-telemetry: record odd laps only (step times per lap compared)
     skill_level: SkillLevel = DEFAULT_SKILL_LEVEL  # for every car in the race, boxbox's and TORCS's
+    grid_position: int | None = None  # the Python cars' first grid slot (1 = pole, the default)
 
 
 def _child_setup(cpu: int | None) -> Callable[[], None]:
@@ -175,8 +176,7 @@ def prepare_local_dir(run_dir: Path, overlay: Overlay, cfg: RaceConfig) -> Path:
     names = cfg.robot_names or [f"boxbox {i + 1}" for i in range(len(cfg.robots))]
     (drivers / f"{ROBOT_MODULE}.xml").write_text(robot_xml([(n, cfg.car) for n in names], cfg.skill_level))
     write_driver_files(local, overlay.torcs.data_dir, cfg.opponents, cfg.skill_level)
-    entries = [Entry(ROBOT_MODULE, i) for i in range(len(cfg.robots))]
-    entries += [Entry(m, i) for m, i in cfg.opponents]
+    entries = grid(len(cfg.robots), cfg.opponents, cfg.grid_position)
     race_file = run_dir / "race.xml"
     race_file.write_text(race_xml(cfg.track, cfg.category, cfg.laps, entries))
     return local

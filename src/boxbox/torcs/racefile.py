@@ -7,6 +7,7 @@ from dataclasses import dataclass
 from xml.sax.saxutils import quoteattr
 
 from boxbox.model.skill import DEFAULT_SKILL_LEVEL, SkillLevel
+from boxbox.torcs.paths import ROBOT_MODULE
 
 RACE_NAME = "Quick Race"
 
@@ -17,6 +18,18 @@ class Entry:
 
     module: str
     idx: int
+
+
+def grid(python_cars: int, opponents: list[tuple[str, int]], position: int | None = None) -> list[Entry]:
+    """The starting grid: the Python cars (boxbox's module, indices 0..) from grid slot `position`
+    (1 = pole; None = pole), TORCS's robots filling the other slots in the order given."""
+    others = [Entry(module, idx) for module, idx in opponents]
+    slot = 1 if position is None else position
+    if not 1 <= slot <= len(others) + 1:
+        raise ValueError(f"grid position {slot} is outside the grid of {python_cars + len(others)} cars "
+                         f"(1 .. {len(others) + 1} for the Python cars)")
+    ours = [Entry(ROBOT_MODULE, i) for i in range(python_cars)]
+    return others[: slot - 1] + ours + others[slot - 1:]
 
 
 def _num(name: str, value: float) -> str:
