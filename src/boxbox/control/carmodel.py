@@ -45,6 +45,13 @@ def drag_coefficient(car: Car) -> float:
     return DRAG_FACTOR * car.cx * car.front_area_m2
 
 
+def wing_drag_coefficient(car: Car) -> float:
+    """The wings' drag in N/(m/s)^2: 1.23 x area x sin(angle) per wing, as simuv2 applies it
+    (aero.cpp); the tutorial's CW leaves it out."""
+    return AIR_DENSITY * (car.front_wing_area_m2 * math.sin(car.front_wing_angle_rad)
+                          + car.rear_wing_area_m2 * math.sin(car.rear_wing_angle_rad))
+
+
 def tyre_mu(car: Car) -> float:
     """The weakest tyre limits the car, so use the smallest of the four, each with what the car's
     skill level adds at the slip of its peak (control/tyre.py; nothing at pro)."""

@@ -1,0 +1,147 @@
+"""Quasi-steady-state lap simulation: the fastest a point-mass car can go along a given line.
+
+The car is a point mass with a friction circle that downforce widens, aerodynamic drag and an
+engine that drives through its best gear at every speed. Along the line (curvature per sample,
+friction per sample, spacing in metres):
+
+1. the corner limit: the highest v with m v^2 |k| <= mu (m g + CA v^2 + m v^2 kv) (kv: vertical
+   curvature, + in a dip);
+2. a backward pass from every corner: braking uses what the friction circle leaves beside the
+   corner's lateral need, plus drag;
+3. a forward pass: accelerating uses the smaller of the engine's best force and what the
+   friction circle leaves, less drag.
+
+The lap is closed (a flying lap: both passes run round twice so the start joins the finish).
+The result is an upper bound on speed only as far as the model covers the simulation: it leaves
+out load transfer, the tyres' slip and the drivetrain's losses, which all cost time, and it does
+not know banking or the sides of the track beyond the line it is given.
+This follows the textbook QSS method (e.g. Brayshaw and Harrison, "A quasi steady state approach
+to race car lap simulation", Proc. IMechE D 219, 2005; TUMFTM's laptime-simulation on GitHub).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from boxbox.model.constants import G_MPS2
+
+
+@dataclass(frozen=True)
+class PointMassCar:
+    """What the lap simulation needs of a car.
+
+    mass_kg with fuel; ca_n_per_mps2 and cw_n_per_mps2: downforce and drag coefficients (force
+    = c v^2, N); mu: the tyres' friction (times what the skill level adds); wheel_radius_m of the
+    driven wheels; gear_ratios: forward gears with the final drive; torque curve in rad/s and N m;
+    limiter_radps: the engine's rev limiter.
+    """
+
+    mass_kg: float
+    ca_n_per_mps2: float
+    cw_n_per_mps2: float
+    mu: float
+    wheel_radius_m: float
+    gear_ratios: tuple[float, ...]
+    torque_curve_radps: tuple[float, ...]
+    torque_curve_nm: tuple[float, ...]
+    limiter_radps: float
+
+    def __post_init__(self) -> None:
+        numbers = (self.mass_kg, self.ca_n_per_mps2, self.cw_n_per_mps2, self.mu, self.wheel_radius_m,
+                   self.limiter_radps, *self.gear_ratios, *self.torque_curve_radps, *self.torque_curve_nm)
+        if not all(math.isfinite(x) for x in numbers):
+            raise ValueError("every number of the car must be finite")
+        if self.mass_kg <= 0 or self.mu <= 0 or self.wheel_radius_m <= 0 or self.limiter_radps <= 0:
+            raise ValueError("mass, mu, wheel radius and rev limiter must be > 0")
+        if not self.gear_ratios or min(self.gear_ratios) <= 0:
+            raise ValueError("at least one forward gear, every ratio > 0")
+        if len(self.torque_curve_radps) < 2 or len(self.torque_curve_radps) != len(self.torque_curve_nm):
+            raise ValueError("the torque curve needs two or more (rad/s, N m) points")
+
+
+def drive_force_n(speed_mps: np.ndarray, car: PointMassCar) -> np.ndarray:
+    """The engine's most force at the wheels (N) at each speed (m/s), over the gears that keep it
+    below its rev limiter (TORCS interpolates the torque curve linearly)."""
+    v = np.asarray(speed_mps, dtype=float)
+    best = np.zeros_like(v)
+    for ratio in car.gear_ratios:
+        engine_radps = np.maximum(v, 0.0) * ratio / car.wheel_radius_m
+        torque = np.interp(engine_radps, car.torque_curve_radps, car.torque_curve_nm)
+        force = np.where(engine_radps <= car.limiter_radps, torque * ratio / car.wheel_radius_m, 0.0)
+        best = np.maximum(best, force)
+    return best
+
+
+def corner_speed_mps(curvature_1pm: np.ndarray, mu: np.ndarray, car: PointMassCar,
+                     vertical_curvature_1pm: np.ndarray | float = 0.0, max_speed_mps: float = 150.0) -> np.ndarray:
+    """Highest steady speed (m/s) through each sample: v^2 (|k| - mu (CA/m + kv)) <= mu g."""
+    k = np.abs(np.asarray(curvature_1pm, dtype=float))
+    grip_per_v2 = np.asarray(mu) * (car.ca_n_per_mps2 / car.mass_kg + np.asarray(vertical_curvature_1pm))
+    room = k - grip_per_v2
+    with np.errstate(divide="ignore"):
+        v = np.sqrt(np.where(room > 0.0, np.asarray(mu) * G_MPS2 / np.where(room > 0, room, 1.0), np.inf))
+    return np.minimum(v, max_speed_mps)
+
+
+def _grip_left_mps2(v: float, k: float, mu: float, kv: float, car: PointMassCar) -> float:
+    """Longitudinal acceleration the friction circle leaves beside the lateral need at speed v."""
+    load = G_MPS2 + v * v * (car.ca_n_per_mps2 / car.mass_kg + kv)
+    total, lateral = mu * max(0.0, load), v * v * abs(k)
+    return math.sqrt(total * total - lateral * lateral) if total > lateral else 0.0
+
+
+def lap_speeds_mps(step_m: np.ndarray, curvature_1pm: np.ndarray, mu: np.ndarray, car: PointMassCar,
+                   vertical_curvature_1pm: np.ndarray | None = None) -> np.ndarray:
+    """Limit speed (m/s) at each of n samples of a closed line; step_m[i] is the distance (m)
+    from sample i to sample i + 1 (the last one back to the first)."""
+    ds = np.asarray(step_m, dtype=float)
+    k = np.asarray(curvature_1pm, dtype=float)
+    n = len(ds)
+    mu_a = np.broadcast_to(np.asarray(mu, dtype=float), (n,))
+    kv = np.zeros(n) if vertical_curvature_1pm is None else np.asarray(vertical_curvature_1pm, dtype=float)
+    if n < 3 or len(k) != n or len(kv) != n:
+        raise ValueError("step_m, curvature_1pm and vertical_curvature_1pm need the same length >= 3")
+    if not (np.all(np.isfinite(ds)) and np.all(ds > 0) and np.all(np.isfinite(k)) and np.all(mu_a > 0)):
+        raise ValueError("steps must be finite and > 0, curvature finite, mu > 0")
+    v = corner_speed_mps(k, mu_a, car, kv).tolist()
+    drive = _drive_table(car)
+    ks, ms, kvs, dss = k.tolist(), mu_a.tolist(), kv.tolist(), ds.tolist()
+    drag = car.cw_n_per_mps2 / car.mass_kg
+    for _ in range(2):  # backward: what braking allows before each corner
+        for i in range(n - 1, -1, -1):
+            j = (i + 1) % n
+            decel = _grip_left_mps2(v[j], ks[j], ms[j], kvs[j], car) + drag * v[j] * v[j]
+            v[i] = min(v[i], math.sqrt(v[j] * v[j] + 2.0 * dss[i] * decel))
+    for _ in range(2):  # forward: what the engine and the tyres allow out of each corner
+        for i in range(n):
+            j = (i + 1) % n
+            push = min(drive(v[i]) / car.mass_kg, _grip_left_mps2(v[i], ks[i], ms[i], kvs[i], car))
+            accel = push - drag * v[i] * v[i]
+            v[j] = min(v[j], math.sqrt(max(0.0, v[i] * v[i] + 2.0 * dss[i] * accel)))
+    return np.asarray(v)
+
+
+def _drive_table(car: PointMassCar, step_mps: float = 0.25, top_mps: float = 150.0):
+    """drive_force_n as a fast lookup for the passes (linear between 0.25 m/s steps)."""
+    speeds = np.arange(0.0, top_mps + step_mps, step_mps)
+    forces = drive_force_n(speeds, car).tolist()
+    last = len(forces) - 1
+
+    def force(v: float) -> float:
+        x = v / step_mps
+        i = min(int(x), last - 1)
+        return forces[i] + (x - i) * (forces[i + 1] - forces[i])
+
+    return force
+
+
+def lap_time_s(step_m: np.ndarray, speeds_mps: np.ndarray) -> float:
+    """Time (s) to cover the closed line at these speeds (mean speed over each step)."""
+    v = np.asarray(speeds_mps, dtype=float)
+    mean = 0.5 * (v + np.roll(v, -1))
+    if np.any(mean <= 0):
+        raise ValueError("speeds must be > 0 everywhere")
+    return float(np.sum(np.asarray(step_m, dtype=float) / mean))
