@@ -6,16 +6,10 @@ import csv
 
 import pytest
 
+from boxbox.bench.bench import BenchSpec, classify_robot, expand_all, plan
+from boxbox.bench.cache import cache_key, python_robot_version, torcs_robot_version
+from boxbox.cli.types import CommaList
 from boxbox.errors import UsageError
-from boxbox.report.bench import (
-    BenchSpec,
-    cache_key,
-    classify_robot,
-    parse_list,
-    plan,
-    python_robot_version,
-    torcs_robot_version,
-)
 from boxbox.report.tables import fmt_time
 from boxbox.torcs import catalog
 from helpers import ROBOTS, read_json, run_boxbox
@@ -38,10 +32,10 @@ def test_robot_entries_are_told_apart():
 
 
 def test_lists_and_all():
-    assert parse_list("a, b,a") == ["a", "b"]
-    assert parse_list("all", list(catalog.tracks()), "track") == list(catalog.tracks())
-    with pytest.raises(UsageError):
-        parse_list(" , ")
+    assert CommaList().convert("a, b,a", None, None) == ["a", "b"]
+    assert CommaList(unique=False).convert("bt:1,bt:1", None, None) == ["bt:1", "bt:1"]
+    assert expand_all(["all"], list(catalog.tracks())) == list(catalog.tracks())
+    assert expand_all(["aalborg"], list(catalog.tracks())) == ["aalborg"]
 
 
 def test_cache_key_follows_the_race_inputs():

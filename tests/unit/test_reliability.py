@@ -9,13 +9,13 @@ from pathlib import Path
 import pytest
 
 import trackdata
+from boxbox.bench.soak import Series, forked_children, slope
+from boxbox.bench.sweep import MAX_DAMAGE, misses
 from boxbox.errors import UsageError
 from boxbox.files import write_json_atomic
 from boxbox.model import State
 from boxbox.model.state import CAR_STATE_PIT
 from boxbox.model.track import LEFT
-from boxbox.report.soak import Series, forked_children, slope
-from boxbox.report.sweep import MAX_DAMAGE, misses
 from boxbox.robot import params as params_mod
 from boxbox.torcs import host
 from boxbox.torcs.launch import run_dir_lock

@@ -17,10 +17,11 @@ from pathlib import Path
 import numpy as np
 
 from boxbox.errors import UsageError
+from boxbox.report.tables import fmt_time
+from boxbox.torcs.results import is_python_module
 
 KMH = 3.6
 REPORT_FILE = "report.html"
-PYTHON_MODULE = "boxbox"
 COLORS = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22",
           "#17becf"]
 BRAKE_ON = 0.1  # a braking point: the brake command rises through this ...
@@ -41,14 +42,8 @@ def _png(fig, dpi: int = 90) -> str:
 
 
 def _img(fig, alt: str, dpi: int = 90) -> str:
-    return f'<figure><img src="{_png(fig, dpi)}" alt="{html.escape(alt)}"><figcaption>{html.escape(alt)}</figcaption></figure>'
-
-
-def _fmt_time(seconds) -> str:
-    if seconds is None or seconds == 0 or (isinstance(seconds, float) and math.isnan(seconds)):
-        return "-"
-    minutes, sec = divmod(float(seconds), 60.0)
-    return f"{int(minutes)}:{sec:06.3f}" if minutes else f"{sec:.3f}"
+    caption = html.escape(alt)
+    return f'<figure><img src="{_png(fig, dpi)}" alt="{caption}"><figcaption>{caption}</figcaption></figure>'
 
 
 def _num(value, fmt: str = "{:.2f}") -> str:
@@ -97,7 +92,7 @@ def fig_lap_times(drivers: list[dict]):
         x = np.arange(1, len(d["lap_times"]) + 1) + (k - (len(timed) - 1) / 2) * width
         t = np.array(d["lap_times"], dtype=float)
         bars = ax.bar(x, t, width=width * 0.95, color=COLORS[k % len(COLORS)], label=driver_label(d),
-                      edgecolor="black" if d["module"] == PYTHON_MODULE else "none", linewidth=0.6)
+                      edgecolor="black" if is_python_module(d["module"]) else "none", linewidth=0.6)
         pit_laps = {int(e["lap"]) for e in d.get("pit_events", []) if e.get("stop_time") is not None}
         for lap, bar in enumerate(bars, start=1):
             if lap in pit_laps:
@@ -292,7 +287,7 @@ def _results_table(r: dict) -> str:
     rows = []
     for d in r["drivers"]:
         rows.append([str(d.get("rank") or "-"), html.escape(driver_label(d)), html.escape(d.get("car", "")),
-                     str(d.get("laps", 0)), _fmt_time(d.get("time")), _fmt_time(d.get("best_lap")),
+                     str(d.get("laps", 0)), fmt_time(d.get("time")), fmt_time(d.get("best_lap")),
                      str(d.get("damage", 0)), str(d.get("pit_stops", 0)),
                      _num(d.get("penalty_time"), "{:.1f}") if d.get("penalty_time") else "-",
                      _num((d.get("top_speed") or 0) * KMH, "{:.1f}") if d.get("top_speed") else "-",
@@ -311,7 +306,7 @@ def _lap_table(drivers: list[dict]) -> str:
         row = [str(lap + 1)]
         for d in timed:
             lt = d["lap_times"]
-            cell = _fmt_time(lt[lap]) if lap < len(lt) else "-"
+            cell = fmt_time(lt[lap]) if lap < len(lt) else "-"
             if lap < len(lt) and lt[lap] == min(lt):
                 cell = f"<b>{cell}</b>"
             row.append(cell)
@@ -393,7 +388,7 @@ def build_report(run_dir: Path) -> str:
         length = float(track.get("length_m") or np.nanmax(tel.columns["dist_m"]))
         cars_meta = {m["car"]: m for m in tel.meta.get("cars", [])}
         for d in drivers:
-            if d.get("module") != PYTHON_MODULE:
+            if not is_python_module(d.get("module", "")):
                 continue
             c = tel.car(int(d["idx"]))
             if not len(c["time_s"]):
@@ -425,7 +420,7 @@ def _car_section(d: dict, c: dict, track: dict, length: float, car_meta: dict, r
         best = int(c["lap"].max())
     lap_rows = np.flatnonzero(c["lap"] == best)
     events = [e for e in d.get("pit_events", []) if e.get("entry_time") is not None]
-    what = f"lap {best}" + (f" ({_fmt_time(lap_times[best - 1])}, fastest)" if best <= len(lap_times) else "")
+    what = f"lap {best}" + (f" ({fmt_time(lap_times[best - 1])}, fastest)" if best <= len(lap_times) else "")
     parts.append(_img(fig_map(c, lap_rows, best, track, events, f"{name}: {what}, coloured by speed"),
                       f"Track map: {what} coloured by speed, braking points and pit events"))
     pit = track.get("pit")
@@ -445,10 +440,10 @@ def _car_section(d: dict, c: dict, track: dict, length: float, car_meta: dict, r
         sub = {k: a[rows] for k, a in c.items()}
         lt = lap_times[lap - 1] if lap <= len(lap_times) else None
         partial = "" if lt is not None else " (not completed)"
-        title = f"{name}: lap {lap}" + (f", {_fmt_time(lt)}" if lt else "") + partial
+        title = f"{name}: lap {lap}" + (f", {fmt_time(lt)}" if lt else "") + partial
         img = _img(fig_lap(sub, lap, length, title), f"Lap {lap}: speed and target speed, throttle/brake, gear")
         parts.append(f"<details{' open' if lap == best or len(laps_present) <= 3 else ''}><summary>Lap {lap}"
-                     f"{' · ' + _fmt_time(lt) if lt else partial}</summary>{img}</details>")
+                     f"{' · ' + fmt_time(lt) if lt else partial}</summary>{img}</details>")
     return "".join(parts)
 
 
@@ -459,7 +454,8 @@ def _telemetry_section(tel, tel_file: Path) -> str:
     doc = dict(COLUMNS)
     rows = [[f"<code>{html.escape(k)}</code>", html.escape(doc.get(k, "robot signal" if k.startswith("sig_") else ""))]
             for k in cols]
-    cars = ", ".join(f"{m['name']}: {m['steps']} steps" + (f", signals {', '.join(m['signals'])}" if m["signals"] else "")
+    cars = ", ".join(f"{m['name']}: {m['steps']} steps"
+                     + (f", signals {', '.join(m['signals'])}" if m["signals"] else "")
                      for m in tel.meta.get("cars", []))
     return (f"<h2>Telemetry</h2><p class='note'><code>{html.escape(tel_file.name)}</code>: {tel.rows} rows "
             f"(one per drive step per Python car, every {tel.meta.get('step_s', 0.02)} s); {html.escape(cars)}.</p>"

@@ -1,6 +1,8 @@
-"""Rich tables for results."""
+"""Rich tables for results, and the time format every table and page uses."""
 
 from __future__ import annotations
+
+import math
 
 from rich.table import Table
 
@@ -8,9 +10,10 @@ from boxbox.torcs.results import RaceResult
 
 
 def fmt_time(seconds: float | None) -> str:
-    if not seconds:
+    """'1:02.345' (or '42.345' under a minute); '-' for no time (None, 0, NaN)."""
+    if not seconds or math.isnan(seconds):
         return "-"
-    minutes, sec = divmod(seconds, 60.0)
+    minutes, sec = divmod(float(seconds), 60.0)
     return f"{int(minutes)}:{sec:06.3f}" if minutes else f"{sec:.3f}"
 
 

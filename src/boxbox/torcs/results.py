@@ -6,6 +6,13 @@ import xml.etree.ElementTree as ET
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
+from boxbox.torcs.paths import ROBOT_MODULE
+
+
+def is_python_module(module: str) -> bool:
+    """Whether a result's module is boxbox's bridge: the car is driven by a Python robot."""
+    return module == ROBOT_MODULE
+
 
 @dataclass
 class DriverResult:
@@ -34,6 +41,11 @@ class DriverResult:
     longest_stuck_s: float | None = None
     off_track_s: float | None = None
 
+    @property
+    def is_python(self) -> bool:
+        """A car driven by a Python robot (through boxbox's bridge), not by one of TORCS's robots."""
+        return is_python_module(self.module)
+
 
 @dataclass
 class RaceResult:
@@ -49,6 +61,13 @@ class RaceResult:
 
     def to_json(self) -> dict:
         return asdict(self)
+
+    @classmethod
+    def from_json(cls, data: dict) -> RaceResult:
+        """The inverse of to_json (result.json, the bench cache)."""
+        fields = dict(data)
+        fields["drivers"] = [DriverResult(**d) for d in fields.get("drivers", [])]
+        return cls(**fields)
 
 
 def _attrs(section: ET.Element) -> dict[str, str]:

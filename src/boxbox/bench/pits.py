@@ -14,11 +14,10 @@ from rich.console import Console
 from rich.progress import Progress
 from rich.table import Table
 
+from boxbox.options import PIT_MODES
 from boxbox.robot.base import RaceOptions
 from boxbox.torcs import catalog, launch
 from boxbox.torcs.setup import Overlay
-
-MODES = ("constant-decel", "bang-bang")
 
 
 def _race(args) -> dict:
@@ -33,14 +32,15 @@ def _race(args) -> dict:
     lane = [e["exit_time"] - e["entry_time"] for e in events if e.get("exit_time")]
     return {"track": track, "mode": mode, "asked": len(stops), "captured": d.pit_stops, "penalty": d.penalty_time,
             "gave_up": sum(1 for e in d.pit_events if e.get("gave_up")), "time": d.time,
-            "error_mean_m": statistics.fmean(errors) if errors else None, "error_max_m": max(errors) if errors else None,
+            "error_mean_m": statistics.fmean(errors) if errors else None,
+            "error_max_m": max(errors) if errors else None,
             "lane_mean_s": statistics.fmean(lane) if lane else None, "error": result.error}
 
 
 def run_pit_bench(overlay: Overlay, tracks: list[str], laps: int, jobs: int, console: Console) -> tuple[Table, list]:
     for t in tracks:
         catalog.check_track(t)
-    work = [(overlay, t, laps, m, i % jobs) for i, (t, m) in enumerate((t, m) for t in tracks for m in MODES)]
+    work = [(overlay, t, laps, m, i % jobs) for i, (t, m) in enumerate((t, m) for t in tracks for m in PIT_MODES)]
     rows = []
     with Progress(console=console, transient=True) as bar, ProcessPoolExecutor(jobs) as pool:
         task = bar.add_task(f"pit stops: {len(work)} races", total=len(work))

@@ -1,42 +1,23 @@
-"""`boxbox report` and `boxbox bench-telemetry` (registered in boxbox.cli)."""
+"""`boxbox bench-telemetry`: what recording telemetry costs the drive step (races with it on, off, alternating)."""
 
 from __future__ import annotations
 
 import json
 import shutil
 import statistics
-import sys
 import tempfile
 from pathlib import Path
 
-import click
-from rich.console import Console
 from rich.table import Table
 
-from boxbox.cliutil import positive_int, ready
-from boxbox.errors import RaceError, UsageError
-
-console = Console(stderr=True, soft_wrap=True)
-out = Console(width=None if sys.stdout.isatty() else 160)
-
-
-@click.command("report")
-@click.argument("run_dir", type=click.Path(file_okay=False, path_type=Path))
-@click.option("--out", "out_file", type=click.Path(dir_okay=False, path_type=Path),
-              help="Where to write the page (default: RUN_DIR/report.html).")
-def report_cmd(run_dir: Path, out_file: Path | None) -> None:
-    """Make the HTML race report of a run directory (result.json + telemetry.parquet)."""
-    from boxbox.report.race_report import write_report
-
-    if not run_dir.is_dir():
-        raise UsageError(f"run dir {run_dir} does not exist")
-    out.print(str(write_report(run_dir, out_file)))
+from boxbox.errors import RaceError
+from boxbox.robot.loader import load_robot_class
+from boxbox.torcs import catalog, launch
+from boxbox.torcs.telemetry import FILE_NAME, METADATA_KEY
 
 
 def _bench_race(result, mode: str) -> dict:
     """One race's figures; for a race recording odd laps only, the recorded and unrecorded laps' medians."""
-    from boxbox.torcs.telemetry import FILE_NAME, METADATA_KEY
-
     if result.error:
         raise RaceError(f"bench-telemetry, race with telemetry {mode}: {result.error.splitlines()[0]}")
     d = result.drivers[0]
@@ -62,9 +43,6 @@ def run_telemetry_bench(overlay, track: str, laps: int, runs: int, robot: str, p
     the ratio on/off of the medians over the races, the back-to-back pairs' ratios, and from the
     alternating races the ratio of the recorded laps' step median to the unrecorded laps' (laps
     last about 0.1 s of wall time, so this comparison is free of the machine's drift)."""
-    from boxbox.robot.loader import load_robot_class
-    from boxbox.torcs import catalog, launch
-
     category = catalog.check_track(track)
     load_robot_class(robot)
     races = []
@@ -95,40 +73,30 @@ def run_telemetry_bench(overlay, track: str, laps: int, runs: int, robot: str, p
             "lap_ratio_median": statistics.median(r["laps_on_us"] / r["laps_off_us"] for r in alt) if alt else None}
 
 
-@click.command("bench-telemetry")
-@click.option("--track", default="g-track-1", show_default=True)
-@click.option("--laps", default="20", show_default=True, help="Race length in laps.")
-@click.option("--runs", default="5", show_default=True, help="Races with telemetry on, and as many with it off.")
-@click.option("--robot", default="boxbox", show_default=True, help="Python robot to time.")
-@click.option("--json", "json_file", type=click.Path(dir_okay=False, path_type=Path), help="Write the figures as JSON.")
-def bench_telemetry(track, laps, runs, robot, json_file) -> None:
-    """Drive step time with telemetry recorded and without, and their ratio (alternating races)."""
-    from rich.progress import Progress
-
-
-    laps_n = positive_int("--laps", laps)
-    runs_n = positive_int("--runs", runs)
-    overlay = ready(console)
-    with Progress(console=console, transient=True) as bar:
-        task = bar.add_task(f"{track}, {laps_n} laps, telemetry on/off/alternate", total=3 * runs_n)
-        res = run_telemetry_bench(overlay, track, laps_n, runs_n, robot, lambda: bar.advance(task))
-    table = Table(title=f"bench-telemetry: {robot} on {track}, {laps_n} laps, {runs_n} races each")
+def table(res: dict) -> Table:
+    """Per mode (on, off, alternate): the drive step's median and p99, wall time and file size."""
+    out = Table(title=f"bench-telemetry: {res['robot']} on {res['track']}, {res['laps']} laps, "
+                      f"{res['runs']} races each")
     for col in ("telemetry", "step median us", "per race", "step p99 us", "wall s", "file MB"):
-        table.add_column(col, justify="right")
+        out.add_column(col, justify="right")
     for mode in ("on", "off", "alternate"):
         rows = [r for r in res["races"] if r["mode"] == mode]
-        table.add_row(mode, f"{statistics.median(r['step_us_median'] for r in rows):.2f}",
-                      " ".join(f"{r['step_us_median']:.2f}" for r in rows),
-                      f"{statistics.median(r['step_us_p99'] for r in rows):.1f}",
-                      f"{statistics.median(r['wall_s'] for r in rows):.2f}",
-                      f"{statistics.median(r['telemetry_bytes'] for r in rows) / 1e6:.2f}")
-    out.print(table)
-    out.print(f"step median with telemetry {res['step_us_median_on']:.2f} us, without {res['step_us_median_off']:.2f} us")
-    out.print(f"step time ratio, telemetry on / off: {res['ratio']:.3f} (medians over the races); "
-              f"per pair of back-to-back races: median {res['pair_ratio_median']:.3f}, "
-              f"range {min(res['pair_ratios']):.3f}-{max(res['pair_ratios']):.3f}")
+        out.add_row(mode, f"{statistics.median(r['step_us_median'] for r in rows):.2f}",
+                    " ".join(f"{r['step_us_median']:.2f}" for r in rows),
+                    f"{statistics.median(r['step_us_p99'] for r in rows):.1f}",
+                    f"{statistics.median(r['wall_s'] for r in rows):.2f}",
+                    f"{statistics.median(r['telemetry_bytes'] for r in rows) / 1e6:.2f}")
+    return out
+
+
+def summary_lines(res: dict) -> list[str]:
+    lines = [f"step median with telemetry {res['step_us_median_on']:.2f} us, "
+             f"without {res['step_us_median_off']:.2f} us",
+             f"step time ratio, telemetry on / off: {res['ratio']:.3f} (medians over the races); "
+             f"per pair of back-to-back races: median {res['pair_ratio_median']:.3f}, "
+             f"range {min(res['pair_ratios']):.3f}-{max(res['pair_ratios']):.3f}"]
     if res["lap_ratio_median"] is not None:
-        out.print(f"within the races recording odd laps only: step median of the recorded laps / of the others: "
-                  f"median {res['lap_ratio_median']:.3f}, per race " + " ".join(f"{x:.3f}" for x in res["lap_ratios"]))
-    if json_file:
-        json_file.write_text(json.dumps(res, indent=1))
+        lines.append("within the races recording odd laps only: step median of the recorded laps / of the others: "
+                     f"median {res['lap_ratio_median']:.3f}, per race "
+                     + " ".join(f"{x:.3f}" for x in res["lap_ratios"]))
+    return lines

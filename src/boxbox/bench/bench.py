@@ -2,13 +2,8 @@
 
 Each robot races alone (one car on the track) unless `together`, when each track x car is one
 race with every robot in it.  TORCS's own robots always drive their own car (bt:2 drives
-car1-trb1 whatever --cars says); the rows say which car they drove.
-
-Results are cached under <cache>/bench-cache/<key>.json.  The key hashes everything the race
-depends on: track, laps, the robots in it and their versions (Python robots: the boxbox package's
-source files plus the robot's own file; TORCS robots: their .so and data files' mtime and size),
-the Python cars' car, --set values and the learning mode.  The simulation is deterministic, so
-a cached race is the race.  Races that did not end properly are never cached.
+car1-trb1 whatever --cars says); the rows say which car they drove.  Results are cached
+(bench/cache.py); races that did not end properly are never cached.
 """
 
 from __future__ import annotations
@@ -16,35 +11,31 @@ from __future__ import annotations
 import concurrent.futures as cf
 import csv
 import dataclasses
-import hashlib
-import importlib.util
-import json
+import io
 import multiprocessing
 import os
 import queue
 import statistics
-import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from rich.console import Console
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.markup import escape
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TaskID, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
-import boxbox
+from boxbox.bench.cache import cache_key, load_cached, package_version, python_robot_version, store, torcs_robot_version
 from boxbox.errors import UsageError
-from boxbox.files import write_json_atomic
+from boxbox.files import write_json_atomic, write_text_atomic
+from boxbox.options import LEARNING_MODES, LearningMode, learning_dir
 from boxbox.report.tables import fmt_time
 from boxbox.robot.base import RaceOptions
 from boxbox.robot.loader import BUILTIN, load_robot_class
-from boxbox.torcs import catalog, launch
-from boxbox.torcs.paths import MAX_PYTHON_CARS, cache_dir, system_torcs
+from boxbox.torcs import catalog, checks, launch
 from boxbox.torcs.results import DriverResult, RaceResult
 from boxbox.torcs.setup import Overlay
 
-CACHE_FORMAT = 1
-LEARNING_MODES = ("fresh", "on", "off")
 ROW_FIELDS = ["track", "car", "robot", "name", "laps", "time", "best_lap", "damage", "pit_stops", "penalty",
               "wall_s", "error", "cached", "gap_to_best_s", "category", "car_driven", "rank", "run_dir",
               "stuck_s", "longest_stuck_s", "off_track_s"]
@@ -61,20 +52,13 @@ class BenchSpec:
     together: bool = False
     jobs: int = field(default_factory=lambda: os.cpu_count() or 1)
     use_cache: bool = True  # False: race everything again (and refresh the cache)
-    learning: str = "fresh"  # fresh | on | off, for Python robots
+    learning: LearningMode = "fresh"  # for Python robots
     settings: dict | None = None  # --set values for Python robots (RaceOptions.robot_args["set"])
 
 
-def parse_list(text: str, all_values: list[str] | None = None, what: str = "value") -> list[str]:
-    """'a,b' -> ['a', 'b'] (duplicates dropped, order kept); 'all' -> all_values."""
-    if text.strip() == "all":
-        if all_values is None:
-            raise UsageError(f"'all' is not accepted for {what}s")
-        return list(all_values)
-    items = list(dict.fromkeys(x.strip() for x in text.split(",") if x.strip()))
-    if not items:
-        raise UsageError(f"no {what} given: use a comma separated list")
-    return items
+def expand_all(names: list[str], all_names: list[str]) -> list[str]:
+    """['all'] -> every installed name; other lists as they are."""
+    return list(all_names) if names == ["all"] else list(names)
 
 
 def classify_robot(entry: str) -> tuple[str, str | tuple[str, int]]:
@@ -97,123 +81,6 @@ def classify_robot(entry: str) -> tuple[str, str | tuple[str, int]]:
     return "python", entry
 
 
-def learning_dir(mode: str, run_dir: Path | None = None) -> str | None:
-    """on: the shared learning folder; off: none; fresh: a new empty folder (inside run_dir if given)."""
-    if mode == "off":
-        return None
-    if mode == "fresh":
-        if run_dir is not None:
-            (run_dir / "learning").mkdir(parents=True, exist_ok=True)
-            return str(run_dir / "learning")
-        return tempfile.mkdtemp(prefix="boxbox-learning-")
-    if mode == "on":
-        return str(cache_dir() / "learning")
-    raise UsageError(f"learning must be one of {', '.join(LEARNING_MODES)}, got '{mode}'")
-
-
-# --- versions and cache keys -------------------------------------------------------------------
-
-def _hash_files(paths, h=None, root: Path | None = None):
-    h = h or hashlib.sha256()
-    for p in sorted(paths):
-        h.update(str(p.relative_to(root) if root else p).encode() + b"\0")
-        try:
-            h.update(p.read_bytes())
-        except OSError:
-            h.update(b"<missing>")
-        h.update(b"\0")
-    return h
-
-
-def package_version() -> str:
-    """Hash of the boxbox package's sources (.py, setups .toml, the bridge's C++)."""
-    root = Path(boxbox.__file__).parent
-    files = [p for ext in ("py", "toml", "cpp", "h") for p in root.rglob(f"*.{ext}") if "__pycache__" not in p.parts]
-    return _hash_files(files, root=root).hexdigest()[:16]
-
-
-def _stat(path: Path) -> str:
-    try:
-        st = path.stat()
-        return f"{st.st_mtime_ns}:{st.st_size}"
-    except OSError:
-        return "missing"
-
-
-def python_robot_version(spec: str, package: str | None = None) -> str:
-    """The package hash, plus the robot's own file for 'file.py:Class' or outside-boxbox 'module:Class'."""
-    h = hashlib.sha256((package or package_version()).encode())
-    target = BUILTIN.get(spec, spec)
-    where = target.rpartition(":")[0]
-    own: Path | None = None
-    if where.endswith(".py") or "/" in where:
-        own = Path(where).resolve()
-    elif where and not where.startswith("boxbox."):
-        try:
-            found = importlib.util.find_spec(where)
-            own = Path(found.origin) if found and found.origin else None
-        except (ImportError, ValueError):
-            own = None
-    if own is not None:
-        _hash_files([own], h)
-    return h.hexdigest()[:16]
-
-
-def torcs_robot_version(module: str) -> str:
-    """mtime and size of the robot's .so and of its data files."""
-    torcs = system_torcs()
-    parts = [_stat(torcs.lib_dir / "drivers" / module / f"{module}.so")]
-    data = torcs.data_dir / "drivers" / module
-    if data.is_dir():
-        parts += [f"{p.relative_to(data)}={_stat(p)}" for p in sorted(data.rglob("*")) if p.is_file()]
-    return hashlib.sha256("|".join(parts).encode()).hexdigest()[:16]
-
-
-def _dir_hash(path: Path) -> str:
-    files = [p for p in path.rglob("*") if p.is_file()] if path.is_dir() else []
-    return _hash_files(files, root=path).hexdigest()[:16]
-
-
-def cache_key(track: str, car: str, laps: int, robots: list[dict], settings: dict | None, learning: str) -> str:
-    """sha256 of a race's inputs.  robots: [{"entry", "kind", "version"}] in race order.
-
-    The car, settings and learning mode only count when a Python robot is in the race (TORCS robots
-    drive their own car and know nothing of them)."""
-    has_python = any(r["kind"] == "python" for r in robots)
-    inputs = {"format": CACHE_FORMAT, "track": track, "laps": laps,
-              "robots": [[r["entry"], r["kind"], r["version"]] for r in robots],
-              "car": car if has_python else None,
-              "settings": (settings or {}) if has_python else None,
-              "learning": learning if has_python else None,
-              "torcs": _stat(system_torcs().binary)}
-    if has_python and learning == "on":
-        inputs["learned"] = _dir_hash(cache_dir() / "learning")
-    return hashlib.sha256(json.dumps(inputs, sort_keys=True, default=str).encode()).hexdigest()
-
-
-def cache_path(key: str) -> Path:
-    return cache_dir() / "bench-cache" / f"{key}.json"
-
-
-def _load_cached(key: str) -> RaceResult | None:
-    try:
-        data = json.loads(cache_path(key).read_text())
-        res = dict(data["result"])
-        res["drivers"] = [DriverResult(**d) for d in res.get("drivers", [])]
-        return RaceResult(**res)
-    except (OSError, ValueError, KeyError, TypeError):
-        return None
-
-
-def _store(key: str, inputs: dict, result: RaceResult) -> None:
-    path = cache_path(key)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(f".{os.getpid()}.tmp")
-    tmp.write_text(json.dumps({"key": key, "inputs": inputs, "stored": time.strftime("%Y-%m-%d %H:%M:%S"),
-                               "result": result.to_json()}, indent=1))
-    tmp.replace(path)
-
-
 # --- races -------------------------------------------------------------------------------------
 
 @dataclass
@@ -230,7 +97,7 @@ class RaceJob:
     python_names: list[str]
     opponents: list[tuple[str, int]]
     options: RaceOptions
-    learning: str
+    learning: LearningMode
     inputs: dict
 
     @property
@@ -269,16 +136,10 @@ def _run_job(job: RaceJob, overlay: Overlay) -> dict:
 
         result = launch.run_race(cfg, overlay, progress)
         if not result.error:
-            _store(job.key, job.inputs, result)
+            store(job.key, job.inputs, result)
         return {"result": result.to_json(), "error": result.error}
     except Exception as exc:  # anything at all: recorded, the bench goes on
         return {"result": None, "error": f"{type(exc).__name__}: {exc}"}
-
-
-def _result_from_json(data: dict) -> RaceResult:
-    data = dict(data)
-    data["drivers"] = [DriverResult(**d) for d in data.get("drivers", [])]
-    return RaceResult(**data)
 
 
 # --- results -----------------------------------------------------------------------------------
@@ -291,7 +152,7 @@ class BenchResult:
     robots: list[str]
     rows: list[dict]
     together: bool = False
-    learning: str = "fresh"
+    learning: LearningMode = "fresh"
     settings: dict | None = None
     wall_s: float = 0.0
     raced: int = 0
@@ -306,11 +167,12 @@ class BenchResult:
         write_json_atomic(path, self.to_json(), indent=1)
 
     def write_csv(self, path: Path | str) -> None:
-        with open(path, "w", newline="") as f:
-            writer = csv.DictWriter(f, fieldnames=ROW_FIELDS, extrasaction="ignore")
-            writer.writeheader()
-            for row in self.rows:
-                writer.writerow({k: ("" if row.get(k) is None else row.get(k)) for k in ROW_FIELDS})
+        text = io.StringIO(newline="")
+        writer = csv.DictWriter(text, fieldnames=ROW_FIELDS, extrasaction="ignore")
+        writer.writeheader()
+        for row in self.rows:
+            writer.writerow({k: ("" if row.get(k) is None else row.get(k)) for k in ROW_FIELDS})
+        write_text_atomic(path, text.getvalue())
 
     def table(self) -> Table:
         """One section per track (and car): each robot's time, best lap, damage, gap to the best."""
@@ -339,11 +201,11 @@ class BenchResult:
                 if r["car_driven"] and r["car_driven"] != car:
                     notes.append(f"drives {r['car_driven']}")
                 if r["error"]:
-                    notes.append(f"[red]{_escape(_short(r['error'].splitlines()[0], 46))}[/]")
+                    notes.append(f"[red]{escape(_short(r['error'].splitlines()[0], 46))}[/]")
                 elif r["laps"] < self.laps:
                     notes.append(f"[yellow]{r['laps']}/{self.laps} laps[/]")
                 cells = {"track": track if i == 0 else "", "car": car if i == 0 else "",
-                         "robot": _styled(_escape(_robot_label(r["robot"])), style), "pos": str(r["rank"] or "-"),
+                         "robot": _styled(escape(_robot_label(r["robot"])), style), "pos": str(r["rank"] or "-"),
                          "laps": str(r["laps"]), "time": _styled(fmt_time(r["time"]), style),
                          "gap": _styled(gap, style), "best lap": fmt_time(r["best_lap"]), "damage": str(r["damage"]),
                          "pits": str(r["pit_stops"]), "wall s": f"{r['wall_s']:.2f}" if r["wall_s"] else "-",
@@ -362,16 +224,10 @@ class BenchResult:
             done = [r for r in rows if r["gap_to_best_s"] is not None]
             gaps = [r["gap_to_best_s"] for r in done]
             pct = [100.0 * r["gap_to_best_s"] / (r["time"] - r["gap_to_best_s"]) for r in done]
-            table.add_row(_escape(_robot_label(robot)), car, f"{len(done)}/{len(rows)}", str(sum(g == 0.0 for g in gaps)),
-                          f"{statistics.mean(gaps):.3f}" if gaps else "-", f"{statistics.mean(pct):.2f}" if pct else "-",
-                          str(sum(r["damage"] for r in rows)))
+            table.add_row(escape(_robot_label(robot)), car, f"{len(done)}/{len(rows)}",
+                          str(sum(g == 0.0 for g in gaps)), f"{statistics.mean(gaps):.3f}" if gaps else "-",
+                          f"{statistics.mean(pct):.2f}" if pct else "-", str(sum(r["damage"] for r in rows)))
         return table
-
-
-def _escape(text: str) -> str:
-    from rich.markup import escape
-
-    return escape(text)
 
 
 def _robot_label(entry: str) -> str:
@@ -431,22 +287,24 @@ def _check(spec: BenchSpec) -> tuple[dict[str, str], list[_Robot], RaceOptions]:
         catalog.check_car(car)
     options = RaceOptions(robot_args={"set": dict(spec.settings)} if spec.settings else {})
     package = package_version()
-    robots = []
-    for entry in dict.fromkeys(spec.robots):
-        kind, what = classify_robot(entry)
-        if kind == "torcs":
-            module, idx = what
-            robots.append(_Robot(entry, kind, module=module, idx=idx, version=torcs_robot_version(module)))
-        else:
-            cls = load_robot_class(what)
-            for track in spec.tracks:
-                for car in spec.cars:
-                    cls.check_setup(options, track, car)
-            robots.append(_Robot(entry, kind, spec=what, name=cls.name, version=python_robot_version(what, package)))
-    n_python = sum(r.kind == "python" for r in robots)
-    if spec.together and n_python > MAX_PYTHON_CARS:
-        raise UsageError(f"at most {MAX_PYTHON_CARS} Python robots race together")
+    robots = [_bench_robot(entry, spec, options, package) for entry in dict.fromkeys(spec.robots)]
+    if spec.together:
+        n_python = sum(r.kind == "python" for r in robots)
+        checks.check_field(n_python, len(robots) - n_python)
     return categories, robots, options
+
+
+def _bench_robot(entry: str, spec: BenchSpec, options: RaceOptions, package: str) -> _Robot:
+    """A TORCS robot with its files' version, or a Python robot loaded and checked on every track and car."""
+    kind, what = classify_robot(entry)
+    if isinstance(what, tuple):
+        module, idx = what
+        return _Robot(entry, kind, module=module, idx=idx, version=torcs_robot_version(module))
+    cls = load_robot_class(what)
+    for track in spec.tracks:
+        for car in spec.cars:
+            cls.check_setup(options, track, car)
+    return _Robot(entry, kind, spec=what, name=cls.name, version=python_robot_version(what, package))
 
 
 def plan(spec: BenchSpec) -> tuple[list[tuple[str, str, _Robot, RaceJob]], list[_Robot]]:
@@ -479,13 +337,11 @@ def plan(spec: BenchSpec) -> tuple[list[tuple[str, str, _Robot, RaceJob]], list[
 def _driver_for(result: RaceResult, job: RaceJob, robot: _Robot) -> DriverResult | None:
     if robot.kind == "python":
         idx = job.entries.index(robot.entry)
-        module = "boxbox"
-    else:
-        module, idx = robot.module, robot.idx
-    return next((d for d in result.drivers if d.module == module and d.idx == idx), None)
+        return next((d for d in result.drivers if d.is_python and d.idx == idx), None)
+    return next((d for d in result.drivers if d.module == robot.module and d.idx == robot.idx), None)
 
 
-def _row(track: str, car: str, robot: _Robot, job: RaceJob, result: RaceResult | None, error: str | None,
+def row_of(track: str, car: str, robot: _Robot, job: RaceJob, result: RaceResult | None, error: str | None,
          cached: bool) -> dict:
     d = _driver_for(result, job, robot) if result is not None else None
     if robot.kind == "torcs":
@@ -510,7 +366,7 @@ def race_or_recall(unique: list, overlay: Overlay, jobs: int, use_cache: bool, c
     outcomes: dict[str, tuple[RaceResult | None, str | None, bool]] = {}
     if use_cache:
         for job in unique:
-            hit = _load_cached(job.key)
+            hit = load_cached(job.key)
             if hit is not None:
                 outcomes[job.key] = (hit, None, True)
     todo = [job for job in unique if job.key not in outcomes]
@@ -519,14 +375,13 @@ def race_or_recall(unique: list, overlay: Overlay, jobs: int, use_cache: bool, c
     return outcomes, todo
 
 
-def run_bench(spec: BenchSpec, overlay: Overlay, console: Console | None = None) -> BenchResult:
+def run_bench(spec: BenchSpec, overlay: Overlay, console: Console) -> BenchResult:
     """Check everything, take what the cache has, race the rest in parallel, compare."""
-    console = console or Console(stderr=True)
     started = time.perf_counter()
     planned, robots = plan(spec)
     unique = list({job.key: job for *_, job in planned}.values())
     outcomes, todo = race_or_recall(unique, overlay, spec.jobs, spec.use_cache, console)
-    rows = [_row(track, car, robot, job, *outcomes[job.key]) for track, car, robot, job in planned]
+    rows = [row_of(track, car, robot, job, *outcomes[job.key]) for track, car, robot, job in planned]
     _set_gaps(rows, spec.laps)
     return BenchResult(laps=spec.laps, tracks=list(spec.tracks), cars=list(spec.cars), robots=[r.entry for r in robots],
                        rows=rows, together=spec.together, learning=spec.learning, settings=spec.settings,
@@ -551,7 +406,7 @@ def _race_all(todo: list[RaceJob], overlay: Overlay, workers: int, n_cached: int
                       transient=True) as bar:
             overall = bar.add_task(f"bench: {len(todo)} races on {workers} workers{cached_note}", total=len(todo),
                                    info="")
-            running: dict[str, int] = {}
+            running: dict[str, TaskID] = {}
             pending = set(futures)
             while pending:
                 done, pending = cf.wait(pending, timeout=0.2, return_when=cf.FIRST_COMPLETED)
@@ -563,11 +418,11 @@ def _race_all(todo: list[RaceJob], overlay: Overlay, workers: int, n_cached: int
                         out = fut.result()
                     except Exception as exc:  # the worker itself died
                         out = {"result": None, "error": f"worker failed: {type(exc).__name__}: {exc}"}
-                    result = _result_from_json(out["result"]) if out["result"] else None
+                    result = RaceResult.from_json(out["result"]) if out["result"] else None
                     outcomes[key] = (result, out["error"], False)
                     if out["error"]:
-                        bar.console.print(f"[red]race failed[/] {_escape(job.label)}, {job.car}: "
-                                          f"{_escape(out['error'].splitlines()[0])}", highlight=False)
+                        bar.console.print(f"[red]race failed[/] {escape(job.label)}, {job.car}: "
+                                          f"{escape(out['error'].splitlines()[0])}", highlight=False)
                     if key in running:
                         bar.remove_task(running.pop(key))
                     bar.advance(overall)
@@ -577,7 +432,7 @@ def _race_all(todo: list[RaceJob], overlay: Overlay, workers: int, n_cached: int
     return outcomes
 
 
-def _drain(progress_queue, bar: Progress, running: dict[str, int], by_key: dict[str, RaceJob], finished) -> None:
+def _drain(progress_queue, bar: Progress, running: dict[str, TaskID], by_key: dict[str, RaceJob], finished) -> None:
     while True:
         try:
             what, key, lap, sim = progress_queue.get_nowait()

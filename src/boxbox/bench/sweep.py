@@ -15,10 +15,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from rich.console import Console
+from rich.markup import escape
 from rich.table import Table
 
+from boxbox.bench.bench import BenchSpec, plan, race_or_recall, row_of
+from boxbox.bench.cache import package_version
 from boxbox.files import write_json_atomic, write_text_atomic
-from boxbox.report.bench import BenchSpec, _row, package_version, plan, race_or_recall
+from boxbox.options import LearningMode
 from boxbox.report.tables import fmt_time
 from boxbox.torcs import catalog
 from boxbox.torcs.setup import Overlay
@@ -35,7 +38,7 @@ class SweepSpec:
     laps: int = 3
     jobs: int = 2
     use_cache: bool = True
-    learning: str = "fresh"
+    learning: LearningMode = "fresh"
     tracks: list[str] | None = None  # None: every installed track
     cars: list[str] | None = None  # None: every installed car
 
@@ -82,7 +85,7 @@ class SweepResult:
         for i, r in enumerate(self.rows):
             cells = _cells(r)
             if r["misses"]:
-                cells[-1] = f"[red]{_escape(cells[-1])}[/]"
+                cells[-1] = f"[red]{escape(cells[-1])}[/]"
             nxt = self.rows[i + 1]["part"] if i + 1 < len(self.rows) else r["part"]
             table.add_row(*cells, end_section=nxt != r["part"])
         return table
@@ -118,12 +121,6 @@ def _cells(r: dict) -> list[str]:
             num(r["longest_stuck_s"]), num(r["off_track_s"]), "; ".join(r["misses"]) or "ok"]
 
 
-def _escape(text: str) -> str:
-    from rich.markup import escape
-
-    return escape(text)
-
-
 def misses(row: dict, laps: int) -> list[str]:
     """The targets a sweep row misses, each in a few words."""
     out = []
@@ -143,10 +140,11 @@ def misses(row: dict, laps: int) -> list[str]:
 def sweep_specs(spec: SweepSpec) -> list[tuple[str, BenchSpec]]:
     tracks = spec.tracks if spec.tracks is not None else list(catalog.tracks())
     cars = spec.cars if spec.cars is not None else catalog.cars()
-    common = dict(robots=[spec.robot], laps=spec.laps, jobs=spec.jobs, use_cache=spec.use_cache,
-                  learning=spec.learning)
-    return [("every track", BenchSpec(tracks=tracks, cars=[spec.car], **common)),
-            ("every car", BenchSpec(tracks=[spec.cars_track], cars=cars, **common))]
+    def part(tracks: list[str], cars: list[str]) -> BenchSpec:
+        return BenchSpec(tracks=tracks, cars=cars, robots=[spec.robot], laps=spec.laps, jobs=spec.jobs,
+                         use_cache=spec.use_cache, learning=spec.learning)
+
+    return [("every track", part(tracks, [spec.car])), ("every car", part([spec.cars_track], cars))]
 
 
 def check(spec: SweepSpec) -> None:
@@ -155,8 +153,7 @@ def check(spec: SweepSpec) -> None:
         plan(bench)
 
 
-def run_sweep(spec: SweepSpec, overlay: Overlay, console: Console | None = None) -> SweepResult:
-    console = console or Console(stderr=True)
+def run_sweep(spec: SweepSpec, overlay: Overlay, console: Console) -> SweepResult:
     started = time.perf_counter()
     planned = []  # (part, track, car, robot, job)
     for part, bench in sweep_specs(spec):
@@ -166,7 +163,7 @@ def run_sweep(spec: SweepSpec, overlay: Overlay, console: Console | None = None)
     outcomes, todo = race_or_recall(unique, overlay, spec.jobs, spec.use_cache, console)
     result = SweepResult(spec=spec, raced=len(todo), cached=len(unique) - len(todo))
     for part, track, car, robot, job in planned:
-        row = _row(track, car, robot, job, *outcomes[job.key])
+        row = row_of(track, car, robot, job, *outcomes[job.key])
         row["part"] = part
         row["finished"] = not row["error"] and row["laps"] >= spec.laps
         row["misses"] = misses(row, spec.laps)

@@ -3,7 +3,7 @@
 Two parts:
   long   one long race (200 laps by default: the robot plans several pit stops); at every lap the
          robot host's and this process's resident memory (VmRSS) and open file descriptors are read
-         from /proc.
+         (psutil).
   many   many short races back to back (200 x 1 lap by default) in this one process, as a robot
          author's session does; after each race this process's memory, open files, threads and
          children are read, and processes left behind are counted.
@@ -15,7 +15,6 @@ or of the races), given per 100 laps or per 100 races, next to the first and las
 from __future__ import annotations
 
 import dataclasses
-import glob
 import os
 import shutil
 import tempfile
@@ -24,6 +23,8 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
+import psutil
 from rich.console import Console
 from rich.table import Table
 
@@ -31,80 +32,71 @@ from boxbox.robot.base import RaceOptions
 from boxbox.torcs import catalog, launch
 from boxbox.torcs.setup import Overlay
 
-# --- /proc readings ----------------------------------------------------------------------------
+# --- process readings (psutil) -----------------------------------------------------------------
 
-def rss_kb(pid: int | str = "self") -> int | None:
+def _process(pid: int | None) -> psutil.Process:
+    return psutil.Process(pid)  # None: this process
+
+
+def rss_kb(pid: int | None = None) -> int | None:
+    """Resident memory (VmRSS) in kB, None when the process is gone."""
     try:
-        for line in Path(f"/proc/{pid}/status").read_text().splitlines():
-            if line.startswith("VmRSS:"):
-                return int(line.split()[1])
-    except (OSError, ValueError, IndexError):
-        return None
-    return None
-
-
-def open_fds(pid: int | str = "self") -> int | None:
-    try:
-        return len(os.listdir(f"/proc/{pid}/fd"))
-    except OSError:
+        return _process(pid).memory_info().rss // 1024
+    except psutil.Error:
         return None
 
 
-def threads(pid: int | str = "self") -> int:
+def open_fds(pid: int | None = None) -> int | None:
     try:
-        return len(os.listdir(f"/proc/{pid}/task"))
-    except OSError:
+        return _process(pid).num_fds()
+    except psutil.Error:
+        return None
+
+
+def threads(pid: int | None = None) -> int:
+    try:
+        return _process(pid).num_threads()
+    except psutil.Error:
         return 0
 
 
 def children(pid: int | None = None) -> list[int]:
-    pid = pid or os.getpid()
-    out: list[int] = []
-    for task in glob.glob(f"/proc/{pid}/task/*/children"):
-        try:
-            out += [int(x) for x in Path(task).read_text().split()]
-        except (OSError, ValueError):
-            pass
-    return out
+    try:
+        return [child.pid for child in _process(pid).children()]
+    except psutil.Error:
+        return []
 
 
 def processes_mentioning(text: str) -> list[int]:
     """Live processes whose command line mentions text (a run dir)."""
     found = []
-    for pid in os.listdir("/proc"):
-        if not pid.isdigit() or int(pid) == os.getpid():
-            continue
-        try:
-            if text in Path(f"/proc/{pid}/cmdline").read_bytes().replace(b"\0", b" ").decode(errors="replace"):
-                found.append(int(pid))
-        except OSError:
-            continue
+    for proc in psutil.process_iter(["cmdline"]):
+        if proc.pid != os.getpid() and text in " ".join(proc.info["cmdline"] or ()):
+            found.append(proc.pid)
     return found
 
 
 def forked_children() -> list[int]:
     """Live children of this process running this same program: the robot host, which the
     launcher forks (its command line is the launcher's, so it cannot be found by the run dir)."""
-    mine = Path("/proc/self/cmdline").read_bytes()
+    me = psutil.Process()
+    mine = me.cmdline()
     found = []
-    for pid in children():
+    for child in me.children():
         try:
-            if Path(f"/proc/{pid}/cmdline").read_bytes() == mine:
-                found.append(pid)
-        except OSError:
+            if child.cmdline() == mine and child.status() != psutil.STATUS_ZOMBIE:
+                found.append(child.pid)
+        except psutil.Error:
             continue
     return found
 
 
-def slope(xs: list[float], ys: list[float]) -> float | None:
-    """Least-squares slope of ys over xs."""
-    pairs = [(x, y) for x, y in zip(xs, ys) if y is not None]
-    if len(pairs) < 2:
+def slope(xs: list[float], ys: list[float | None]) -> float | None:
+    """Least-squares slope of ys over xs (samples where y is None left out)."""
+    pairs = np.array([(x, y) for x, y in zip(xs, ys, strict=True) if y is not None], dtype=float)
+    if len(pairs) < 2 or np.ptp(pairs[:, 0]) == 0:
         return None
-    mx = sum(x for x, _ in pairs) / len(pairs)
-    my = sum(y for _, y in pairs) / len(pairs)
-    den = sum((x - mx) ** 2 for x, _ in pairs)
-    return sum((x - mx) * (y - my) for x, y in pairs) / den if den else None
+    return float(np.polyfit(pairs[:, 0], pairs[:, 1], 1)[0])
 
 
 # --- the runs ----------------------------------------------------------------------------------
@@ -135,7 +127,7 @@ class Series:
         self.ys.append(y)
 
     def figures(self, warmup_share: float = 0.1) -> dict:
-        vals = [(x, y) for x, y in zip(self.xs, self.ys) if y is not None]
+        vals = [(x, y) for x, y in zip(self.xs, self.ys, strict=True) if y is not None]
         if not vals:
             return {"name": self.name, "unit": self.unit, "samples": 0}
         start = vals[0][0] + warmup_share * (vals[-1][0] - vals[0][0])
@@ -187,7 +179,7 @@ def run_long(spec: SoakSpec, overlay: Overlay, work: Path, console: Console) -> 
     started = time.perf_counter()
     result = launch.run_race(cfg, overlay, progress)
     wall = time.perf_counter() - started
-    [me] = [d for d in result.drivers if d.module == "boxbox"] or [None]
+    me = next((d for d in result.drivers if d.is_python), None)
     return {"track": spec.track, "laps": spec.long_laps, "wall_s": round(wall, 1), "error": result.error,
             "laps_done": me.laps if me else 0, "race_time_s": me.time if me else 0.0,
             "pit_stops": me.pit_stops if me else 0, "damage": me.damage if me else 0,
@@ -212,7 +204,7 @@ def run_many(spec: SoakSpec, overlay: Overlay, work: Path, console: Console,
                                 telemetry=spec.telemetry)
         result = launch.run_race(cfg, overlay)
         errors += bool(result.error)
-        finished += any(d.module == "boxbox" and d.laps >= spec.race_laps for d in result.drivers)
+        finished += any(d.is_python and d.laps >= spec.race_laps for d in result.drivers)
         leftovers += len(processes_mentioning(str(run_dir))) + len(forked_children())
         rss.add(i, rss_kb())
         fds.add(i, open_fds())
@@ -230,8 +222,7 @@ def run_many(spec: SoakSpec, overlay: Overlay, work: Path, console: Console,
             "series": [s.figures() for s in (rss, fds, thr, kids)]}
 
 
-def run_soak(spec: SoakSpec, overlay: Overlay, console: Console | None = None, parts=("long", "many")) -> SoakResult:
-    console = console or Console(stderr=True)
+def run_soak(spec: SoakSpec, overlay: Overlay, console: Console, parts=("long", "many")) -> SoakResult:
     work = Path(tempfile.mkdtemp(prefix="boxbox-soak-"))
     result = SoakResult(spec=spec)
     try:

@@ -21,7 +21,9 @@ def run_speed_bench(overlay: Overlay, track: str, laps: int, runs: int, robot: s
     py_cfg = launch.RaceConfig(track=track, category=category, laps=laps, robots=[robot])
     c_cfg = launch.RaceConfig(track=track, category=category, laps=laps, robots=[], opponents=[(module, idx)])
     walls: dict[str, list[float]] = {robot: [], against: []}
-    medians, p99s, race_times = [], [], {}
+    medians: list[float] = []
+    p99s: list[float] = []
+    race_times: dict[str, float] = {}
     with Progress(console=console, transient=True) as bar:
         task = bar.add_task(f"{track}, {laps} laps", total=2 * runs)
         for _ in range(runs):  # alternate so that machine noise hits both alike
@@ -32,7 +34,7 @@ def run_speed_bench(overlay: Overlay, track: str, laps: int, runs: int, robot: s
                 walls[label].append(result.wall_s)
                 d = result.drivers[0]
                 race_times[label] = d.time
-                if d.step_us_median is not None:
+                if d.step_us_median is not None and d.step_us_p99 is not None:
                     medians.append(d.step_us_median)
                     p99s.append(d.step_us_p99)
                 bar.advance(task)

@@ -1,0 +1,5 @@
+"""`python -m boxbox.cli`: the same as the `boxbox` command."""
+
+from boxbox.cli import main
+
+main()

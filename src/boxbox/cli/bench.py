@@ -1,0 +1,130 @@
+"""`boxbox bench`, `bench-speed`, `bench-pits` and `bench-telemetry`: the benchmarks (in boxbox.bench)."""
+
+from __future__ import annotations
+
+import os
+
+import click
+
+from boxbox.cli.common import err, out, ready
+from boxbox.cli.types import LAPS, CommaList, OutputFile
+from boxbox.options import LEARNING_MODES
+
+DEFAULT_TRACKS = "e-track-2,e-track-4,mixed-2,g-track-1,aalborg,michigan"
+DEFAULT_ROBOTS = "boxbox,bt:2,berniw:3,inferno:3,olethros:2"
+JOBS = click.IntRange(1, 64)
+
+
+@click.command("bench")
+@click.option("--tracks", type=CommaList("TRACK,..."), default=DEFAULT_TRACKS, show_default=True,
+              help="Tracks, comma separated, or 'all'.")
+@click.option("--cars", type=CommaList("CAR,..."), default="car1-trb1", show_default=True,
+              help="Cars of the Python robots, comma separated, or 'all' (TORCS robots drive their own).")
+@click.option("--robots", type=CommaList("ROBOT,..."), default=DEFAULT_ROBOTS, show_default=True,
+              help="Python robots (boxbox, middle, path/file.py:Class, module:Class) "
+                   "and TORCS robots (module:idx, see `boxbox robots`), comma separated.")
+@click.option("--laps", type=LAPS, default=3, show_default=True, help="Race length in laps.")
+@click.option("--together", is_flag=True, help="All robots in one race per track and car (default: each alone).")
+@click.option("--jobs", type=JOBS, default=None, help="Races run in parallel (default: the number of CPUs).")
+@click.option("--no-cache", is_flag=True, help="Race again even what the bench cache has (and refresh it).")
+@click.option("--learning", type=click.Choice(LEARNING_MODES), default="fresh", show_default=True,
+              help="Python robots' learned data: from nothing each race, the shared store, or none.")
+@click.option("--set", "settings", multiple=True, metavar="KEY=VALUE",
+              help="Override a parameter of the Python robots (see `boxbox params`), e.g. --set mu_scale=0.9.")
+@click.option("--json", "json_file", type=OutputFile(), help="Write the rows as JSON.")
+@click.option("--csv", "csv_file", type=OutputFile(), help="Write the rows as CSV.")
+def bench(tracks, cars, robots, laps, together, jobs, no_cache, learning, settings, json_file, csv_file) -> None:
+    """Race robots on tracks (each alone by default) and compare times; results are cached.
+
+    \b
+    Examples:
+      boxbox bench --tracks e-track-2 --laps 30
+      boxbox bench --robots boxbox,my_robot.py:MyRobot --tracks all --json b.json
+    """
+    from boxbox.bench.bench import BenchSpec, expand_all, plan, run_bench
+    from boxbox.robot.params import parse_set
+    from boxbox.torcs import catalog
+
+    overlay = ready()  # first: 'all' and every name are read from the installed TORCS
+    spec = BenchSpec(tracks=expand_all(tracks, list(catalog.tracks())), cars=expand_all(cars, catalog.cars()),
+                     robots=robots, laps=laps, together=together, jobs=jobs or os.cpu_count() or 1,
+                     use_cache=not no_cache, learning=learning, settings=parse_set(settings) if settings else None)
+    plan(spec)  # every name checked before anything races
+    result = run_bench(spec, overlay, err)
+    out.print(result.table())
+    if len(result.tracks) > 1 or len(result.cars) > 1:
+        out.print(result.summary_table())
+    failed = sum(1 for r in result.rows if r["error"])
+    err.print(f"[dim]{result.raced} raced, {result.cached} cached, {result.wall_s:.1f} s wall"
+              + (f"; [red]{failed} rows with errors[/]" if failed else "") + "[/]")
+    if json_file:
+        result.write_json(json_file)
+    if csv_file:
+        result.write_csv(csv_file)
+
+
+@click.command("bench-speed")
+@click.option("--track", default="g-track-1", show_default=True, help="Track name, e.g. e-track-2.")
+@click.option("--laps", type=LAPS, default=20, show_default=True, help="Race length in laps.")
+@click.option("--runs", type=click.IntRange(1, 50), default=3, show_default=True, help="Races per robot.")
+@click.option("--robot", default="boxbox", show_default=True, help="Python robot to time, e.g. my_robot.py:MyRobot.")
+@click.option("--against", default="bt:2", show_default=True, help="TORCS robot to compare with, e.g. berniw:3.")
+def bench_speed(track, laps, runs, robot, against) -> None:
+    """Wall time of a Python robot's race against a C++ robot's, alternating runs; step times.
+
+    Example: boxbox bench-speed --runs 5
+    """
+    from boxbox.bench.speed import run_speed_bench
+
+    overlay = ready()
+    out.print(run_speed_bench(overlay, track, laps, runs, robot, against, err))
+
+
+@click.command("bench-pits")
+@click.option("--tracks", type=CommaList("TRACK,..."), default="g-track-1,e-track-2,e-track-4,aalborg",
+              show_default=True, help="Tracks with a pit lane, comma separated.")
+@click.option("--laps", type=click.IntRange(2, 10_000), default=6, show_default=True,
+              help="Race length; stops are asked on every lap but the last.")
+@click.option("--jobs", type=JOBS, default=2, show_default=True, help="Races run in parallel.")
+@click.option("--json", "json_file", type=OutputFile(), help="Write the rows as JSON.")
+def bench_pits(tracks, laps, jobs, json_file) -> None:
+    """Compare the two ways into the box (constant-decel, bang-bang) on real races.
+
+    Example: boxbox bench-pits --tracks aalborg --laps 4
+    """
+    from boxbox.bench.pits import run_pit_bench
+    from boxbox.files import write_json_atomic
+
+    overlay = ready()
+    table, rows = run_pit_bench(overlay, tracks, laps, jobs, err)
+    out.print(table)
+    if json_file:
+        write_json_atomic(json_file, rows, indent=1)
+
+
+@click.command("bench-telemetry")
+@click.option("--track", default="g-track-1", show_default=True, help="Track name, e.g. e-track-2.")
+@click.option("--laps", type=LAPS, default=20, show_default=True, help="Race length in laps.")
+@click.option("--runs", type=click.IntRange(1, 50), default=5, show_default=True,
+              help="Races with telemetry on, and as many with it off.")
+@click.option("--robot", default="boxbox", show_default=True, help="Python robot to time.")
+@click.option("--json", "json_file", type=OutputFile(), help="Write the figures as JSON.")
+def bench_telemetry(track, laps, runs, robot, json_file) -> None:
+    """Drive step time with telemetry recorded and without, and their ratio (alternating races).
+
+    Example: boxbox bench-telemetry --runs 3 --laps 10
+    """
+    from rich.progress import Progress
+
+    from boxbox.bench.telemetry import run_telemetry_bench, summary_lines, table
+    from boxbox.files import write_json_atomic
+
+    overlay = ready()
+    with Progress(console=err, transient=True) as bar:
+        task = bar.add_task(f"{track}, {laps} laps, telemetry on/off/alternate", total=3 * runs)
+        res = run_telemetry_bench(overlay, track, laps, runs, robot, lambda: bar.advance(task))
+    out.print(table(res))
+    for line in summary_lines(res):
+        out.print(line)
+    if json_file:
+        write_json_atomic(json_file, res, indent=1)

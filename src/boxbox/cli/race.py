@@ -1,0 +1,185 @@
+"""`boxbox race`, `boxbox params` and `boxbox drill stop`."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import click
+
+from boxbox.cli.common import err, out, race_error, ready, run_with_progress
+from boxbox.cli.types import LAP_LIST, LAPS, CommaList, FiniteFloatRange, OutputDir, OutputFile
+from boxbox.options import LEARNING_MODES, PIT_MODES, learning_dir
+
+SET_HELP = "Override a parameter of the boxbox robot (see `boxbox params`), e.g. --set mu_scale=0.9. Repeatable."
+
+
+@click.command()
+@click.option("--track", default="e-track-2", show_default=True,
+              help="Track name, e.g. g-track-1 (`boxbox tracks` lists them; the category is found for you).")
+@click.option("--car", default="car1-trb1", show_default=True, help="Car of the Python robots (`boxbox cars`).")
+@click.option("--laps", type=LAPS, default=3, show_default=True, help="Race length in laps.")
+@click.option("--robot", "robots", multiple=True, metavar="SPEC",
+              help="Python robot: NAME (boxbox, middle), path/file.py:Class or module:Class. "
+                   "Repeat for more cars, e.g. --robot my_robot.py:MyRobot --robot boxbox.")
+@click.option("--opponents", type=CommaList("MODULE:IDX,...", unique=False), default="",
+              help="TORCS robots, e.g. bt:2,berniw:3 (`boxbox robots` lists them; each at most once).")
+@click.option("--fuel-laps", type=FiniteFloatRange(0.01, 10_000), help="Start with fuel for this many laps, e.g. 5.")
+@click.option("--pit-laps", type=LAP_LIST, default="", help="Ask for pit stops on these laps, e.g. 3,7.")
+@click.option("--pit-mode", type=click.Choice(PIT_MODES), default="constant-decel", show_default=True,
+              help="How the robot brakes into its pit box.")
+@click.option("--json", "json_file", type=OutputFile(), help="Write the results as JSON, e.g. --json r.json.")
+@click.option("--step-budget-ms", type=FiniteFloatRange(1, 60_000), default=200, show_default=True,
+              help="Wall time a robot may take per drive step before the race is stopped.")
+@click.option("--setup-budget-s", type=FiniteFloatRange(0.1, 3600), default=120, show_default=True,
+              help="Wall time a robot may take in initial_fuel_l, on_track, pit_stop or on_race_end.")
+@click.option("--set", "settings", multiple=True, metavar="KEY=VALUE", help=SET_HELP)
+@click.option("--learning", type=click.Choice(LEARNING_MODES), default="on", show_default=True,
+              help="Robots' learned data: keep and use it, ignore it, or start from nothing (and keep that).")
+@click.option("--run-dir", type=OutputDir(), help="Keep this race's files here, e.g. out/r1 "
+                                                  "(default: a new folder under the cache).")
+@click.option("--no-telemetry", is_flag=True,
+              help="Do not record telemetry (RUN_DIR/telemetry.parquet: every drive step of the Python cars).")
+@click.option("--report", "report_dir", type=OutputDir(),
+              help="Write the race report (report.html, see `boxbox report`) into this folder, e.g. out/.")
+@click.option("--quiet", is_flag=True, help="No progress bar.")
+def race(track, car, laps, robots, opponents, fuel_laps, pit_laps, pit_mode, json_file, step_budget_ms, settings,
+         setup_budget_s, learning, run_dir, no_telemetry, report_dir, quiet) -> None:
+    """Run one race in TORCS (console mode) and print the results.
+
+    \b
+    Examples:
+      boxbox race --track g-track-1 --laps 2 --json r.json
+      boxbox race --robot my_robot.py:MyRobot --opponents bt:2,berniw:3
+      boxbox race --fuel-laps 5 --pit-laps 3 --report out/
+    """
+    from boxbox.robot.base import RaceOptions
+    from boxbox.robot.loader import DEFAULT_ROBOT
+    from boxbox.robot.params import parse_set
+    from boxbox.torcs import checks, launch
+
+    options = RaceOptions(fuel_laps=fuel_laps, pit_laps=tuple(sorted(pit_laps)), pit_mode=pit_mode,
+                          robot_args={"set": parse_set(settings)} if settings else {})
+    specs = list(robots) or [DEFAULT_ROBOT]
+    names = _robot_names(specs, options, track, car)
+    overlay = ready()  # first: on a fresh machine the names below can only be checked once TORCS is there
+    category, opp = checks.check_race(track, car, len(specs), opponents, pit_laps, laps)
+    options = dataclasses.replace(options, learning_dir=learning_dir(learning))
+    cfg = launch.RaceConfig(track=track, category=category, car=car, laps=laps, robots=specs, robot_names=names,
+                            opponents=opp, options=options, step_budget_ms=int(step_budget_ms), run_dir=run_dir,
+                            setup_budget_ms=int(setup_budget_s * 1000), telemetry=not no_telemetry)
+    _finish(run_with_progress(cfg, overlay, quiet), laps, json_file, report_dir)
+
+
+def _robot_names(specs: list[str], options, track: str, car: str) -> list[str]:
+    """Each Python robot's class loaded and its settings checked; the names its cars race under."""
+    from boxbox.robot.loader import load_robot_class
+    from boxbox.torcs.checks import check_field
+
+    check_field(len(specs), 0)
+    names = []
+    for i, spec in enumerate(specs):
+        cls = load_robot_class(spec)
+        cls.check_setup(options, track, car)
+        names.append(f"{cls.name} {i + 1}")
+    return names
+
+
+def _finish(result, laps: int, json_file: Path | None, report_dir: Path | None) -> None:
+    """The table, the JSON and the report (also for a race stopped by a fault), then the verdict."""
+    from boxbox.files import write_json_atomic
+    from boxbox.report.tables import results_table
+
+    out.print(results_table(result))
+    if json_file:
+        write_json_atomic(json_file, result.to_json(), indent=1)
+    if report_dir is not None:  # a faulted race's partial telemetry is the point of its report
+        from boxbox.report.race_report import write_report
+
+        err.print(f"report: {write_report(Path(result.run_dir), report_dir / 'report.html')}")
+    if result.error:
+        raise race_error(result)
+    for d in result.drivers:
+        if d.is_python and d.laps < laps:
+            err.print(f"[yellow]warning:[/] {d.name} did not finish: {d.laps} of {laps} laps "
+                      f"(damage {d.damage}, penalty {d.penalty_time:.1f} s)")
+        if d.step_us_median is not None:
+            err.print(f"[dim]{d.name}: drive step median {d.step_us_median:.1f} us, "
+                      f"p99 {d.step_us_p99:.1f} us; run dir {result.run_dir}[/]")
+
+
+@click.command()
+@click.option("--track", default="e-track-2", show_default=True, help="Track name, e.g. g-track-1.")
+@click.option("--car", default="car1-trb1", show_default=True, help="Car name, e.g. car1-trb1.")
+@click.option("--set", "settings", multiple=True, metavar="KEY=VALUE", help=SET_HELP)
+def params(track, car, settings) -> None:
+    """Print the boxbox robot's effective parameters for a track and car, and where each comes from.
+
+    Example: boxbox params --track aalborg --set mu_scale=0.9
+    """
+    from rich.table import Table
+
+    from boxbox.robot.params import load_params, parse_set, setup_files
+
+    values, sources = load_params(car, track, parse_set(settings))
+    table = Table("parameter", "value", "from", title=f"boxbox robot parameters: {track}, {car}")
+    for key, value in vars(values).items():
+        src = sources[key]
+        table.add_row(key, str(value), src if src in ("default", "--set") else Path(src).name)
+    out.print(table)
+    out.print("setup files, in order: " + ", ".join(str(p) + ("" if p.exists() else " (absent)")
+                                                    for p in setup_files(car, track)))
+
+
+@click.group()
+def drill() -> None:
+    """Practice drills for single controllers."""
+
+
+DRILL_LABELS = [("stop_error_m", "stop error (m, + past the marker)"),
+                ("stop_time_s", "time from latch to standstill (s)"),
+                ("latch_speed_mps", "speed at the latch (m/s)"), ("latch_dist_m", "distance at the latch (m)"),
+                ("latch_decel_mps2", "A at the latch (m/s^2)"), ("peak_decel_mps2", "peak deceleration (m/s^2)"),
+                ("mean_decel_mps2", "mean deceleration (m/s^2)"), ("decel_sd_mps2", "deceleration s.d. (m/s^2)"),
+                ("decel_cv", "steadiness: s.d. / mean")]
+
+
+@drill.command("stop")
+@click.option("--track", default="e-track-2", show_default=True, help="Track name, e.g. g-track-1.")
+@click.option("--car", default="car1-trb1", show_default=True, help="Car name, e.g. car1-trb1.")
+@click.option("--at", "at_m", type=FiniteFloatRange(0, 100_000), required=True,
+              help="Marker: distance from the start line (m) to stop at, e.g. 1500.")
+@click.option("--grip-share", type=FiniteFloatRange(0.05, 2), default=None,
+              help="Stop deceleration as a share of the grip, e.g. 0.8 (default: the robot's).")
+@click.option("--json", "json_file", type=OutputFile(), help="Write the measures as JSON.")
+def drill_stop(track, car, at_m, grip_share, json_file) -> None:
+    """Drive a lap and stop at a marker with the constant-deceleration stop controller.
+
+    Example: boxbox drill stop --track e-track-2 --at 1500
+    """
+    from rich.table import Table
+
+    from boxbox.errors import RaceError
+    from boxbox.files import write_json_atomic
+    from boxbox.robot.base import RaceOptions
+    from boxbox.torcs import checks, launch
+
+    args = {"drill_at_m": at_m} if grip_share is None else {"drill_at_m": at_m, "drill_grip_share": grip_share}
+    overlay = ready()
+    category, _ = checks.check_race(track, car, 1)
+    cfg = launch.RaceConfig(track=track, category=category, car=car, laps=1,
+                            robots=["boxbox.robot.drill:StopDrill"], robot_names=["drill 1"],
+                            options=RaceOptions(robot_args=args))
+    result = run_with_progress(cfg, overlay)
+    if result.error:
+        raise race_error(result)
+    report = result.drivers[0].report.get("drill", {})
+    if json_file:
+        write_json_atomic(json_file, report, indent=1)
+    table = Table("measure", "value", title=f"stop drill: {track}, {car}, marker at {at_m:.1f} m")
+    for key, label in DRILL_LABELS:
+        table.add_row(label, str(report.get(key, "-")))
+    out.print(table)
+    if report.get("phase") != "done":
+        raise RaceError(f"the drill did not complete its stop (phase '{report.get('phase')}'); "
+                        "try another marker, away from a turn")

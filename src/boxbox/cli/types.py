@@ -1,0 +1,103 @@
+"""click parameter types for boxbox's options: checked while the command line is read, so a bad
+value fails with exit 2 and one line before anything is set up or raced."""
+
+from __future__ import annotations
+
+import math
+import os
+import tempfile
+from pathlib import Path
+from typing import Any
+
+import click
+
+MAX_LAPS = 10_000  # far beyond any race worth running; keeps lap counts clear of C int overflows
+
+
+class FiniteFloatRange(click.FloatRange):
+    """click's FloatRange, which lets NaN through its bounds; this one refuses it."""
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        number = super().convert(value, param, ctx)
+        if not math.isfinite(number):
+            self.fail(f"{value!r} is not a finite number.", param, ctx)
+        return number
+
+
+LAPS = click.IntRange(1, MAX_LAPS)
+
+
+class CommaList(click.ParamType):
+    """'a,b,c' -> ['a', 'b', 'c'] (blanks dropped; with unique, repeats dropped too)."""
+
+    name = "list"
+
+    def __init__(self, metavar: str = "NAME,...", unique: bool = True, item: click.ParamType | None = None) -> None:
+        self.metavar, self.unique, self.item = metavar, unique, item
+
+    def get_metavar(self, param: click.Parameter, ctx: click.Context) -> str:
+        return self.metavar
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        if isinstance(value, list | tuple):
+            return list(value)
+        items = [part.strip() for part in str(value).split(",") if part.strip()]
+        if self.item is not None:
+            items = [self.item.convert(part, param, ctx) for part in items]
+        return list(dict.fromkeys(items)) if self.unique else items
+
+
+LAP_LIST = CommaList("LAP,...", item=LAPS)
+
+
+def _probe_writable(folder: Path) -> str | None:
+    """None when a file can be created in folder, else why not (a real create: permissions alone
+    do not tell, e.g. /proc or a read-only mount)."""
+    try:
+        fd, probe = tempfile.mkstemp(prefix=".boxbox-probe-", dir=folder)
+    except OSError as exc:
+        return exc.strerror or str(exc)
+    os.close(fd)
+    os.unlink(probe)
+    return None
+
+
+class OutputFile(click.ParamType):
+    """A file boxbox will write: made absolute, its folder must exist and take a new file."""
+
+    name = "file"
+
+    def get_metavar(self, param: click.Parameter, ctx: click.Context) -> str:
+        return "FILE"
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        path = Path(os.path.abspath(os.path.expanduser(value)))
+        if path.is_dir():
+            self.fail(f"{path} is a folder; give a file name.", param, ctx)
+        if not path.parent.is_dir():
+            self.fail(f"folder {path.parent} does not exist; create it first.", param, ctx)
+        if why := _probe_writable(path.parent):
+            self.fail(f"cannot write in {path.parent} ({why}); choose another place.", param, ctx)
+        if path.exists() and not os.access(path, os.W_OK):
+            self.fail(f"{path} is not writable; choose another file.", param, ctx)
+        return path
+
+
+class OutputDir(click.ParamType):
+    """A folder boxbox will write into: made absolute; it, or the nearest folder above it that
+    exists (where it will be created), must take a new file."""
+
+    name = "dir"
+
+    def get_metavar(self, param: click.Parameter, ctx: click.Context) -> str:
+        return "DIR"
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        path = Path(os.path.abspath(os.path.expanduser(value)))
+        existing = next(p for p in (path, *path.parents) if p.exists())
+        if not existing.is_dir():
+            self.fail(f"{existing} is a file, so {path} cannot be a folder.", param, ctx)
+        if why := _probe_writable(existing):
+            where = path if existing == path else f"{path} (in {existing})"
+            self.fail(f"cannot write in {where}: {why}; choose another place.", param, ctx)
+        return path
