@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import os
+import subprocess
+
 import pytest
 
-from helpers import ROBOTS, run_boxbox
+from helpers import BOXBOX, ROBOTS, read_json, run_boxbox
 
 CASES = [
     (["--track", "g-trak-1"], "unknown track 'g-trak-1'; did you mean g-track-1"),
@@ -19,19 +22,32 @@ CASES = [
     (["--opponents", "bt:42"], "robot bt has no index 42"),
     (["--opponents", "bt"], "opponent 'bt' needs an index"),
     (["--opponents", "bt:x"], "index 'x' is not a number"),
-    (["--laps", "0"], "--laps must be >= 1, got 0"),
-    (["--laps", "-3"], "--laps must be >= 1, got -3"),
-    (["--laps", "three"], "--laps must be a whole number of laps >= 1, got 'three'"),
-    (["--fuel-laps", "nan"], "--fuel-laps must be a finite number"),
-    (["--fuel-laps", "x"], "--fuel-laps must be a number, got 'x'"),
-    (["--step-budget-ms", "0"], "--step-budget-ms must be a finite number >= 1"),
-    (["--pit-laps", "2,x"], "--pit-laps takes lap numbers like 3,7"),
-    (["--pit-laps", "5", "--laps", "3"], "a stop must be before the last lap"),
+    (["--laps", "0"], "Invalid value for '--laps': 0 is not in the range 1<=x<=10000"),
+    (["--laps", "-3"], "Invalid value for '--laps': -3 is not in the range"),
+    (["--laps", "three"], "Invalid value for '--laps': 'three' is not a valid integer"),
+    (["--laps", "2147483647"], "Invalid value for '--laps': 2147483647 is not in the range 1<=x<=10000"),
+    (["--fuel-laps", "nan"], "Invalid value for '--fuel-laps': 'nan' is not a finite number"),
+    (["--fuel-laps", "inf"], "Invalid value for '--fuel-laps': inf is not in the range"),
+    (["--fuel-laps", "x"], "Invalid value for '--fuel-laps': 'x' is not a valid float"),
+    (["--step-budget-ms", "0"], "Invalid value for '--step-budget-ms': 0.0 is not in the range 1<=x<=60000"),
+    (["--step-budget-ms", "nan"], "Invalid value for '--step-budget-ms': 'nan' is not a finite number"),
+    (["--setup-budget-s", "1e12"], "Invalid value for '--setup-budget-s': 1000000000000.0 is not in the range"),
+    (["--pit-laps", "2,x"], "Invalid value for '--pit-laps': 'x' is not a valid integer"),
+    (["--pit-laps", "5", "--laps", "3"], "a stop must come before the last lap (3 laps)"),
+    (["--pit-mode", "fast"], "Invalid value for '--pit-mode': 'fast' is not one of 'constant-decel', 'bang-bang'"),
+    (["--opponents", "bt:1,bt:1"], "opponent bt:1 is given twice"),
+    (["--opponents", ",".join(f"{m}:{i}" for m in ("bt", "damned") for i in range(10))
+      + "," + ",".join(f"{m}:{i}" for m in ("berniw", "inferno") for i in range(1, 11))],
+     "41 cars in one race: at most 40 race together; drop 1 opponent(s)"),
+    (["--robot", "boxbox"] * 11, "11 Python cars: at most 10 race together"),
+    (["--json", "/proc/nope.json"], "Invalid value for '--json': cannot write in /proc"),
+    (["--json", "/tmp"], "Invalid value for '--json': /tmp is a folder; give a file name"),
+    (["--report", "/proc/boxbox-no-such"], "Invalid value for '--report': cannot write in /proc/boxbox-no-such"),
+    (["--run-dir", "/proc/boxbox-no-such/run"], "'--run-dir': cannot write in /proc/boxbox-no-such/run"),
     (["--nonsense"], "No such option: --nonsense"),
     (["--track", "mixed-2", "--laps", "5", "--pit-laps", "2"], "track 'mixed-2' has no pit lane"),
     (["--set", "mu_scal=1"], "unknown parameter 'mu_scal' (did you mean mu_scale?)"),
     (["--set", "mu_scale=fast"], "mu_scale must be a float"),
-    (["--run-dir", "/proc/boxbox-no-such/run"], "run dir /proc/boxbox-no-such/run cannot be made"),
 ]
 
 
@@ -57,7 +73,23 @@ def test_json_file_in_a_missing_folder(tmp_path):
     proc = run_boxbox("race", "--json", str(tmp_path / "no" / "such" / "r.json"), timeout=30)
     assert proc.returncode == 2
     [line] = proc.stderr.strip().splitlines()
-    assert line.startswith("boxbox: error: --json") and "does not exist" in line
+    assert line.startswith("boxbox: error: Invalid value for '--json'") and "does not exist" in line
+
+
+@pytest.mark.parametrize("command", [["bench", "--tracks", "g-track-1", "--robots", "bt:2", "--json"],
+                                     ["bench", "--tracks", "g-track-1", "--robots", "bt:2", "--csv"],
+                                     ["bench-pits", "--tracks", "g-track-1", "--json"],
+                                     ["sweep", "--tracks", "g-track-1", "--cars", "car1-trb1", "--markdown"],
+                                     ["soak", "--races", "1", "--long-laps", "0", "--json"],
+                                     ["drill", "stop", "--at", "100", "--json"],
+                                     ["bench-telemetry", "--runs", "1", "--json"],
+                                     ["report", ".", "--out"]])
+def test_unwritable_outputs_fail_before_racing(command):
+    """Every output file is checked while the command line is read: exit 2, one line, nothing raced."""
+    proc = run_boxbox(*command, "/proc/boxbox-nope.json", timeout=30)
+    assert proc.returncode == 2, proc.stderr
+    [line] = proc.stderr.strip().splitlines()
+    assert "cannot write in /proc" in line, line
 
 
 SETUP_CASES = [
@@ -86,3 +118,14 @@ def test_bad_setup_file_one_line_exit_2(name, text, message, tmp_path):
         assert len(lines) == 1 and lines[0].startswith("boxbox: error: "), proc.stderr
         assert message in lines[0] and str(setups / name) in lines[0], lines[0]
     assert not run_dir.exists()
+
+
+def test_relative_paths_work(tmp_path, overlay):
+    """--run-dir and --json relative to the current folder (a relative run dir once broke TORCS's paths)."""
+    env = dict(os.environ, COLUMNS="200")
+    proc = subprocess.run([*BOXBOX, "race", "--track", "g-track-1", "--laps", "1", "--quiet", "--run-dir", "out/r1",
+                           "--json", "r.json"], capture_output=True, text=True, timeout=120, env=env, cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    result = read_json(tmp_path / "r.json")
+    assert result["run_dir"] == str(tmp_path / "out" / "r1") and result["drivers"][0]["laps"] == 1
+    assert (tmp_path / "out" / "r1" / "result.json").exists()
