@@ -14,7 +14,6 @@ import json
 import time
 from pathlib import Path
 
-import boxbox
 from boxbox.cache import cache_dir
 from boxbox.files import write_json_atomic
 from boxbox.robot.loader import BUILTIN
@@ -38,7 +37,7 @@ def _hash_files(paths, h=None, root: Path | None = None):
 
 def package_version() -> str:
     """Hash of the boxbox package's sources (.py, setups .toml, the bridge's C++)."""
-    root = Path(boxbox.__file__).parent
+    root = Path(__file__).resolve().parents[1]  # src/boxbox
     files = [p for ext in ("py", "toml", "cpp", "h") for p in root.rglob(f"*.{ext}") if "__pycache__" not in p.parts]
     return _hash_files(files, root=root).hexdigest()[:16]
 
