@@ -9,6 +9,8 @@ from pathlib import Path
 
 import numpy as np
 
+from boxbox.files import atomic_path
+
 
 def cache_dir() -> Path:
     """$BOXBOX_CACHE, else $XDG_CACHE_HOME/boxbox, else ~/.cache/boxbox."""
@@ -29,9 +31,8 @@ def cached_array(kind: str, key_parts: list[bytes], compute: Callable[[], np.nda
     value = compute()
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_name(f"{path.stem}.{os.getpid()}.tmp.npy")
-        np.save(tmp, value)
-        tmp.replace(path)
+        with atomic_path(path) as tmp, open(tmp, "wb") as f:
+            np.save(f, value)  # to the open file: np.save would add .npy to a bare name
     except OSError:
         pass  # a read-only cache only costs time
     return value
