@@ -51,7 +51,9 @@ def test_report_of_a_short_race_loads_every_figure_in_chromium(tmp_path, overlay
     tel = load_telemetry(run_dir / FILE_NAME)
     c = tel.columns
     assert tel.rows > 0.9 * sum(me["lap_times"]) / 0.02
-    assert np.all(np.diff(c["time_s"]) > 0) and set(np.unique(c["lap"])) >= {1, 2}
+    # the stop itself is one row at the time of the last drive step before it
+    assert np.all(np.diff(c["time_s"]) >= 0) and (np.diff(c["time_s"]) == 0).sum() <= 1
+    assert set(np.unique(c["lap"])) >= {1, 2}
     assert np.isfinite(c["target_speed_mps"]).all() and "sig_pit_phase" in c and (c["sig_pit_phase"] > 0).any()
     assert c["in_pit"].sum() == 1 and c["speed_mps"][c["in_pit"]][0] < 1.5
     assert tel.meta["track"]["pit"]["speed_limit_mps"] > 0 and len(tel.meta["track"]["edges"]["left_x"]) > 100
