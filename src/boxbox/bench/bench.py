@@ -28,6 +28,7 @@ from rich.table import Table
 from boxbox.bench.cache import cache_key, load_cached, package_version, python_robot_version, store, torcs_robot_version
 from boxbox.errors import UsageError
 from boxbox.files import write_json_atomic, write_text_atomic
+from boxbox.model.skill import DEFAULT_SKILL_LEVEL, SkillLevel
 from boxbox.options import LEARNING_MODES, LearningMode, learning_dir
 from boxbox.report.tables import fmt_time
 from boxbox.robot.base import RaceOptions
@@ -54,6 +55,8 @@ class BenchSpec:
     use_cache: bool = True  # False: race everything again (and refresh the cache)
     learning: LearningMode = "fresh"  # for Python robots
     settings: dict | None = None  # --set values for Python robots (RaceOptions.robot_args["set"])
+    skill_level: SkillLevel = DEFAULT_SKILL_LEVEL  # every car's, boxbox's and TORCS's robots alike
+    grid_position: int | None = None  # the Python cars' grid slot in races --together (None: pole)
 
 
 def expand_all(names: list[str], all_names: list[str]) -> list[str]:
@@ -99,6 +102,8 @@ class RaceJob:
     options: RaceOptions
     learning: LearningMode
     inputs: dict
+    skill_level: SkillLevel = DEFAULT_SKILL_LEVEL
+    grid_position: int | None = None
 
     @property
     def label(self) -> str:
@@ -128,7 +133,7 @@ def _run_job(job: RaceJob, overlay: Overlay) -> dict:
         cfg = launch.RaceConfig(track=job.track, category=job.category, car=job.car, laps=job.laps,
                                 robots=list(job.python_specs), robot_names=list(job.python_names),
                                 opponents=list(job.opponents), options=options, cpu=_worker.get("cpu"),
-                                run_dir=run_dir)
+                                run_dir=run_dir, skill_level=job.skill_level, grid_position=job.grid_position)
 
         def progress(lap: int, sim: float) -> None:
             if q is not None:
@@ -154,6 +159,7 @@ class BenchResult:
     together: bool = False
     learning: LearningMode = "fresh"
     settings: dict | None = None
+    skill_level: str = DEFAULT_SKILL_LEVEL.torcs_name
     wall_s: float = 0.0
     raced: int = 0
     cached: int = 0
@@ -161,6 +167,7 @@ class BenchResult:
     def to_json(self) -> dict:
         return {"laps": self.laps, "tracks": self.tracks, "cars": self.cars, "robots": self.robots,
                 "together": self.together, "learning": self.learning, "settings": self.settings or {},
+                "skill_level": self.skill_level,
                 "wall_s": round(self.wall_s, 3), "raced": self.raced, "cached": self.cached, "rows": self.rows}
 
     def write_json(self, path: Path | str) -> None:
@@ -177,7 +184,8 @@ class BenchResult:
     def table(self) -> Table:
         """One section per track (and car): each robot's time, best lap, damage, gap to the best."""
         mode = "together" if self.together else "each alone"
-        title = f"bench: {self.laps} lap{'s' if self.laps != 1 else ''}, {mode}, learning {self.learning}"
+        title = (f"bench: {self.laps} lap{'s' if self.laps != 1 else ''}, {mode}, learning {self.learning}, "
+                 f"skill level {self.skill_level}")
         if len(self.cars) == 1:
             title += f", {self.cars[0]}"
         if self.settings:
@@ -320,15 +328,19 @@ def plan(spec: BenchSpec) -> tuple[list[tuple[str, str, _Robot, RaceJob]], list[
                 tc = [r for r in group if r.kind == "torcs"]
                 ordered = py + tc
                 described = [{"entry": r.entry, "kind": r.kind, "version": r.version} for r in ordered]
-                key = cache_key(track, car, spec.laps, described, spec.settings, spec.learning)
+                grid = spec.grid_position if spec.together and py else None
+                key = cache_key(track, car, spec.laps, described, spec.settings, spec.learning,
+                                spec.skill_level.torcs_name, grid)
                 if key not in jobs:
                     inputs = {"track": track, "car": car if py else None, "laps": spec.laps, "robots": described,
-                              "settings": spec.settings or {}, "learning": spec.learning}
+                              "settings": spec.settings or {}, "learning": spec.learning,
+                              "skill_level": spec.skill_level.torcs_name, "grid_position": grid}
                     jobs[key] = RaceJob(key=key, track=track, category=categories[track], car=car, laps=spec.laps,
                                         entries=[r.entry for r in ordered], python_specs=[r.spec for r in py],
                                         python_names=[f"{r.name} {i + 1}" for i, r in enumerate(py)],
                                         opponents=[(r.module, r.idx) for r in tc], options=options,
-                                        learning=spec.learning, inputs=inputs)
+                                        learning=spec.learning, inputs=inputs, skill_level=spec.skill_level,
+                                        grid_position=grid)
                 for r in group:
                     rows.append((track, car, r, jobs[key]))
     return rows, robots
@@ -384,6 +396,7 @@ def run_bench(spec: BenchSpec, overlay: Overlay, console: Console) -> BenchResul
     rows = [row_of(track, car, robot, job, *outcomes[job.key]) for track, car, robot, job in planned]
     _set_gaps(rows, spec.laps)
     return BenchResult(laps=spec.laps, tracks=list(spec.tracks), cars=list(spec.cars), robots=[r.entry for r in robots],
+                       skill_level=spec.skill_level.torcs_name,
                        rows=rows, together=spec.together, learning=spec.learning, settings=spec.settings,
                        wall_s=time.perf_counter() - started, raced=len(todo), cached=len(unique) - len(todo))
 

@@ -14,6 +14,7 @@ from rich.console import Console
 from rich.progress import Progress
 from rich.table import Table
 
+from boxbox.model.skill import DEFAULT_SKILL_LEVEL, SkillLevel
 from boxbox.options import PIT_MODES
 from boxbox.robot.base import RaceOptions
 from boxbox.torcs import catalog, launch
@@ -21,10 +22,10 @@ from boxbox.torcs.setup import Overlay
 
 
 def _race(args) -> dict:
-    overlay, track, laps, mode, cpu = args
+    overlay, track, laps, mode, cpu, skill_level = args
     stops = tuple(range(1, laps))
     cfg = launch.RaceConfig(track=track, category=catalog.check_track(track), laps=laps, robots=["boxbox"], cpu=cpu,
-                            options=RaceOptions(pit_laps=stops, pit_mode=mode))
+                            options=RaceOptions(pit_laps=stops, pit_mode=mode), skill_level=skill_level)
     result = launch.run_race(cfg, overlay)
     d = result.drivers[0]
     events = [e for e in d.pit_events if e.get("stop_time") is not None]
@@ -37,17 +38,20 @@ def _race(args) -> dict:
             "lane_mean_s": statistics.fmean(lane) if lane else None, "error": result.error}
 
 
-def run_pit_bench(overlay: Overlay, tracks: list[str], laps: int, jobs: int, console: Console) -> tuple[Table, list]:
+def run_pit_bench(overlay: Overlay, tracks: list[str], laps: int, jobs: int, console: Console,
+                  skill_level: SkillLevel = DEFAULT_SKILL_LEVEL) -> tuple[Table, list]:
     for t in tracks:
         catalog.check_track(t)
-    work = [(overlay, t, laps, m, i % jobs) for i, (t, m) in enumerate((t, m) for t in tracks for m in PIT_MODES)]
+    work = [(overlay, t, laps, m, i % jobs, skill_level)
+            for i, (t, m) in enumerate((t, m) for t in tracks for m in PIT_MODES)]
     rows = []
     with Progress(console=console, transient=True) as bar, ProcessPoolExecutor(jobs) as pool:
         task = bar.add_task(f"pit stops: {len(work)} races", total=len(work))
         for row in pool.map(_race, work):
             rows.append(row)
             bar.advance(task)
-    table = Table(title=f"bench-pits: stops asked on laps 1..{laps - 1} of {laps}, car1-trb1, alone")
+    table = Table(title=f"bench-pits: stops asked on laps 1..{laps - 1} of {laps}, car1-trb1, alone, "
+                        f"skill level {skill_level.torcs_name}")
     for col in ("track", "mode", "captured", "penalty s", "gave up", "|stop error| mean m", "max m",
                 "pit entry to exit s", "race time s"):
         table.add_column(col, justify="left" if col in ("track", "mode") else "right")

@@ -28,6 +28,7 @@ import psutil
 from rich.console import Console
 from rich.table import Table
 
+from boxbox.model.skill import DEFAULT_SKILL_LEVEL, SkillLevel
 from boxbox.robot.base import RaceOptions
 from boxbox.torcs import catalog, launch
 from boxbox.torcs.setup import Overlay
@@ -111,6 +112,7 @@ class SoakSpec:
     race_laps: int = 1
     telemetry: bool = True  # the races record telemetry (kept in the host's memory until the race ends)
     keep_runs: bool = False
+    skill_level: SkillLevel = DEFAULT_SKILL_LEVEL
 
 
 @dataclass
@@ -158,7 +160,7 @@ def run_long(spec: SoakSpec, overlay: Overlay, work: Path, console: Console) -> 
     cfg = launch.RaceConfig(track=spec.track, category=catalog.check_track(spec.track), car=spec.car,
                             laps=spec.long_laps, robots=[spec.robot], robot_names=[f"{spec.robot} 1"],
                             options=_options(spec, str(work / "learning"), spec.long_laps), run_dir=run_dir,
-                            telemetry=spec.telemetry)
+                            telemetry=spec.telemetry, skill_level=spec.skill_level)
     host_rss, host_fds = Series("robot host memory (VmRSS)", "kB"), Series("robot host open files", "fds")
     me_rss, me_fds = Series("launcher memory (VmRSS)", "kB"), Series("launcher open files", "fds")
     host_pid: list[int] = []
@@ -180,7 +182,8 @@ def run_long(spec: SoakSpec, overlay: Overlay, work: Path, console: Console) -> 
     result = launch.run_race(cfg, overlay, progress)
     wall = time.perf_counter() - started
     me = next((d for d in result.drivers if d.is_python), None)
-    return {"track": spec.track, "laps": spec.long_laps, "wall_s": round(wall, 1), "error": result.error,
+    return {"track": spec.track, "skill_level": spec.skill_level.torcs_name, "laps": spec.long_laps,
+            "wall_s": round(wall, 1), "error": result.error,
             "laps_done": me.laps if me else 0, "race_time_s": me.time if me else 0.0,
             "pit_stops": me.pit_stops if me else 0, "damage": me.damage if me else 0,
             "lap_times_recorded": len(me.lap_times) if me else 0,
@@ -201,7 +204,7 @@ def run_many(spec: SoakSpec, overlay: Overlay, work: Path, console: Console,
         cfg = launch.RaceConfig(track=spec.track, category=category, car=spec.car, laps=spec.race_laps,
                                 robots=[spec.robot], robot_names=[f"{spec.robot} 1"],
                                 options=_options(spec, str(work / "learning"), spec.race_laps), run_dir=run_dir,
-                                telemetry=spec.telemetry)
+                                telemetry=spec.telemetry, skill_level=spec.skill_level)
         result = launch.run_race(cfg, overlay)
         errors += bool(result.error)
         finished += any(d.is_python and d.laps >= spec.race_laps for d in result.drivers)
@@ -217,7 +220,8 @@ def run_many(spec: SoakSpec, overlay: Overlay, work: Path, console: Console,
         if i % 20 == 0:
             console.print(f"[dim]soak: race {i}/{spec.races}, launcher {rss.ys[-1]} kB, {fds.ys[-1]} fds[/]")
     wall = time.perf_counter() - started
-    return {"track": spec.track, "races": spec.races, "laps_each": spec.race_laps, "wall_s": round(wall, 1),
+    return {"track": spec.track, "skill_level": spec.skill_level.torcs_name, "races": spec.races,
+            "laps_each": spec.race_laps, "wall_s": round(wall, 1),
             "finished": finished, "errors": errors, "leftover_processes": leftovers,
             "series": [s.figures() for s in (rss, fds, thr, kids)]}
 
@@ -244,13 +248,15 @@ def tables(result: SoakResult) -> list[Table]:
         if not data:
             continue
         if part == "long":
-            title = (f"soak: one {data['laps']}-lap race on {data['track']}: {data['laps_done']} laps, "
+            title = (f"soak: one {data['laps']}-lap race on {data['track']} ({data['skill_level']}): "
+                     f"{data['laps_done']} laps, "
                      f"{data['pit_stops']} pit stops, damage {data['damage']}, {data['wall_s']} s wall, "
                      f"leftover processes {data['leftover_processes']}"
                      + (f", error: {data['error']}" if data['error'] else ""))
             per = "per 100 laps"
         else:
-            title = (f"soak: {data['races']} races of {data['laps_each']} lap(s) on {data['track']}, back to back: "
+            title = (f"soak: {data['races']} races of {data['laps_each']} lap(s) on {data['track']} "
+                     f"({data['skill_level']}), back to back: "
                      f"{data['finished']} finished, {data['errors']} errors, leftover processes "
                      f"{data['leftover_processes']}, {data['wall_s']} s wall")
             per = "per 100 races"

@@ -8,18 +8,20 @@ from rich.console import Console
 from rich.progress import Progress
 from rich.table import Table
 
+from boxbox.model.skill import DEFAULT_SKILL_LEVEL, SkillLevel
 from boxbox.robot.loader import load_robot_class
 from boxbox.torcs import catalog, launch
 from boxbox.torcs.setup import Overlay
 
 
 def run_speed_bench(overlay: Overlay, track: str, laps: int, runs: int, robot: str, against: str,
-                    console: Console) -> Table:
+                    console: Console, skill_level: SkillLevel = DEFAULT_SKILL_LEVEL) -> Table:
     category = catalog.check_track(track)
     module, idx = catalog.parse_opponent(against)
     load_robot_class(robot)
-    py_cfg = launch.RaceConfig(track=track, category=category, laps=laps, robots=[robot])
-    c_cfg = launch.RaceConfig(track=track, category=category, laps=laps, robots=[], opponents=[(module, idx)])
+    py_cfg = launch.RaceConfig(track=track, category=category, laps=laps, robots=[robot], skill_level=skill_level)
+    c_cfg = launch.RaceConfig(track=track, category=category, laps=laps, robots=[], opponents=[(module, idx)],
+                              skill_level=skill_level)
     walls: dict[str, list[float]] = {robot: [], against: []}
     medians: list[float] = []
     p99s: list[float] = []
@@ -39,7 +41,8 @@ def run_speed_bench(overlay: Overlay, track: str, laps: int, runs: int, robot: s
                     p99s.append(d.step_us_p99)
                 bar.advance(task)
     py_wall, c_wall = statistics.median(walls[robot]), statistics.median(walls[against])
-    table = Table(title=f"bench-speed: {track}, {laps} laps, car1-trb1, {runs} runs each (median wall time)")
+    table = Table(title=f"bench-speed: {track}, {laps} laps, car1-trb1, {runs} runs each (median wall time), "
+                        f"skill level {skill_level.torcs_name}")
     for col in ("robot", "wall s (median)", "wall s (all)", "race time s", "ratio to " + against,
                 "step median us", "step p99 us"):
         table.add_column(col, justify="right")

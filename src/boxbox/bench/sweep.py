@@ -21,6 +21,7 @@ from rich.table import Table
 from boxbox.bench.bench import BenchSpec, plan, race_or_recall, row_of
 from boxbox.bench.cache import package_version
 from boxbox.files import write_json_atomic, write_text_atomic
+from boxbox.model.skill import DEFAULT_SKILL_LEVEL, SkillLevel
 from boxbox.options import LearningMode
 from boxbox.report.tables import fmt_time
 from boxbox.torcs import catalog
@@ -41,6 +42,7 @@ class SweepSpec:
     learning: LearningMode = "fresh"
     tracks: list[str] | None = None  # None: every installed track
     cars: list[str] | None = None  # None: every installed car
+    skill_level: SkillLevel = DEFAULT_SKILL_LEVEL
 
 
 @dataclass
@@ -77,7 +79,8 @@ class SweepResult:
                 "summary": self.summary(), "rows": self.rows}
 
     def table(self) -> Table:
-        table = Table(title=f"sweep: {self.spec.robot}, {self.spec.laps} laps, alone; "
+        table = Table(title=f"sweep: {self.spec.robot}, {self.spec.laps} laps, alone, skill level "
+                            f"{self.spec.skill_level.torcs_name}; "
                             f"targets: finished, damage < {MAX_DAMAGE}, stuck spells <= {MAX_STUCK_S:g} s")
         for col in COLUMNS:
             table.add_column(col, justify="left" if col in ("part", "track", "car", "result") else "right",
@@ -142,7 +145,7 @@ def sweep_specs(spec: SweepSpec) -> list[tuple[str, BenchSpec]]:
     cars = spec.cars if spec.cars is not None else catalog.cars()
     def part(tracks: list[str], cars: list[str]) -> BenchSpec:
         return BenchSpec(tracks=tracks, cars=cars, robots=[spec.robot], laps=spec.laps, jobs=spec.jobs,
-                         use_cache=spec.use_cache, learning=spec.learning)
+                         use_cache=spec.use_cache, learning=spec.learning, skill_level=spec.skill_level)
 
     return [("every track", part(tracks, [spec.car])), ("every car", part([spec.cars_track], cars))]
 

@@ -11,6 +11,7 @@ from pathlib import Path
 from rich.table import Table
 
 from boxbox.errors import RaceError
+from boxbox.model.skill import DEFAULT_SKILL_LEVEL, SkillLevel
 from boxbox.robot.loader import load_robot_class
 from boxbox.torcs import catalog, launch
 from boxbox.torcs.telemetry import FILE_NAME, METADATA_KEY
@@ -37,7 +38,8 @@ def _bench_race(result, mode: str) -> dict:
             "telemetry_bytes": tel_file.stat().st_size if tel_file.exists() else 0}
 
 
-def run_telemetry_bench(overlay, track: str, laps: int, runs: int, robot: str, progress=None) -> dict:
+def run_telemetry_bench(overlay, track: str, laps: int, runs: int, robot: str, progress=None,
+                        skill_level: SkillLevel = DEFAULT_SKILL_LEVEL) -> dict:
     """Per run: a race with telemetry and one without, back to back (on/off, then off/on, ...), and
     a third that records only its odd laps.  Returns every race's drive step median and p99 (µs),
     the ratio on/off of the medians over the races, the back-to-back pairs' ratios, and from the
@@ -50,7 +52,8 @@ def run_telemetry_bench(overlay, track: str, laps: int, runs: int, robot: str, p
         for mode in (("on", "off") if k % 2 == 0 else ("off", "on")) + ("alternate",):
             run_dir = Path(tempfile.mkdtemp(prefix="boxbox-bench-telemetry-"))  # removed after reading
             cfg = launch.RaceConfig(track=track, category=category, laps=laps, robots=[robot], run_dir=run_dir,
-                                    telemetry=mode != "off", telemetry_alternate=mode == "alternate")
+                                    telemetry=mode != "off", telemetry_alternate=mode == "alternate",
+                                    skill_level=skill_level)
             try:
                 result = launch.run_race(cfg, overlay)
                 race = _bench_race(result, mode)
@@ -66,7 +69,8 @@ def run_telemetry_bench(overlay, track: str, laps: int, runs: int, robot: str, p
         run = {r["mode"]: r for r in races[3 * k: 3 * k + 3]}
         pairs.append(run["on"]["step_us_median"] / run["off"]["step_us_median"])
     alt = [r for r in races if r["mode"] == "alternate" and r["laps_on_us"] is not None]
-    return {"track": track, "laps": laps, "runs": runs, "robot": robot, "races": races,
+    return {"track": track, "laps": laps, "runs": runs, "robot": robot, "skill_level": skill_level.torcs_name,
+            "races": races,
             "step_us_median_on": med["on"], "step_us_median_off": med["off"], "ratio": med["on"] / med["off"],
             "pair_ratios": pairs, "pair_ratio_median": statistics.median(pairs),
             "lap_ratios": [r["laps_on_us"] / r["laps_off_us"] for r in alt],
@@ -76,7 +80,7 @@ def run_telemetry_bench(overlay, track: str, laps: int, runs: int, robot: str, p
 def table(res: dict) -> Table:
     """Per mode (on, off, alternate): the drive step's median and p99, wall time and file size."""
     out = Table(title=f"bench-telemetry: {res['robot']} on {res['track']}, {res['laps']} laps, "
-                      f"{res['runs']} races each")
+                      f"{res['runs']} races each, skill level {res.get('skill_level', 'semi-pro')}")
     for col in ("telemetry", "step median us", "per race", "step p99 us", "wall s", "file MB"):
         out.add_column(col, justify="right")
     for mode in ("on", "off", "alternate"):

@@ -7,7 +7,7 @@ import os
 import click
 
 from boxbox.cli.common import err, out, ready
-from boxbox.cli.types import LAPS, CommaList, OutputFile
+from boxbox.cli.types import LAPS, CommaList, GridPosition, OutputFile, skill_level_option
 from boxbox.options import LEARNING_MODES
 
 DEFAULT_TRACKS = "e-track-2,e-track-4,mixed-2,g-track-1,aalborg,michigan"
@@ -33,7 +33,11 @@ JOBS = click.IntRange(1, 64)
               help="Override a parameter of the Python robots (see `boxbox params`), e.g. --set mu_scale=0.9.")
 @click.option("--json", "json_file", type=OutputFile(), help="Write the rows as JSON.")
 @click.option("--csv", "csv_file", type=OutputFile(), help="Write the rows as CSV.")
-def bench(tracks, cars, robots, laps, together, jobs, no_cache, learning, settings, json_file, csv_file) -> None:
+@click.option("--grid-position", type=GridPosition(), default=None,
+              help="With --together: the Python robots' grid slot, 1 (pole, the default) .. or 'last'.")
+@skill_level_option
+def bench(tracks, cars, robots, laps, together, jobs, no_cache, learning, settings, json_file, csv_file,
+          grid_position, skill_level) -> None:
     """Race robots on tracks (each alone by default) and compare times; results are cached.
 
     \b
@@ -48,7 +52,8 @@ def bench(tracks, cars, robots, laps, together, jobs, no_cache, learning, settin
     overlay = ready()  # first: 'all' and every name are read from the installed TORCS
     spec = BenchSpec(tracks=expand_all(tracks, list(catalog.tracks())), cars=expand_all(cars, catalog.cars()),
                      robots=robots, laps=laps, together=together, jobs=jobs or os.cpu_count() or 1,
-                     use_cache=not no_cache, learning=learning, settings=parse_set(settings) if settings else None)
+                     use_cache=not no_cache, learning=learning, settings=parse_set(settings) if settings else None,
+                     skill_level=skill_level, grid_position=_grid_slot(grid_position, robots, together))
     plan(spec)  # every name checked before anything races
     result = run_bench(spec, overlay, err)
     out.print(result.table())
@@ -63,13 +68,27 @@ def bench(tracks, cars, robots, laps, together, jobs, no_cache, learning, settin
         result.write_csv(csv_file)
 
 
+def _grid_slot(position: int | str | None, robots: list[str], together: bool) -> int | None:
+    """The Python robots' grid slot in a race --together ('last': behind every TORCS robot)."""
+    from boxbox.bench.bench import classify_robot
+    from boxbox.torcs import checks
+
+    if position is None:
+        return None
+    if not together:
+        raise click.UsageError("--grid-position needs --together (alone, every robot starts from pole)")
+    opponents = sum(classify_robot(r)[0] == "torcs" for r in robots)
+    return checks.check_grid_position(position, opponents)
+
+
 @click.command("bench-speed")
 @click.option("--track", default="g-track-1", show_default=True, help="Track name, e.g. e-track-2.")
 @click.option("--laps", type=LAPS, default=20, show_default=True, help="Race length in laps.")
 @click.option("--runs", type=click.IntRange(1, 50), default=3, show_default=True, help="Races per robot.")
 @click.option("--robot", default="boxbox", show_default=True, help="Python robot to time, e.g. my_robot.py:MyRobot.")
 @click.option("--against", default="bt:2", show_default=True, help="TORCS robot to compare with, e.g. berniw:3.")
-def bench_speed(track, laps, runs, robot, against) -> None:
+@skill_level_option
+def bench_speed(track, laps, runs, robot, against, skill_level) -> None:
     """Wall time of a Python robot's race against a C++ robot's, alternating runs; step times.
 
     Example: boxbox bench-speed --runs 5
@@ -77,7 +96,7 @@ def bench_speed(track, laps, runs, robot, against) -> None:
     from boxbox.bench.speed import run_speed_bench
 
     overlay = ready()
-    out.print(run_speed_bench(overlay, track, laps, runs, robot, against, err))
+    out.print(run_speed_bench(overlay, track, laps, runs, robot, against, err, skill_level))
 
 
 @click.command("bench-pits")
@@ -87,7 +106,8 @@ def bench_speed(track, laps, runs, robot, against) -> None:
               help="Race length; stops are asked on every lap but the last.")
 @click.option("--jobs", type=JOBS, default=2, show_default=True, help="Races run in parallel.")
 @click.option("--json", "json_file", type=OutputFile(), help="Write the rows as JSON.")
-def bench_pits(tracks, laps, jobs, json_file) -> None:
+@skill_level_option
+def bench_pits(tracks, laps, jobs, json_file, skill_level) -> None:
     """Compare the two ways into the box (constant-decel, bang-bang) on real races.
 
     Example: boxbox bench-pits --tracks aalborg --laps 4
@@ -96,7 +116,7 @@ def bench_pits(tracks, laps, jobs, json_file) -> None:
     from boxbox.files import write_json_atomic
 
     overlay = ready()
-    table, rows = run_pit_bench(overlay, tracks, laps, jobs, err)
+    table, rows = run_pit_bench(overlay, tracks, laps, jobs, err, skill_level)
     out.print(table)
     if json_file:
         write_json_atomic(json_file, rows, indent=1)
@@ -109,7 +129,8 @@ def bench_pits(tracks, laps, jobs, json_file) -> None:
               help="Races with telemetry on, and as many with it off.")
 @click.option("--robot", default="boxbox", show_default=True, help="Python robot to time.")
 @click.option("--json", "json_file", type=OutputFile(), help="Write the figures as JSON.")
-def bench_telemetry(track, laps, runs, robot, json_file) -> None:
+@skill_level_option
+def bench_telemetry(track, laps, runs, robot, json_file, skill_level) -> None:
     """Drive step time with telemetry recorded and without, and their ratio (alternating races).
 
     Example: boxbox bench-telemetry --runs 3 --laps 10
@@ -122,7 +143,7 @@ def bench_telemetry(track, laps, runs, robot, json_file) -> None:
     overlay = ready()
     with Progress(console=err, transient=True) as bar:
         task = bar.add_task(f"{track}, {laps} laps, telemetry on/off/alternate", total=3 * runs)
-        res = run_telemetry_bench(overlay, track, laps, runs, robot, lambda: bar.advance(task))
+        res = run_telemetry_bench(overlay, track, laps, runs, robot, lambda: bar.advance(task), skill_level)
     out.print(table(res))
     for line in summary_lines(res):
         out.print(line)

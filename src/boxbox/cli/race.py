@@ -8,7 +8,16 @@ from pathlib import Path
 import click
 
 from boxbox.cli.common import err, out, race_error, ready, run_with_progress
-from boxbox.cli.types import LAP_LIST, LAPS, CommaList, FiniteFloatRange, OutputDir, OutputFile
+from boxbox.cli.types import (
+    LAP_LIST,
+    LAPS,
+    CommaList,
+    FiniteFloatRange,
+    GridPosition,
+    OutputDir,
+    OutputFile,
+    skill_level_option,
+)
 from boxbox.options import LEARNING_MODES, PIT_MODES, learning_dir
 
 SET_HELP = "Override a parameter of the boxbox robot (see `boxbox params`), e.g. --set mu_scale=0.9. Repeatable."
@@ -42,9 +51,13 @@ SET_HELP = "Override a parameter of the boxbox robot (see `boxbox params`), e.g.
               help="Do not record telemetry (RUN_DIR/telemetry.parquet: every drive step of the Python cars).")
 @click.option("--report", "report_dir", type=OutputDir(),
               help="Write the race report (report.html, see `boxbox report`) into this folder, e.g. out/.")
+@click.option("--grid-position", type=GridPosition(), default=None,
+              help="Where the Python cars start: 1 (pole, the default) .. or 'last'; the TORCS robots fill the "
+                   "other slots in the order given, e.g. --grid-position last.")
+@skill_level_option
 @click.option("--quiet", is_flag=True, help="No progress bar.")
 def race(track, car, laps, robots, opponents, fuel_laps, pit_laps, pit_mode, json_file, step_budget_ms, settings,
-         setup_budget_s, learning, run_dir, no_telemetry, report_dir, quiet) -> None:
+         setup_budget_s, learning, run_dir, no_telemetry, report_dir, grid_position, skill_level, quiet) -> None:
     """Run one race in TORCS (console mode) and print the results.
 
     \b
@@ -52,6 +65,7 @@ def race(track, car, laps, robots, opponents, fuel_laps, pit_laps, pit_mode, jso
       boxbox race --track g-track-1 --laps 2 --json r.json
       boxbox race --robot my_robot.py:MyRobot --opponents bt:2,berniw:3
       boxbox race --fuel-laps 5 --pit-laps 3 --report out/
+      boxbox race --opponents inferno:3,bt:2 --grid-position last --skill-level pro
     """
     from boxbox.robot.base import RaceOptions
     from boxbox.robot.loader import DEFAULT_ROBOT
@@ -64,10 +78,12 @@ def race(track, car, laps, robots, opponents, fuel_laps, pit_laps, pit_mode, jso
     names = _robot_names(specs, options, track, car)
     overlay = ready()  # first: on a fresh machine the names below can only be checked once TORCS is there
     category, opp = checks.check_race(track, car, len(specs), opponents, pit_laps, laps)
+    grid_slot = checks.check_grid_position(grid_position, len(opp))
     options = dataclasses.replace(options, learning_dir=learning_dir(learning))
     cfg = launch.RaceConfig(track=track, category=category, car=car, laps=laps, robots=specs, robot_names=names,
                             opponents=opp, options=options, step_budget_ms=int(step_budget_ms), run_dir=run_dir,
-                            setup_budget_ms=int(setup_budget_s * 1000), telemetry=not no_telemetry)
+                            setup_budget_ms=int(setup_budget_s * 1000), telemetry=not no_telemetry,
+                            skill_level=skill_level, grid_position=grid_slot)
     _finish(run_with_progress(cfg, overlay, quiet), laps, json_file, report_dir)
 
 

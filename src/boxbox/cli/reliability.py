@@ -7,7 +7,7 @@ import os
 import click
 
 from boxbox.cli.common import err, out, ready
-from boxbox.cli.types import LAPS, CommaList, OutputFile
+from boxbox.cli.types import LAPS, CommaList, OutputFile, skill_level_option
 from boxbox.errors import BoxboxError
 
 RACES = click.IntRange(0, 100_000)
@@ -33,7 +33,8 @@ class SweepFailed(BoxboxError):
 @click.option("--json", "json_file", type=OutputFile(), help="Write the rows as JSON.")
 @click.option("--markdown", "markdown_file", type=OutputFile(),
               help="Write the table as Markdown, with the command that made it, e.g. docs/sweep.md.")
-def sweep(robot, car, cars_track, tracks, cars, laps, jobs, no_cache, json_file, markdown_file) -> None:
+@skill_level_option
+def sweep(robot, car, cars_track, tracks, cars, laps, jobs, no_cache, json_file, markdown_file, skill_level) -> None:
     """Race a robot alone on every track, and on one track with every car; check each race.
 
     Targets per race: finished, damage under 1000, no stuck spell (below 1 m/s outside the pit)
@@ -48,7 +49,7 @@ def sweep(robot, car, cars_track, tracks, cars, laps, jobs, no_cache, json_file,
     overlay = ready()  # first: 'all' and every name are read from the installed TORCS
     spec = SweepSpec(robot=robot, car=car, cars_track=cars_track, laps=laps, jobs=jobs or os.cpu_count() or 1,
                      use_cache=not no_cache, tracks=expand_all(tracks, list(catalog.tracks())),
-                     cars=expand_all(cars, catalog.cars()))
+                     cars=expand_all(cars, catalog.cars()), skill_level=skill_level)
     check(spec)  # every name checked before anything races
     result = run_sweep(spec, overlay, err)
     result.command = command_line()
@@ -72,7 +73,8 @@ def sweep(robot, car, cars_track, tracks, cars, laps, jobs, no_cache, json_file,
               help="Record telemetry in the races (as `boxbox race` does by default).")
 @click.option("--keep-runs", is_flag=True, help="Keep the races' run folders (default: removed at the end).")
 @click.option("--json", "json_file", type=OutputFile(), help="Write the figures as JSON.")
-def soak(track, car, robot, long_laps, races, race_laps, telemetry, keep_runs, json_file) -> None:
+@skill_level_option
+def soak(track, car, robot, long_laps, races, race_laps, telemetry, keep_runs, json_file, skill_level) -> None:
     """Long runs: one long race and many short ones, watching memory and open files of the Python processes.
 
     Example: boxbox soak --long-laps 0 --races 5
@@ -87,7 +89,7 @@ def soak(track, car, robot, long_laps, races, race_laps, telemetry, keep_runs, j
     overlay = ready()
     checks.check_race(track, car, 1)
     spec = SoakSpec(track=track, car=car, robot=robot, long_laps=long_laps, races=races, race_laps=race_laps,
-                    telemetry=telemetry, keep_runs=keep_runs)
+                    telemetry=telemetry, keep_runs=keep_runs, skill_level=skill_level)
     result = run_soak(spec, overlay, err)
     for table in tables(result):
         out.print(table)

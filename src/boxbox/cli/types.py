@@ -27,6 +27,49 @@ class FiniteFloatRange(click.FloatRange):
 LAPS = click.IntRange(1, MAX_LAPS)
 
 
+class SkillLevelChoice(click.Choice):
+    """TORCS's skill level by its name ('semi-pro'), converted to a SkillLevel."""
+
+    def __init__(self) -> None:
+        from boxbox.model.skill import SkillLevel
+
+        super().__init__([level.torcs_name for level in SkillLevel])
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        from boxbox.model.skill import SkillLevel
+
+        if isinstance(value, SkillLevel):
+            return value
+        return SkillLevel.parse(super().convert(value, param, ctx))
+
+
+def skill_level_option(command: Any) -> Any:
+    """--skill-level for every command that races: one level for every car in the race."""
+    return click.option("--skill-level", type=SkillLevelChoice(), default="semi-pro", show_default=True,
+                        help="TORCS's skill level of every car, boxbox's and TORCS's robots alike (see "
+                             "docs/rules.md); semi-pro is what TORCS gives its own robots.")(command)
+
+
+class GridPosition(click.ParamType):
+    """A grid slot: 1 (pole) .. 40, or 'last'."""
+
+    name = "grid position"
+
+    def get_metavar(self, param: click.Parameter, ctx: click.Context) -> str:
+        return "N|last"
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        if isinstance(value, int) or value == "last":
+            return value
+        try:
+            number = int(value)
+        except ValueError:
+            self.fail(f"{value!r} is not a grid slot; give a number from 1 (pole) or 'last'.", param, ctx)
+        if not 1 <= number <= 40:
+            self.fail(f"{number} is not a grid slot; TORCS grids have 1 to 40.", param, ctx)
+        return number
+
+
 class CommaList(click.ParamType):
     """'a,b,c' -> ['a', 'b', 'c'] (blanks dropped; with unique, repeats dropped too)."""
 

@@ -18,7 +18,8 @@ def fmt_time(seconds: float | None) -> str:
 
 
 def results_table(result: RaceResult) -> Table:
-    title = f"{result.track} ({result.category}), {result.car}, {result.laps} laps, {result.wall_s:.2f} s wall"
+    title = (f"{result.track} ({result.category}), {result.car}, {result.laps} laps, skill level {result.skill_level}, "
+             f"{result.wall_s:.2f} s wall")
     if result.error:
         title += " [red](race stopped)[/]"
     table = Table(title=title)

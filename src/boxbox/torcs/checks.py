@@ -61,3 +61,14 @@ def check_race(track: str, car: str, python_cars: int, opponents: Iterable[str] 
     check_field(python_cars, len(checked))
     check_pit_laps(track, pit_laps, laps)
     return category, checked
+
+
+def check_grid_position(position: int | str | None, opponents: int) -> int | None:
+    """The Python cars' first grid slot as a number (None: pole); 'last' is behind every TORCS robot."""
+    if position is None:
+        return None
+    slot = opponents + 1 if position == "last" else int(position)
+    if not 1 <= slot <= opponents + 1:
+        raise UsageError(f"grid position {slot} is behind the field: with {opponents} TORCS robots the Python "
+                         f"cars can start from 1 to {opponents + 1} (or 'last')")
+    return slot
