@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import concurrent.futures as cf
 import csv
-import dataclasses
 import io
 import multiprocessing
 import os
@@ -29,7 +28,7 @@ from boxbox.bench.cache import cache_key, load_cached, package_version, python_r
 from boxbox.errors import UsageError
 from boxbox.files import write_json_atomic, write_text_atomic
 from boxbox.model.skill import DEFAULT_SKILL_LEVEL, SkillLevel
-from boxbox.options import LEARNING_MODES, LearningMode, learning_dir
+from boxbox.options import LEARNING_MODES, LearningMode
 from boxbox.report.tables import fmt_time
 from boxbox.robot.base import RaceOptions
 from boxbox.robot.loader import BUILTIN, load_robot_class
@@ -129,10 +128,10 @@ def _run_job(job: RaceJob, overlay: Overlay) -> dict:
         if q is not None:
             q.put(("start", job.key, 0, 0.0))
         run_dir = launch.new_run_dir()
-        options = dataclasses.replace(job.options, learning_dir=learning_dir(job.learning, run_dir))
         cfg = launch.RaceConfig(track=job.track, category=job.category, car=job.car, laps=job.laps,
                                 robots=list(job.python_specs), robot_names=list(job.python_names),
-                                opponents=list(job.opponents), options=options, cpu=_worker.get("cpu"),
+                                opponents=list(job.opponents), options=job.options, cpu=_worker.get("cpu"),
+                                learning=job.learning,
                                 run_dir=run_dir, skill_level=job.skill_level, grid_position=job.grid_position)
 
         def progress(lap: int, sim: float) -> None:

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import dataclasses
 from pathlib import Path
 
 import click
@@ -18,7 +17,7 @@ from boxbox.cli.types import (
     OutputFile,
     skill_level_option,
 )
-from boxbox.options import LEARNING_MODES, PIT_MODES, learning_dir
+from boxbox.options import LEARNING_MODES, PIT_MODES
 
 SET_HELP = "Override a parameter of the boxbox robot (see `boxbox params`), e.g. --set mu_scale=0.9. Repeatable."
 
@@ -79,11 +78,10 @@ def race(track, car, laps, robots, opponents, fuel_laps, pit_laps, pit_mode, jso
     overlay = ready()  # first: on a fresh machine the names below can only be checked once TORCS is there
     category, opp = checks.check_race(track, car, len(specs), opponents, pit_laps, laps)
     grid_slot = checks.check_grid_position(grid_position, len(opp))
-    options = dataclasses.replace(options, learning_dir=learning_dir(learning))
     cfg = launch.RaceConfig(track=track, category=category, car=car, laps=laps, robots=specs, robot_names=names,
                             opponents=opp, options=options, step_budget_ms=int(step_budget_ms), run_dir=run_dir,
                             setup_budget_ms=int(setup_budget_s * 1000), telemetry=not no_telemetry,
-                            skill_level=skill_level, grid_position=grid_slot)
+                            skill_level=skill_level, grid_position=grid_slot, learning=learning)
     _finish(run_with_progress(cfg, overlay, quiet), laps, json_file, report_dir)
 
 

@@ -29,10 +29,11 @@ from pathlib import Path
 
 from boxbox.errors import RaceError, UsageError
 from boxbox.files import write_json_atomic
+from boxbox.model.skill import DEFAULT_SKILL_LEVEL, SkillLevel
+from boxbox.options import LearningMode
 from boxbox.robot.base import RaceOptions
 from boxbox.torcs import catalog
 from boxbox.torcs.paths import MAX_PYTHON_CARS, ROBOT_MODULE, cache_dir
-from boxbox.model.skill import DEFAULT_SKILL_LEVEL, SkillLevel
 from boxbox.torcs.racefile import grid, race_xml, robot_xml, with_skill_level
 from boxbox.torcs.results import (
     DriverResult,
@@ -71,6 +72,9 @@ class RaceConfig:
     telemetry_alternate: bool = False  # bench-telemetry: record odd laps only (step times per lap compared)
     skill_level: SkillLevel = DEFAULT_SKILL_LEVEL  # for every car in the race, boxbox's and TORCS's
     grid_position: int | None = None  # the Python cars' first grid slot (1 = pole, the default)
+    # the robots' learned data: on (the shared store), fresh (a new store in the run dir), off
+    # (none); None: options.learning_dir as given. Kept per skill level either way.
+    learning: LearningMode | None = None
 
 
 def _child_setup(cpu: int | None) -> Callable[[], None]:
@@ -218,8 +222,26 @@ def run_race(cfg: RaceConfig, overlay: Overlay, progress: Progress | None = None
         run_dir.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise UsageError(f"run dir {run_dir} cannot be made: {exc.strerror or exc}") from None
+    # a copy: the caller's config stays as given (benches race one config several times)
+    cfg = dataclasses.replace(cfg, options=dataclasses.replace(cfg.options, learning_dir=learning_store(cfg, run_dir)))
     with run_dir_lock(run_dir):
         return _run_race(cfg, overlay, progress, run_dir)
+
+
+def learning_store(cfg: RaceConfig, run_dir: Path) -> str | None:
+    """The folder robots keep what they learn in, one per skill level: what is learned at one level
+    is not used at another (the tyres give different grip)."""
+    if cfg.learning == "off" or (cfg.learning is None and not cfg.options.learning_dir):
+        return None
+    if cfg.learning == "on":
+        base = cache_dir() / "learning"
+    elif cfg.learning == "fresh":
+        base = run_dir / "learning"  # goes with the run dir: nothing left in the temp dir
+    else:
+        base = Path(str(cfg.options.learning_dir))
+    store = base / cfg.skill_level.torcs_name
+    store.mkdir(parents=True, exist_ok=True)
+    return str(store)
 
 
 @contextlib.contextmanager
