@@ -46,6 +46,8 @@ def test_report_of_a_short_race_loads_every_figure_in_chromium(tmp_path, overlay
                       "--learning", "off", "--run-dir", str(run_dir), "--report", str(report_dir), "--quiet")
     assert proc.returncode == 0, proc.stderr
     r = read_json(run_dir / "result.json")
+    assert r["skill_level"] == "semi-pro" and "skill level semi-pro" in (report_dir / "report.html").read_text()
+    assert "skill level semi-pro" in proc.stdout  # the console table's title
     me = next(d for d in r["drivers"] if d["module"] == "boxbox")
     # telemetry beside result.json: every drive step, the robot's target speed and signals, the stop
     tel = load_telemetry(run_dir / FILE_NAME)

@@ -372,7 +372,8 @@ def build_report(run_dir: Path) -> str:
         tel_note = "no telemetry recorded for this race (raced with --no-telemetry, or no Python car)"
 
     parts = [f"<h1>{html.escape(r.get('track', '?'))} ({html.escape(r.get('category', ''))}), "
-             f"{html.escape(r.get('car', ''))}, {r.get('laps', '?')} laps</h1>",
+             f"{html.escape(r.get('car', ''))}, {r.get('laps', '?')} laps, "
+             f"skill level {html.escape(str(r.get('skill_level', 'pro (before the level was recorded)')))}</h1>",
              f"<p class='meta'>Wall time {r.get('wall_s', 0):.2f} s · run dir <code>{html.escape(str(run_dir))}</code> "
              f"· report made {time.strftime('%Y-%m-%d %H:%M:%S')}</p>"]
     if r.get("error"):
