@@ -12,5 +12,16 @@ Race it with `boxbox race --robot my_robot.py:MyRobot`.
 from boxbox.model import Car, Controls, Opponent, PitOrder, State, Track
 from boxbox.robot.base import RaceOptions, Robot
 
+from boxbox.errors import UsageError
+
 __version__ = "0.1.0"
-__all__ = ["Car", "Controls", "Opponent", "PitOrder", "RaceOptions", "Robot", "State", "Track"]
+__all__ = ["Car", "Controls", "Opponent", "PitOrder", "RaceOptions", "RaceResult", "Robot", "State", "Track",
+           "UsageError", "race"]
+
+
+def __getattr__(name: str):  # boxbox.race and boxbox.RaceResult load the racing side only when used
+    if name in ("race", "RaceResult"):
+        from boxbox import api
+
+        return getattr(api, name)
+    raise AttributeError(f"module 'boxbox' has no attribute {name!r}")

@@ -18,9 +18,32 @@ BUILTIN = {
 }
 DEFAULT_ROBOT = "boxbox"
 
+# robot classes handed over as objects (boxbox.race): the robot host is forked from the process
+# that registered them, so it finds them here by their spec "class:NAME@ID"
+_REGISTERED: dict[str, type[Robot]] = {}
+
+
+def spec_for_class(cls: type[Robot]) -> str:
+    """A spec naming a Robot subclass given as an object: `module:Class` when the module can be
+    imported by name (any host finds it), else a registered in-process one."""
+    if not (isinstance(cls, type) and issubclass(cls, Robot)):
+        raise UsageError(f"{cls!r} is not a boxbox.Robot subclass")
+    module = sys.modules.get(cls.__module__)
+    if cls.__module__ not in ("__main__", "builtins") and getattr(module, cls.__qualname__, None) is cls \
+            and importlib.util.find_spec(cls.__module__) is not None:
+        return f"{cls.__module__}:{cls.__qualname__}"
+    spec = f"class:{cls.__qualname__}@{id(cls):x}"
+    _REGISTERED[spec] = cls
+    return spec
+
 
 def load_robot_class(spec: str) -> type[Robot]:
     """The Robot subclass named by spec; a UsageError with a one-line hint otherwise."""
+    if spec in _REGISTERED:
+        return _REGISTERED[spec]
+    if spec.startswith("class:"):
+        raise UsageError(f"robot {spec} was handed over as a class object, which only a forked robot host "
+                         "sees; unset BOXBOX_HOST_EXEC or give the robot as path/file.py:Class")
     target = BUILTIN.get(spec, spec)
     if ":" not in target:
         near = difflib.get_close_matches(spec, BUILTIN, n=3)
