@@ -9,10 +9,9 @@
 Race it with `boxbox race --robot my_robot.py:MyRobot`.
 """
 
+from boxbox.errors import UsageError
 from boxbox.model import Car, Controls, Opponent, PitOrder, State, Track
 from boxbox.robot.base import RaceOptions, Robot
-
-from boxbox.errors import UsageError
 
 __version__ = "0.1.0"
 __all__ = ["Car", "Controls", "Opponent", "PitOrder", "RaceOptions", "RaceResult", "Robot", "State", "Track",
