@@ -126,10 +126,10 @@ def test_on_track_is_quick_and_builds_everything(name):
 def test_every_pit_lane_track_gets_a_pit_path(name):
     robot = robot_for(name)
     if robot.track.pit is None:
-        assert robot.pit_path is None
+        assert robot.pits.path is None
     else:
-        assert robot.pit_path is not None
-        path = robot.pit_path
+        assert robot.pits.path is not None
+        path = robot.pits.path
         assert 0.0 < path.box_m < path.exit_m
 
 
@@ -417,10 +417,10 @@ def test_pit_lookahead_parameter_changes_the_pit_path_steering():
     for lookahead in (6.0, 30.0):
         robot, _ = build("aalborg", pit_laps=(1,), robot_args={"set": {"pit_lookahead_m": lookahead}})
         require(robot.params.pit_lookahead_m == lookahead, "the parameter is taken")
-        track, path = robot.track, robot.pit_path
+        track, path = robot.track, robot.pits.path
         entry = float(track.seg["start_dist_m"][track.pit.entry_seg])
         robot.drive(line_state(robot, entry - 100.0, 15.0))  # decides to stop this lap
-        require(robot.stop_wanted, "a stop is wanted")
+        require(robot.pits.wanted, "a stop is wanted")
         d = entry + 10.0
         require(path.signed_coord(d) > 0.0, "on the pit path")
         # the car on the pit path, heading along the track

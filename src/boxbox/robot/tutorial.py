@@ -1,12 +1,16 @@
 """The default boxbox robot: the TORCS tutorial robot, rebuilt from boxbox's controllers.
 
-Per track (on_track): car model, racing line, speed profile, gear box, learned turn factors.
-Per step (drive): look-ups and a few comparisons, composed as the tutorial's filter chain:
+Per track (on_track): car model, racing line, speed profile, gear box, learned turn factors, the
+pit part (robot/pit.py). Per step (drive): look-ups and a few comparisons, one named step each,
+in the order of the tutorial's filter chain (bt's driver.cpp: filterABS(filterBrakeSpeed(
+filterBColl(filterBPit(getBrake()))))):
 
-    steer = side_collision(steer_to(line + overtake offset))
-    brake = abs(collision(pit(brake_for(speed profile))))
-    accel = traction_control(accel_for(speed profile))
-    gear  = gear_box.select(gear, speed)
+    new lap (learned factors, fuel: rebuild the profile) -> stuck? back out
+    learn (room left in this turn) -> traffic (cars near, overtaking offset)
+    steer     = avoid_side(steer to the line + offset)
+    brake, accel = speed (the profile) -> pits.step (stop in the box) -> avoid_collision
+                 -> traction (ABS or TCL) -> guard_throttle (lock guard, spin guard)
+    gear      = gears.select(gear, speed);  clutch (pit stop, start)
 """
 
 from __future__ import annotations
@@ -17,29 +21,27 @@ from pathlib import Path
 from boxbox.control.braking import brake_distance
 from boxbox.control.carmodel import CarModel
 from boxbox.control.gears import GearBox
-from boxbox.control.pit_brake import ENTRY, EXIT, FREE, GAVE_UP, HOLD, LANE, LIMIT, STOP, PitBrakeFilter
+from boxbox.control.pit_brake import ENTRY, EXIT, FREE, GAVE_UP, HOLD, LANE, LIMIT, STOP
 from boxbox.control.speed import SpeedProfile, allowed_speed, bump_speed, crest_speed
 from boxbox.control.steering import steer_to_line, steer_to_point
-from boxbox.control.stop import SpeedTracker
 from boxbox.control.traction import SlipParams, abs_filter, tcl_filter
 from boxbox.model import Car, Controls, PitOrder, State, Track
+from boxbox.model.constants import DRIVE_STEP_S
 from boxbox.robot.base import FUEL_L_PER_M_ESTIMATE, RaceOptions, Robot
 from boxbox.robot.learning import TurnLearner
 from boxbox.robot.opponents import OpponentParams, collision_brake, nearby, overtake_offset, side_steer
 from boxbox.robot.params import TutorialParams, load_params
-from boxbox.robot.pitpath import PitPath
+from boxbox.robot.pit import PitParams, PitStops
 from boxbox.robot.racingline import RacingLine
-from boxbox.robot.strategy import PitStrategy, plan_stops
+from boxbox.robot.strategy import plan_stops
 
 TWO_PI = 2.0 * math.pi
 # the pit brake filter's phase as a number for telemetry (0: no pit business)
 PIT_PHASE_CODES = {None: 0, FREE: 0, ENTRY: 1, LIMIT: 2, LANE: 3, STOP: 4, HOLD: 5, EXIT: 6, GAVE_UP: 7}
-STEP_S = 0.02
 REVERSE_MAX_S = 4.0  # longest time backing out in one go
 REVERSE_MAX_MPS = 4.0  # no throttle in reverse beyond this speed
 LOCK_SHARE = 0.95  # |steer| from which the steering counts as at its lock
 LOCK_MIN_SPEED_MPS = 10.0  # below this (leaving the grid onto the line) full lock is no sign of a slide
-PIT_HOLD_GAIN_PER_MPS = 1.0  # throttle per m/s below the pit lane's target speed
 
 
 class TutorialRobot(Robot):
@@ -111,123 +113,19 @@ class TutorialRobot(Robot):
         self._stuck_angle = math.radians(p.stuck_angle_deg)
 
     def _setup_pit(self, track: Track, car: Car, p: TutorialParams) -> None:
-        self.pit_events: list[dict] = []
-        self.pit_path = None
-        self.strategy = PitStrategy(track.length_m, car.tank_l,
-                                    fuel_per_m_l=FUEL_L_PER_M_ESTIMATE * car.fuel_cons_factor,
-                                    pit_laps=self.options.pit_laps)
-        self.stop_wanted = False  # a stop is planned for this lap and not made yet
-        self.stop_decided_lap = -1
-        self.retry_stop = False  # a stop given up in an earlier lap is still owed
-        self.pit_clutch_open = False
-        self.event: dict | None = None
-        self.pit_phase: str | None = None  # the pit brake filter's phase this step (telemetry)
-        self.pit_plan = None
-        if self.options.laps and not self.options.pit_laps:
-            plan = plan_stops(self.options.laps, self.strategy.fuel_per_lap_l, car.tank_l)
-            self.pit_plan = {"stops": plan.stops, "stint_laps": list(plan.stint_laps)}
-        if track.pit is None or car.pit_seg < 0:
-            return
-        entry = float(track.seg["start_dist_m"][track.pit.entry_seg])
-        exit_ = float(track.seg["start_dist_m"][track.pit.exit_seg] + track.seg["length_m"][track.pit.exit_seg])
-        path = PitPath(track, car, entry_offset_m=self.line.offset_at(entry), exit_offset_m=self.line.offset_at(exit_))
-        mu_tyre = self.tyre_model.mu
-        lane_mu = path.surface_friction * mu_tyre
-        model = self.tyre_model
-        self.pit_path = path
-        self._coast_decel = 2.0 * 0.5 * lane_mu * 9.81  # v^2 = 2 a d with a = half the lane's grip
-        self.pit_filter = PitBrakeFilter(
-            lambda v1, v2, mu: brake_distance(v1, v2, mu, model, p.brake_method),
-            limit_start_m=path.limit_start_m, box_m=path.box_m, limit_end_m=path.limit_end_m,
-            speed_limit_mps=path.speed_limit_mps, box_length_m=path.box_length_m,
-            pit_mu_source=p.pit_mu_source, pit_mu=lane_mu, pit_mu_factor=p.pit_mu,
-            surface_mu_scale=p.pit_brake_mu_scale,
-            entry_mode="computed" if p.pit_entry_braking == "computed" else "ahead",
-            brake_ahead_m=p.pit_brake_ahead_m, entry_constraints=path.entry_speed_constraints(lane_mu * 0.9),
-            stop_mode=self.options.pit_mode, stop_threshold_m=p.pit_stop_threshold_m,
-            stop_max_decel_mps2=p.pit_stop_grip_share * lane_mu * 9.81,
-            give_up=True, give_up_timeout_s=p.pit_give_up_s,
-            # full brake on the lane's surface decelerates by about mu g (clutch open: no engine braking)
-            tracker=SpeedTracker(full_brake_mps2=lane_mu * 9.81, drag_k_per_m=model.cw / model.mass_kg))
-        mid = self.line.middle
-        self._mid_xy = list(zip(mid.x_m.tolist(), mid.y_m.tolist()))
-        self._box_from_start_m = track.dist_of(car.pit_seg, car.pit_to_start)
-        self._seg_friction = track.seg["friction"].tolist()
-
-    def _remaining_after_box(self, s: State) -> float:
-        """Laps still to drive after passing the box in this lap (TORCS's remaining laps exclude it)."""
-        length = self.track.length_m
-        return s.remaining_laps + (length - self._box_from_start_m % length) / length
-
-    def _pit_step(self, s: State, v: float, brake: float, accel: float, steer: float):
-        """The pit brake filter and the pit path: (brake, accel, steer, phase)."""
-        path = self.pit_path
-        dist = s.dist_from_start_m
-        laps_done = max(0, int(s.laps) - 1)
-        self.strategy.on_lap(laps_done, s.fuel_l, s.damage)
-        pos = path.signed_coord(dist)
-        on_path = pos >= 0.0
-        # decide once per lap, a few hundred metres before the entry
-        if not on_path and pos > -600.0 and self.stop_decided_lap != s.laps:
-            self.stop_decided_lap = int(s.laps)
-            remaining = self._remaining_after_box(s)
-            self.stop_wanted = (self.retry_stop and remaining > 0) or \
-                self.strategy.wants_stop(laps_done, remaining, s.fuel_l, s.damage)
-        if not on_path and self.event is not None:
-            self._close_event(s)
-        if not on_path and not self.stop_wanted:
-            return brake, accel, steer, None
-        r = self.pit_filter.filter(brake, v, pos, self.stop_wanted, on_path and (self.stop_wanted or
-                                   self.event is not None), self._seg_friction[int(s.seg_id)] * self.tyre_model.mu,
-                                   s.in_pit)
-        if r.gave_up and self.stop_wanted:
-            # pushed past the box (or not captured): drive on at the limit, try again next lap
-            self.stop_wanted = False
-            self.retry_stop = True
-            if self.event is not None:
-                self.event["gave_up"] = True
-        if on_path and (self.stop_wanted or self.event is not None):
-            if self.event is None:
-                self.event = {"lap": int(s.laps), "entry_time": round(s.sim_time_s, 3), "stop_time": None,
-                              "leave_time": None, "exit_time": None, "stop_error_m": None, "fuel": 0.0,
-                              "repair": 0.0, "mode": self.options.pit_mode}
-            if s.in_pit and self.event["stop_time"] is None:
-                self.event["stop_time"] = round(s.sim_time_s, 3)
-                self.event["stop_error_m"] = round(pos - path.box_m, 3)
-            if not s.in_pit and self.event["stop_time"] is not None and self.event["leave_time"] is None:
-                self.event["leave_time"] = round(s.sim_time_s, 3)
-            # steer along the pit path, aiming a short way ahead
-            ahead = dist + self.params.pit_lookahead_m + 0.2 * v
-            off = path.offset_at(ahead)
-            j = int(ahead / self.step_m) % self.n
-            mx, my = self._mid_xy[j]
-            nx, ny = self._normals[j]
-            steer = steer_to_point(s.x_m, s.y_m, s.yaw_rad, mx + off * nx, my + off * ny, self.car.steer_lock_rad)
-        brake = r.brake
-        self.pit_clutch_open = r.phase in (STOP, HOLD)
-        if self.stop_wanted and on_path and self.options.pit_mode == "bang-bang":
-            # no throttle towards the box beyond the speed from which half the grip still stops the
-            # car there: the filter only brakes, so the speed profile would otherwise accelerate
-            # between its full-brake calls and overshoot the box (constant-decel tracks a speed
-            # command instead and needs no such guard)
-            left = path.box_m - pos
-            if left > 0.0 and v > max(3.0, math.sqrt(self._coast_decel * left)):
-                accel = 0.0
-        if r.target_speed_mps is not None:
-            if v > r.target_speed_mps:
-                accel = 0.0
-            else:
-                # proportional hold: holding the limit takes about 0.2 throttle, so a gain of 1 per
-                # m/s settles 0.2 m/s below the target (inside the limit's 0.5 m/s margin)
-                accel = min(accel, max(0.0, PIT_HOLD_GAIN_PER_MPS * (r.target_speed_mps - v)))
-        if brake > 0.0:
-            accel = 0.0
-        return brake, accel, steer, r.phase
-
-    def _close_event(self, s: State) -> None:
-        self.event["exit_time"] = round(s.sim_time_s, 3)
-        self.pit_events.append(self.event)
-        self.event = None
+        """The pit part (robot/pit.py), joining the racing line at the pit entry and exit."""
+        entry_offset_m = exit_offset_m = 0.0
+        if track.pit is not None:
+            seg = track.seg
+            entry_offset_m = self.line.offset_at(float(seg["start_dist_m"][track.pit.entry_seg]))
+            exit_offset_m = self.line.offset_at(float(seg["start_dist_m"][track.pit.exit_seg]
+                                                      + seg["length_m"][track.pit.exit_seg]))
+        params = PitParams(lookahead_m=p.pit_lookahead_m, mu_source=p.pit_mu_source, mu=p.pit_mu,
+                           brake_mu_scale=p.pit_brake_mu_scale, entry_braking=p.pit_entry_braking,
+                           brake_ahead_m=p.pit_brake_ahead_m, give_up_s=p.pit_give_up_s,
+                           stop_threshold_m=p.pit_stop_threshold_m, stop_grip_share=p.pit_stop_grip_share,
+                           brake_method=p.brake_method)
+        self.pits = PitStops(track, car, self.options, params, self.tyre_model, entry_offset_m, exit_offset_m)
 
     def _apex_signs(self) -> tuple[list[float], list[float]]:
         """Per sample: the turn direction (+1 left, -1 right) where the line curves at least half as
@@ -282,33 +180,57 @@ class TutorialRobot(Robot):
         method = p.brake_method
         self._brakedist = lambda v1, v2, mu=model.mu: brake_distance(v1, v2, mu, model, method)
 
-    # --- per step ------------------------------------------------------------------------------
+    # --- per step: the filter chain ---------------------------------------------------------------
     def drive(self, s: State) -> Controls:
-        p = self.params
+        """The tutorial's chain, like bt's abs(speed(coll(pit(brake())))): steer to the line and
+        round other cars, then throttle and brake from the speed profile through the pit stop,
+        collision avoidance, ABS and traction control and the throttle guards."""
         v = s.speed_x_mps
-        dist = s.dist_from_start_m
         if s.laps != self.laps_seen:
             self._new_lap(s)
         if self._stuck(s):
-            steer = max(-1.0, min(1.0, -s.angle_rad * self._inv_lock))
-            # backing out is for turning round, not for speed: off the track it slid into walls at 11 m/s
-            accel = 0.6 if v > -REVERSE_MAX_MPS else 0.0
-            return Controls(steer=steer, accel=accel, brake=0.0, clutch=0.0, gear=-1)
+            return self._back_out(s, v)
+        self._learn(s)
+        cars = self._traffic(s, v)
+        steer = self._avoid_side(self._steer(s, v), cars)
+        brake, accel = self._speed(s, v)
+        brake, accel, steer = self.pits.step(s, v, brake, accel, steer)
+        brake = self._avoid_collision(brake, v, cars)
+        brake, accel = self._traction(s, v, brake, accel)
+        accel = self._guard_throttle(s, v, steer, accel)
+        gear = self.gears.select(int(s.gear), v)
+        return Controls(steer=steer, accel=accel, brake=brake, clutch=self._clutch(gear, v, accel), gear=gear,
+                        pit_request=self.pits.wanted)
 
-        if self.learner.turns:
-            i = int(dist / self.step_m) % self.n
-            half_width = 0.5 * self.car.width_m
-            error = None
-            margin = min(s.to_left_m, s.to_right_m)
-            if p.steering == "line":  # how far the car was pushed outside its line near the apex
-                sign = self._apex_sign[i]
-                error = max(0.0, (self.line.offset_at(dist) + self.offset_m - s.to_middle_m) * sign) if sign else 0.0
-                side = self._turn_sign[i]
-                if side:
-                    margin = s.to_right_m if side > 0.0 else s.to_left_m
-            self.learner.observe(i, margin - half_width, max(0.0, s.damage - self.last_damage), error)
-            self.last_damage = s.damage
+    def _back_out(self, s: State, v: float) -> Controls:
+        """Reverse, steering the nose back towards the track's direction."""
+        steer = max(-1.0, min(1.0, -s.angle_rad * self._inv_lock))
+        # backing out is for turning round, not for speed: off the track it slid into walls at 11 m/s
+        accel = 0.6 if v > -REVERSE_MAX_MPS else 0.0
+        return Controls(steer=steer, accel=accel, brake=0.0, clutch=0.0, gear=-1)
 
+    def _learn(self, s: State) -> None:
+        """Tell the learner how much room the car left to the edge in this turn and how far the car
+        was pushed outside its line near the apex."""
+        if not self.learner.turns:
+            return
+        dist = s.dist_from_start_m
+        i = int(dist / self.step_m) % self.n
+        error = None
+        margin = min(s.to_left_m, s.to_right_m)
+        if self.params.steering == "line":
+            sign = self._apex_sign[i]
+            error = max(0.0, (self.line.offset_at(dist) + self.offset_m - s.to_middle_m) * sign) if sign else 0.0
+            side = self._turn_sign[i]
+            if side:
+                margin = s.to_right_m if side > 0.0 else s.to_left_m
+        self.learner.observe(i, margin - 0.5 * self.car.width_m, max(0.0, s.damage - self.last_damage), error)
+        self.last_damage = s.damage
+
+    def _traffic(self, s: State, v: float) -> tuple:
+        """The cars near enough to matter, and the overtaking offset moved towards the free side
+        (back to the line, a step at a time, when nobody is near)."""
+        p = self.params
         cars = nearby(s, self.car.length_m, self.track.length_m, p.back_range_m, p.front_range_m) \
             if s.opponents else ()
         if cars:
@@ -317,74 +239,88 @@ class TutorialRobot(Robot):
         elif self.offset_m:
             self.offset_m = max(0.0, self.offset_m - p.overtake_step_m) if self.offset_m > 0 \
                 else min(0.0, self.offset_m + p.overtake_step_m)
+        return cars
 
-        # steering
-        if p.steering == "line":
-            ahead = dist + v * p.line_preview_s
-            line_off = self.line.offset_at(dist)
-            if self.offset_m:  # overtaking: shift the line, but never beyond the usable width
-                j = int(dist / self.step_m) % self.n
-                line_off = max(-self._half_right[j], min(self._half_left[j], line_off + self.offset_m))
-            heading_error = self.line.heading_at(ahead) - s.yaw_rad
-            heading_error = (heading_error + math.pi) % TWO_PI - math.pi
-            steer = steer_to_line(heading_error, line_off - s.to_middle_m, self.line.curvature_at(ahead), v,
-                                  s.yaw_rate_rps, self.wheelbase_m, self.car.steer_lock_rad,
-                                  p.line_lateral_gain, p.line_yaw_damping_s,
-                                  understeer_rad_per_mps2=p.line_understeer_rad_per_mps2)
-        else:
-            target_dist = dist + p.lookahead_m + p.lookahead_s * v
-            tx, ty = self.line.point_at(target_dist)
-            if self.offset_m:
-                j = int(target_dist / self.step_m) % self.n
-                line_off = self.line.offset_at(target_dist)
-                off = max(-self._half_right[j], min(self._half_left[j], line_off + self.offset_m)) - line_off
-                nx, ny = self._normals[j]
-                tx += off * nx
-                ty += off * ny
-            steer = steer_to_point(s.x_m, s.y_m, s.yaw_rad, tx, ty, self.car.steer_lock_rad)
-        if cars:
-            steer = side_steer(steer, cars, self.car.length_m, self.car.width_m, self.car.steer_lock_rad, self.opp)
+    def _steer(self, s: State, v: float) -> float:
+        return self._steer_line(s, v) if self.params.steering == "line" else self._steer_lookahead(s, v)
 
-        # speed: the profile says how fast we may be here
-        target = self.profile.speed_at(dist + v * p.speed_lookahead_s)
+    def _steer_line(self, s: State, v: float) -> float:
+        """Follow the racing line (shifted by the overtaking offset, inside the usable width)."""
+        p, dist = self.params, s.dist_from_start_m
+        ahead = dist + v * p.line_preview_s
+        line_off = self.line.offset_at(dist)
+        if self.offset_m:
+            j = int(dist / self.step_m) % self.n
+            line_off = max(-self._half_right[j], min(self._half_left[j], line_off + self.offset_m))
+        heading_error = (self.line.heading_at(ahead) - s.yaw_rad + math.pi) % TWO_PI - math.pi
+        return steer_to_line(heading_error, line_off - s.to_middle_m, self.line.curvature_at(ahead), v,
+                             s.yaw_rate_rps, self.wheelbase_m, self.car.steer_lock_rad, p.line_lateral_gain,
+                             p.line_yaw_damping_s, understeer_rad_per_mps2=p.line_understeer_rad_per_mps2)
+
+    def _steer_lookahead(self, s: State, v: float) -> float:
+        """The tutorial's steering: at a point on the line lookahead_m + lookahead_s x speed ahead."""
+        p = self.params
+        target_dist = s.dist_from_start_m + p.lookahead_m + p.lookahead_s * v
+        tx, ty = self.line.point_at(target_dist)
+        if self.offset_m:
+            j = int(target_dist / self.step_m) % self.n
+            line_off = self.line.offset_at(target_dist)
+            off = max(-self._half_right[j], min(self._half_left[j], line_off + self.offset_m)) - line_off
+            nx, ny = self._normals[j]
+            tx += off * nx
+            ty += off * ny
+        return steer_to_point(s.x_m, s.y_m, s.yaw_rad, tx, ty, self.car.steer_lock_rad)
+
+    def _avoid_side(self, steer: float, cars: tuple) -> float:
+        if not cars:
+            return steer
+        return side_steer(steer, cars, self.car.length_m, self.car.width_m, self.car.steer_lock_rad, self.opp)
+
+    def _speed(self, s: State, v: float) -> tuple[float, float]:
+        """(brake, accel) from the speed profile a little ahead of the car."""
+        p = self.params
+        target = self.profile.speed_at(s.dist_from_start_m + v * p.speed_lookahead_s)
         self.target_mps = target  # for telemetry
         if v > target:
-            brake = min(1.0, (v - target) / p.brake_band_mps)
-            accel = 0.0
-        else:
-            brake = 0.0
-            margin = target - v
-            accel = 1.0 if margin >= p.full_accel_margin_mps else 0.4 + 0.6 * margin / p.full_accel_margin_mps
-        pit_request = False
-        if self.pit_path is not None:
-            brake, accel, steer, phase = self._pit_step(s, v, brake, accel, steer)
-            self.pit_phase = phase
-            pit_request = self.stop_wanted
-        if cars:
-            brake = collision_brake(brake, v, cars, self.car.width_m, self.opp, self._brakedist)
+            return min(1.0, (v - target) / p.brake_band_mps), 0.0
+        margin = target - v
+        return 0.0, (1.0 if margin >= p.full_accel_margin_mps else 0.4 + 0.6 * margin / p.full_accel_margin_mps)
+
+    def _avoid_collision(self, brake: float, v: float, cars: tuple) -> float:
+        return collision_brake(brake, v, cars, self.car.width_m, self.opp, self._brakedist) if cars else brake
+
+    def _traction(self, s: State, v: float, brake: float, accel: float) -> tuple[float, float]:
+        """ABS on the brake, or traction control on the throttle (never both)."""
         spins = (s.spin_fr_rps, s.spin_fl_rps, s.spin_rr_rps, s.spin_rl_rps)
         if brake > 0.0:
-            brake = abs_filter(brake, v, spins, self.radii, self.slip)
-            accel = 0.0
-        else:
-            accel = tcl_filter(accel, v, spins, self.radii, self.car.drivetrain, self.slip)
-            line_k = self.line.curvature_at(dist)
-            if abs(steer) >= LOCK_SHARE and v > LOCK_MIN_SPEED_MPS:  # no grip left to spare for power
-                # counter-steering at the lock (steer against the line's turn): the rear is out
-                accel = min(accel, p.counter_lock_accel if steer * line_k < 0.0 else p.lock_accel)
-            # the car turns faster than its line and against the steering: the rear is stepping out,
-            # and power would spin it (dirt-2's S-bends at 13 m/s in first gear)
-            excess = s.yaw_rate_rps - v * line_k
-            if excess * steer < 0.0 and abs(excess) > p.spin_yaw_rate_rps:
-                accel = 0.0
+            return abs_filter(brake, v, spins, self.radii, self.slip), 0.0
+        return 0.0, tcl_filter(accel, v, spins, self.radii, self.car.drivetrain, self.slip)
 
-        gear = self.gears.select(int(s.gear), v)
-        clutch = 0.0
-        if self.pit_clutch_open and accel == 0.0:  # stopping at the box: brakes alone, predictable
-            clutch = 1.0
-        elif gear == 1 and v < p.clutch_release_mps:  # starting: let the clutch slip, less as speed builds
-            clutch = min(p.clutch_start, p.clutch_start * (1.0 - v / p.clutch_release_mps))
-        return Controls(steer=steer, accel=accel, brake=brake, clutch=clutch, gear=gear, pit_request=pit_request)
+    def _guard_throttle(self, s: State, v: float, steer: float, accel: float) -> float:
+        """Less throttle when the tyres have no grip to spare: at the steering lock (lock guard) and
+        while the rear steps out (spin guard)."""
+        if accel == 0.0:
+            return accel
+        p = self.params
+        line_k = self.line.curvature_at(s.dist_from_start_m)
+        if abs(steer) >= LOCK_SHARE and v > LOCK_MIN_SPEED_MPS:
+            # counter-steering at the lock (steer against the line's turn): the rear is out
+            accel = min(accel, p.counter_lock_accel if steer * line_k < 0.0 else p.lock_accel)
+        # the car turns faster than its line and against the steering: power would spin it
+        # (dirt-2's S-bends at 13 m/s in first gear)
+        excess = s.yaw_rate_rps - v * line_k
+        if excess * steer < 0.0 and abs(excess) > p.spin_yaw_rate_rps:
+            accel = 0.0
+        return accel
+
+    def _clutch(self, gear: int, v: float, accel: float) -> float:
+        """Open while stopping at the box (brakes alone, predictable); slipping at the start."""
+        p = self.params
+        if self.pits.clutch_open and accel == 0.0:
+            return 1.0
+        if gear == 1 and v < p.clutch_release_mps:
+            return min(p.clutch_start, p.clutch_start * (1.0 - v / p.clutch_release_mps))
+        return 0.0
 
     def _stuck(self, s: State) -> bool:
         """Reverse out after stuck_time_s of being slow, sideways and off the middle; once backing,
@@ -393,7 +329,7 @@ class TutorialRobot(Robot):
         p = self.params
         if self.reversing:
             self.reverse_steps += 1
-            if abs(s.angle_rad) < 0.5 * self._stuck_angle or self.reverse_steps * STEP_S > REVERSE_MAX_S:
+            if abs(s.angle_rad) < 0.5 * self._stuck_angle or self.reverse_steps * DRIVE_STEP_S > REVERSE_MAX_S:
                 self.reversing = False
                 self.stuck_steps = 0
             return self.reversing
@@ -402,7 +338,7 @@ class TutorialRobot(Robot):
             self.stuck_steps += 1
         else:
             self.stuck_steps = 0
-        if self.stuck_steps * STEP_S > p.stuck_time_s:
+        if self.stuck_steps * DRIVE_STEP_S > p.stuck_time_s:
             self.reversing = True
             self.reverse_steps = 0
         return self.reversing
@@ -420,21 +356,10 @@ class TutorialRobot(Robot):
         self._build_profile()
 
     def pit_stop(self, state: State) -> PitOrder:
-        fuel, repair = self.strategy.order(self._remaining_after_box(state), state.fuel_l, state.damage,
-                                           self.car.tank_l)
-        self.stop_wanted = False
-        self.retry_stop = False
-        if self.event is not None:
-            self.event["fuel"], self.event["repair"] = round(fuel, 2), round(repair, 1)
-            if self.event["stop_time"] is None:
-                self.event["stop_time"] = round(state.sim_time_s, 3)
-                self.event["stop_error_m"] = round(self.pit_path.signed_coord(state.dist_from_start_m)
-                                                   - self.pit_path.box_m, 3)
-        return PitOrder(fuel_l=fuel, repair=repair)
+        return self.pits.pit_stop(state)
 
     def race_report(self) -> dict:
-        events = list(self.pit_events) + ([self.event] if self.event is not None else [])
-        return {"pit_events": events, "pit_plan": self.pit_plan}
+        return self.pits.report()
 
     def signals(self) -> dict[str, float]:
         return {"offset_m": self.offset_m}
@@ -446,4 +371,4 @@ class TutorialRobot(Robot):
         """The target speed drive() used (the speed profile speed_lookahead_s ahead of the car), the
         pit phase code (PIT_PHASE_CODES), the overtaking offset and 1 while reversing out of a stuck
         position.  Values drive() stored: nothing is computed here."""
-        return (self.target_mps, PIT_PHASE_CODES.get(self.pit_phase, -1), self.offset_m, self.reversing)
+        return (self.target_mps, PIT_PHASE_CODES.get(self.pits.phase, -1), self.offset_m, self.reversing)
