@@ -14,13 +14,17 @@ from boxbox.model import Car, Controls, Opponent, PitOrder, State, Track
 from boxbox.robot.base import RaceOptions, Robot
 
 __version__ = "0.1.0"
-__all__ = ["Car", "Controls", "Opponent", "PitOrder", "RaceOptions", "RaceResult", "Robot", "State", "Track",
-           "UsageError", "race"]
+__all__ = ["Car", "Controls", "Opponent", "PitEvent", "PitOrder", "PitParams", "PitStops", "RaceOptions",
+           "RaceResult", "Robot", "State", "Track", "UsageError", "race"]
 
 
-def __getattr__(name: str):  # boxbox.race and boxbox.RaceResult load the racing side only when used
+def __getattr__(name: str):  # these load the racing side only when used
     if name in ("race", "RaceResult"):
         from boxbox import api
 
         return getattr(api, name)
+    if name in ("PitStops", "PitEvent", "PitParams"):
+        from boxbox.robot import pit
+
+        return getattr(pit, name)
     raise AttributeError(f"module 'boxbox' has no attribute {name!r}")

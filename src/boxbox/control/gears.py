@@ -34,7 +34,8 @@ class GearBox:
             self.downshift_speed_mps[gear] = self.upshift_speed_mps[gear - 1] - shift_margin_mps
 
     def select(self, gear: int, speed_mps: float) -> int:
-        """The gear to use now, given the current gear and speed (m/s, along the car)."""
+        """The gear to use now, given the current gear (State.gear as it comes) and speed (m/s, along the car)."""
+        gear = int(gear)
         if gear <= 0:  # neutral or reverse: start in first
             return 1
         if gear > self.top_gear:

@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import NoReturn
+
+from boxbox.model.names import no_such_field
 
 RWD, FWD, AWD = 0, 1, 2
 DRIVETRAIN_NAMES = {RWD: "RWD", FWD: "FWD", AWD: "4WD"}
@@ -98,3 +101,6 @@ class Car:
 
     def gear_ratio(self, gear: int) -> float:
         return self.gear_ratios[gear + self.gear_offset]
+
+    def __getattr__(self, name: str) -> NoReturn:
+        no_such_field(self, name)

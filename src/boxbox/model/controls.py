@@ -43,8 +43,8 @@ class Controls:
 class PitOrder:
     """What to do at a pit stop: litres to add and damage points to repair."""
 
-    fuel_l: float = 0.0
-    repair: float = 0.0
+    fuel_l: float = 0.0  # fuel to add
+    repair: float = 0.0  # damage points to repair
 
     def problem(self) -> str | None:
         for name in ("fuel_l", "repair"):

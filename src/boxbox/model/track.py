@@ -5,8 +5,11 @@ from __future__ import annotations
 import bisect
 import math
 from dataclasses import dataclass, field
+from typing import NoReturn
 
 import numpy as np
+
+from boxbox.model.names import no_such_field
 
 # segment types (TORCS TR_RGT, TR_LFT, TR_STR)
 RIGHT, LEFT, STRAIGHT = 1, 2, 3
@@ -62,3 +65,6 @@ class Track:
         with np.errstate(divide="ignore"):
             k = np.where(t == STRAIGHT, 0.0, 1.0 / np.where(r > 0, r, math.inf))
         return np.where(t == RIGHT, -k, k)
+
+    def __getattr__(self, name: str) -> NoReturn:
+        no_such_field(self, name)
