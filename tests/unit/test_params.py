@@ -236,3 +236,27 @@ def test_robot_check_setup_fails_early(setups):
     write(setups / CAR / f"{TRACK}.toml", 'steering = "sideways"\n')
     with pytest.raises(UsageError):
         TutorialRobot.check_setup(RaceOptions(), TRACK, CAR)
+
+
+@pytest.mark.parametrize("value", [float("nan"), float("inf"), -5.0, 1.6])
+def test_numbers_outside_their_declared_bounds_are_refused(value):
+    from boxbox.errors import UsageError
+    from boxbox.robot.params import load_params
+
+    with pytest.raises(UsageError, match=r"mu_scale must be a finite number from 0.3 to 1.5"):
+        load_params("car1-trb1", "g-track-1", {"mu_scale": value})
+
+
+def test_every_number_parameter_has_a_bound_its_default_keeps():
+    import dataclasses
+
+    from boxbox.robot.params import BOUNDS, TutorialParams, bound_of
+
+    defaults = TutorialParams()
+    assert set(BOUNDS) <= {f.name for f in dataclasses.fields(TutorialParams)}
+    for f in dataclasses.fields(TutorialParams):
+        value = getattr(defaults, f.name)
+        if isinstance(value, float):
+            b = bound_of(f.name)
+            assert b.lo <= value <= b.hi, f.name
+            assert not b.log or b.lo > 0, f.name

@@ -77,3 +77,16 @@ def test_car_gear_helpers():
     car = Car(gear_count=8, gear_offset=1, gear_ratios=(-3.0, 0.0, 3.0, 2.0, 1.5, 1.2, 1.0, 0.9))
     assert car.max_gear == 6
     assert car.gear_ratio(1) == 3.0 and car.gear_ratio(-1) == -3.0
+
+
+def test_numpy_scalars_and_a_whole_float_gear_are_fine_controls():
+    import numpy as np
+
+    c = Controls(steer=np.float32(0.25), accel=np.float64(0.5), brake=np.array(0.0), gear=np.int64(3))
+    assert c.problem(6) is None
+    assert (type(c.steer), type(c.accel), type(c.brake), c.gear, type(c.gear)) == (float, float, float, 3, int)
+    state_gear = Controls(gear=4.0)  # State.gear arrives as a float
+    assert state_gear.problem(6) is None and type(state_gear.gear) is int
+    assert "whole number" in Controls(gear=2.5).problem(6)
+    assert Controls(steer=np.float32("nan")).problem(6) == "steer is nan"
+    assert "outside" in Controls(accel=np.float32(2.0)).problem(6)

@@ -24,8 +24,9 @@ class Controls:
                     and 0.0 <= self.clutch <= 1.0 and type(self.gear) is int and -1 <= self.gear <= max_gear
                     and type(self.steer) is not bool):
                 return None
-        except TypeError:
+        except (TypeError, ValueError):
             pass
+        self._plain_numbers()
         for name, lo in (("steer", -1.0), ("accel", 0.0), ("brake", 0.0), ("clutch", 0.0)):
             value = getattr(self, name)
             if type(value) not in (float, int) or not lo <= value <= 1.0:
@@ -35,8 +36,28 @@ class Controls:
                     return f"{name}={value} is outside [{lo:g}, 1]"
                 return f"{name} must be a number, got {type(value).__name__}"
         if type(self.gear) is not int or not -1 <= self.gear <= max_gear:
-            return f"gear={self.gear!r} must be an int in [-1, {max_gear}]"
+            return f"gear={self.gear!r} must be a whole number in [-1, {max_gear}]"
         return None
+
+    def _plain_numbers(self) -> None:
+        """numpy scalars and 0-d arrays as Python numbers, and a whole-number float gear (as
+        State.gear arrives) as an int: the off-the-fast-path cases that are still fine."""
+        for name in ("steer", "accel", "brake", "clutch"):
+            value = getattr(self, name)
+            if type(value) not in (float, int, bool) and hasattr(value, "__float__") and getattr(value, "ndim", 0) == 0:
+                try:
+                    setattr(self, name, float(value))
+                except (TypeError, ValueError):
+                    pass
+        gear = self.gear
+        if type(gear) is not int and not isinstance(gear, bool) and hasattr(gear, "__float__") \
+                and getattr(gear, "ndim", 0) == 0:
+            try:
+                number = float(gear)
+            except (TypeError, ValueError):
+                return
+            if number.is_integer():
+                self.gear = int(number)
 
 
 @dataclass(slots=True)

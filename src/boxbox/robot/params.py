@@ -10,6 +10,7 @@ The environment variable BOXBOX_SETUPS points at another setups folder (tests us
 from __future__ import annotations
 
 import dataclasses
+import math
 import os
 import tomllib
 from dataclasses import dataclass, fields
@@ -94,12 +95,46 @@ class TutorialParams:
     learn_steady_error_m: float = 1.5  # racing line: within this of the line near the apex raises a turn, 3x lowers it
 
 
+@dataclass(frozen=True)
+class Bound:
+    """The values a number parameter may take; `log`: search it on a log scale (boxbox tune)."""
+
+    lo: float = 0.0
+    hi: float = math.inf
+    log: bool = False
+
+
+# declared bounds; every other number parameter is finite and >= 0
+BOUNDS = {
+    "mu_scale": Bound(0.3, 1.5), "brake_mu_scale": Bound(0.3, 1.5), "racing_line": Bound(0.0, 1.0),
+    "line_margin_m": Bound(0.0, 5.0), "lookahead_m": Bound(1.0, 60.0), "lookahead_s": Bound(0.0, 2.0),
+    "line_lateral_gain": Bound(0.1, 10.0, log=True), "line_yaw_damping_s": Bound(0.0, 1.0),
+    "line_understeer_rad_per_mps2": Bound(0.0, 0.02), "crest_load_share": Bound(0.0, 1.0),
+    "bump_accel_mps2": Bound(0.5, 50.0, log=True), "max_speed_mps": Bound(10.0, 150.0),
+    "brake_band_mps": Bound(0.1, 10.0, log=True), "full_accel_margin_mps": Bound(0.1, 10.0, log=True),
+    "clutch_start": Bound(0.0, 1.0), "shift": Bound(0.5, 0.999), "shift_margin_mps": Bound(0.0, 20.0),
+    "abs_slip_mps": Bound(0.1, 20.0, log=True), "tcl_slip_mps": Bound(0.1, 20.0, log=True),
+    "counter_lock_accel": Bound(0.0, 1.0), "lock_accel": Bound(0.0, 1.0),
+    "pit_brake_mu_scale": Bound(0.1, 1.5), "pit_stop_grip_share": Bound(0.1, 1.0), "pit_mu": Bound(0.05, 2.0),
+    "learn_gain": Bound(0.0, 1.0), "learn_margin_m": Bound(0.0, 3.0), "learn_steady_error_m": Bound(0.1, 5.0),
+}
+
+
+def bound_of(name: str) -> Bound:
+    return BOUNDS.get(name, Bound())
+
+
 CHOICES = {"steering": ("line", "lookahead"), "brake_method": ("exact", "approx"), "pit_mu_source": ("surface", "constant"),
            "pit_entry_braking": ("computed", "ahead")}
 
 
 def _coerce(name: str, value, kind, origin: str):
     if kind is float and isinstance(value, (int, float)) and not isinstance(value, bool):
+        b = bound_of(name)
+        if not (math.isfinite(value) and b.lo <= value <= b.hi):
+            upper = "" if math.isinf(b.hi) else f" to {b.hi:g}"
+            raise UsageError(f"{origin}: {name} must be a finite number from {b.lo:g}{upper}, got {value!r}; "
+                             f"e.g. --set {name}={getattr(TutorialParams(), name):g}")
         return float(value)
     if kind is bool and isinstance(value, bool):
         return value
