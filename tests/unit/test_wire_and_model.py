@@ -31,7 +31,8 @@ def test_c_header_declares_every_record_in_order():
     header = wire.c_header()
     for name, fields in wire.RECORDS.items():
         line = next(ln for ln in header.splitlines() if ln.endswith(f"bb_{name.lower()};"))
-        assert [part.split()[1].rstrip(";") for part in line.split("{")[1].split("}")[0].split(";") if part.strip()] == fields
+        body = line.split("{")[1].split("}")[0]
+        assert [part.split()[1].rstrip(";") for part in body.split(";") if part.strip()] == fields
     assert f"#define BB_PROTOCOL_VERSION {wire.PROTOCOL_VERSION}" in header
 
 
@@ -54,8 +55,8 @@ def test_state_decodes_from_packed_bytes():
     (Controls(accel=math.inf), "accel is inf"),
     (Controls(brake=-0.1), "brake=-0.1 is outside [0, 1]"),
     (Controls(clutch="x"), "clutch must be a number, got str"),
-    (Controls(gear=2.0), "gear=2.0 must be an int in [-1, 6]"),
-    (Controls(gear=7), "gear=7 must be an int in [-1, 6]"),
+    (Controls(gear=2.5), "gear=2.5 must be a whole number in [-1, 6]"),
+    (Controls(gear=7), "gear=7 must be a whole number in [-1, 6]"),
     (Controls(gear=-1), None),
 ])
 def test_controls_validation(controls, problem):

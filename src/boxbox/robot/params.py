@@ -124,8 +124,8 @@ def bound_of(name: str) -> Bound:
     return BOUNDS.get(name, Bound())
 
 
-CHOICES = {"steering": ("line", "lookahead"), "brake_method": ("exact", "approx"), "pit_mu_source": ("surface", "constant"),
-           "pit_entry_braking": ("computed", "ahead")}
+CHOICES = {"steering": ("line", "lookahead"), "brake_method": ("exact", "approx"),
+           "pit_mu_source": ("surface", "constant"), "pit_entry_braking": ("computed", "ahead")}
 
 
 def _coerce(name: str, value, kind, origin: str):
