@@ -18,7 +18,7 @@ from boxbox.model.state import CAR_STATE_PIT
 from boxbox.model.track import LEFT
 from boxbox.robot import params as params_mod
 from boxbox.torcs import host
-from boxbox.torcs.launch import run_dir_lock
+from boxbox.torcs.rundir import RunDir
 
 
 def state(**kw) -> State:
@@ -108,11 +108,11 @@ def test_json_is_written_whole(tmp_path):
 
 
 def test_run_dir_lock_refuses_a_second_race(tmp_path):
-    with run_dir_lock(tmp_path):
+    with RunDir(tmp_path).locked():
         with pytest.raises(UsageError, match="is in use by another race"):
-            with run_dir_lock(tmp_path):
+            with RunDir(tmp_path).locked():
                 pass
-    with run_dir_lock(tmp_path):  # released
+    with RunDir(tmp_path).locked():  # released
         pass
 
 
@@ -127,8 +127,8 @@ def test_setups_folder_from_the_environment(tmp_path, monkeypatch):
 
 
 def test_the_final_lap_comes_from_the_race_time():
-    from boxbox.torcs.launch import _add_final_lap
     from boxbox.torcs.results import DriverResult
+    from boxbox.torcs.results import add_final_lap as _add_final_lap
 
     d = DriverResult(name="b", module="boxbox", idx=0, car="c", laps=3, time=200.078, best_lap=64.914,
                      lap_times=[70.092, 65.072])
