@@ -51,7 +51,8 @@ def diagnose(run_dir: RunDir, end: Ending) -> str | None:
         return _bridge_fault(run_dir, end, marker)
     if end.timed_out:
         hang_tb = run_dir.read_text(run_dir.hang_traceback).strip()
-        return f"the race did not finish within its wall limit of {end.wall_limit_s:.0f} s; TORCS was stopped" + \
+        limit = f"{end.wall_limit_s:.0f}" if end.wall_limit_s >= 10 else f"{end.wall_limit_s:.2g}"
+        return f"the race did not finish within its wall limit of {limit} s; TORCS was stopped" + \
             ("\n" + hang_tb if hang_tb else "")
     if end.torcs_code not in (0, None):
         tail = torcs_words(run_dir, err_text)

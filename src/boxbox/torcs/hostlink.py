@@ -73,6 +73,8 @@ class HostReports:
 
     def drain(self, timeout_s: float) -> bool:
         """Read until the host closes its end (it has exited) or timeout_s passes; True if closed."""
+        if self.closed:
+            return True
         deadline = time.monotonic() + timeout_s
         with selectors.DefaultSelector() as sel:
             sel.register(self.fd, selectors.EVENT_READ)

@@ -363,9 +363,18 @@ class Race:
         host = self.reports.cars() if self.reports is not None else {}
         result.drivers = merge_drivers(self._torcs_entries(), host, cfg.names, cfg.car, self._opponent_drivers(),
                                        self.laps_seen)
+        result.limits = self._limits()
         result.error = INTERRUPTED if self.stop.stopped else self._diagnosis()
         self._save(result)
         return result
+
+    def _limits(self) -> dict:
+        cfg = self.cfg
+        length = self.reports.track_length_m if self.reports is not None else None
+        return {"step_budget_ms": cfg.step_budget_ms, "setup_budget_ms": cfg.setup_budget_ms,
+                "min_speed_mps": cfg.min_speed_mps,
+                "sim_limit_s": round(cfg.time_model.sim_limit_s(cfg.laps, length), 1) if length else None,
+                "wall_limit_s": round(cfg.wall_limit(length), 1)}
 
     def _torcs_entries(self) -> list[dict[str, str]]:
         path = self.run_dir.results_file()
@@ -396,18 +405,26 @@ class Race:
         return f"{first} (run dir {self.run_dir})" + nl + rest
 
     def _save(self, result: RaceResult) -> None:
-        """The result to the run dir, then to --json; what could not be kept is said in the error."""
+        """The result to the run dir, then to --json; what could not be kept, and where the result
+        is, is said in the error (the files have the first part: they cannot know the rest)."""
         lost = self.reports.telemetry_errors if self.reports is not None else []
-        if lost:
-            _add_error_line(result, f"the telemetry was not kept: {'; '.join(lost)}")
+        lost_line = f"the telemetry was not kept ({'; '.join(lost)})" if lost else ""
+        if lost_line:
+            _add_error_line(result, lost_line)
         paths = [self.run_dir.result] + ([self.cfg.json_file] if self.cfg.json_file else [])
-        failed = save_result(result, paths)
-        if failed:
-            kept = [str(p) for p in paths if p not in {f for f, _ in failed}]
-            why = "; ".join(f"{p}: {reason}" for p, reason in failed)
-            where = f"it is kept in {', '.join(kept)}" if kept else "it is shown here only"
-            _add_error_line(result, f"the result could not be written ({why}); {where}")
+        failed = dict(save_result(result, paths))
         self.run_dir.remove_temporaries()
+        if not (lost or failed):
+            return
+        kept = [str(p) for p in paths if p not in failed]
+        note = f"the result is in {' and '.join(kept)}" if kept else "the result is shown here only"
+        if failed:
+            note = "the result could not be written to " + \
+                ", ".join(f"{p} ({why})" for p, why in failed.items()) + "; " + note
+        if lost_line and result.error:
+            result.error = result.error.replace(lost_line, f"{lost_line}; {note}", 1)
+        else:
+            _add_error_line(result, note)
 
 
 def _add_error_line(result: RaceResult, line: str) -> None:
@@ -428,7 +445,8 @@ def remove_stale_sockets() -> None:
 
 
 class SafeLog:
-    """TORCS's console copied to a file; a write that fails (a full disk) stops the copy, not the race."""
+    """TORCS's console copied to RUN_DIR/torcs.out; a write that fails (a full disk) stops the copy,
+    not the race."""
 
     def __init__(self, path: Path) -> None:
         self.path = path
@@ -443,6 +461,7 @@ class SafeLog:
         if self.file is not None:
             try:
                 self.file.write(data)
+                self.file.flush()  # a line a lap: whoever watches the race sees it at once
             except OSError:
                 self.close()
 

@@ -95,7 +95,8 @@ class PitWatch:
         if not self.entered:
             reason, detail = NEVER_ENTERED, "it stayed on the track past the pit entry"
         elif self.slowest_near_mps >= SLOWED_SPEED_MPS:
-            slowest = "" if math.isinf(self.slowest_near_mps) else f" at {self.slowest_near_mps:.1f} m/s or more"
+            slowest = "" if math.isinf(self.slowest_near_mps) else \
+                f" (slowest {self.slowest_near_mps:.1f} m/s within {NEAR_BOX_M:.0f} m of it)"
             reason, detail = PASSED_BOX, f"it drove past its box{slowest}"
         elif self.stop_off_m > 0.0 and not math.isinf(self.stop_off_m):
             reason, detail = NOT_CAPTURED, f"it stopped {self.stop_off_m:.1f} m from its box"

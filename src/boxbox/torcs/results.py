@@ -67,6 +67,9 @@ class RaceResult:
     run_dir: str = ""
     error: str | None = None  # set when the race did not end properly
     skill_level: str = "semi-pro"  # TORCS's skill level of every car in the race
+    # the race's time model (torcs/timing.py): step_budget_ms, setup_budget_ms, min_speed_mps,
+    # sim_limit_s (None: no Python car measured the track), wall_limit_s
+    limits: dict = field(default_factory=dict)
 
     def to_json(self) -> dict:
         return asdict(self)

@@ -116,8 +116,7 @@ class Recorder:
             with open(self._spool("rows"), "ab") as f:
                 f.write(self.rows)
         except OSError as exc:
-            self.storage_error = (f"telemetry given up at step {self.steps}: {exc.strerror or exc} "
-                                  f"(writing {self.spool_dir})")
+            self.storage_error = f"{exc.strerror or exc} at step {self.steps} in {self.spool_dir}"
             self.remove_spool()
             self.rows, self.spilled_steps = bytearray(), 0
             self.signals.clear()
