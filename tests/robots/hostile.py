@@ -73,3 +73,12 @@ class Talks(MiddleRobot):
         return super().drive(state)
 
 
+
+
+class Crawls(MiddleRobot):
+    """Follows the middle at walking pace (2 m/s): the race lasts longer than its simulated-time limit."""
+
+    def drive(self, state):
+        c = super().drive(state)
+        fast = state.speed_x_mps > 2.0
+        return Controls(steer=c.steer, accel=0.0 if fast else 0.3, brake=0.2 if fast else 0.0, clutch=0.0, gear=1)

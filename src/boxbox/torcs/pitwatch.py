@@ -67,12 +67,14 @@ class PitWatch:
         if not self.active:
             if not asked:
                 return
-            self.active, self.lap = True, int(state.laps)
+            self.active = True
         if self.in_zone and not in_zone:  # drove out of the pit zone without being captured
             self._miss()
             return
         self.in_zone = in_zone
-        if not in_zone:
+        if in_zone:
+            self.lap = int(state.laps)  # the lap on which the car passes its pit
+        else:
             if not asked:
                 self._reset()  # the robot changed its mind before the pit
             return

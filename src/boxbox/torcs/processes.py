@@ -101,6 +101,10 @@ def _host_child(spec_path: Path, log_path: Path, cpu: int | None) -> None:
         os.dup2(null, 0)
         os.dup2(log, 1)
         os.dup2(log, 2)
+        # what the robot prints goes to the log, whatever the launcher's sys.stdout was (a notebook's
+        # stream, a test's capture); line by line, so --verbose shows it as it comes
+        sys.stdout = open(1, "w", buffering=1, closefd=False)  # noqa: SIM115
+        sys.stderr = open(2, "w", buffering=1, closefd=False)  # noqa: SIM115
         import atexit
 
         from boxbox.torcs import host
