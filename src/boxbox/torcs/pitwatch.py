@@ -35,7 +35,7 @@ class PitWatch:
     """One Python car's pit requests (`step` is called only while one is open or asked for)."""
 
     __slots__ = ("zone", "left_side", "box_mid_m", "box_half_m", "length_m", "active", "in_zone", "entered",
-                 "lap", "slowest_near_mps", "slowest_in_box_mps", "stop_off_m", "missed")
+                 "lap", "slowest_near_mps", "slowest_in_box_mps", "stop_off_m", "missed", "leaving")
 
     def __init__(self, track: Track | None, car: Car | None, zone: bytes) -> None:
         self.zone = zone if track is not None and track.pit is not None and car is not None and car.pit_seg >= 0 \
@@ -47,6 +47,7 @@ class PitWatch:
             lmax += self.length_m
         self.box_mid_m, self.box_half_m = (lmin + lmax) / 2, (lmax - lmin) / 2
         self.active = False
+        self.leaving = False  # captured on this pass: a request until it leaves the pit zone is that stop's
         self.missed: list[dict] = []
         self._reset()
 
@@ -59,11 +60,16 @@ class PitWatch:
     def step(self, state: State, asked: bool) -> None:
         if not self.zone:
             return
-        if int(state.car_state) & CAR_STATE_PIT:
-            self._reset()  # captured: the stop is made
-            return
         seg = int(state.seg_id)
         in_zone = 0 <= seg < len(self.zone) and self.zone[seg] == 1
+        if int(state.car_state) & CAR_STATE_PIT:
+            self._reset()  # captured: the stop is made; followed until the car is out of the pit zone
+            self.active = self.leaving = True
+            return
+        if self.leaving:
+            if in_zone:
+                return
+            self.active = self.leaving = False
         if not self.active:
             if not asked:
                 return
