@@ -1,6 +1,5 @@
 """Robots that test the runtime around them (issue 14's cases), one way each."""
 
-import os
 import subprocess
 import sys
 import time

@@ -22,7 +22,7 @@ from boxbox.torcs.rundir import RunDir
 
 
 def state(**kw) -> State:
-    values = dict.fromkeys(State._fields, 0.0)
+    values: dict[str, object] = dict.fromkeys(State._fields, 0.0)
     values.update(sim_time_s=10.0, speed_x_mps=30.0, to_left_m=5.0, to_right_m=5.0, seg_id=0.0)
     values.update(kw)
     values["opponents"] = ()

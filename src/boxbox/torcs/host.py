@@ -91,7 +91,7 @@ class RobotFault(Exception):
 
 
 def decode_track(blob: bytes, name: str, category: str) -> tuple[Track, Car]:
-    t = dict(zip(wire.TRACK_FIELDS, wire.TRACK_REC.unpack_from(blob, 0)))
+    t = dict(zip(wire.TRACK_FIELDS, wire.TRACK_REC.unpack_from(blob, 0), strict=True))
     n = int(t["n_segments"])
     off = wire.TRACK_REC.size
     seg_rows = np.frombuffer(blob, dtype="<f8", count=n * len(wire.SEGMENT_FIELDS), offset=off)
@@ -100,7 +100,7 @@ def decode_track(blob: bytes, name: str, category: str) -> tuple[Track, Car]:
     seg["type"] = seg["type"].astype(int)
     seg["race_info"] = seg["race_info"].astype(int)
     off += wire.SEGMENT_REC.size * n
-    handle = dict(zip(wire.HANDLE_FIELDS, wire.HANDLE_REC.unpack_from(blob, off)))
+    handle = dict(zip(wire.HANDLE_FIELDS, wire.HANDLE_REC.unpack_from(blob, off), strict=True))
     pit = None
     if int(t["pit_type"]) != 0 and t["pit_entry_seg"] >= 0:
         pit = PitLane(side=int(t["pit_side"]), entry_seg=int(t["pit_entry_seg"]), start_seg=int(t["pit_start_seg"]),
@@ -117,7 +117,7 @@ def decode_track(blob: bytes, name: str, category: str) -> tuple[Track, Car]:
 
 
 def complete_car(car: Car, payload: bytes) -> None:
-    r = dict(zip(wire.CAR_FIELDS, wire.CAR_REC.unpack_from(payload, 0)))
+    r = dict(zip(wire.CAR_FIELDS, wire.CAR_REC.unpack_from(payload, 0), strict=True))
     ints = {"car_index", "gear_count", "gear_offset", "pit_seg", "start_rank", "race_laps", "skill_level"}
     for key, value in r.items():
         if key.startswith("gear_ratio_"):
@@ -151,8 +151,9 @@ def watch_step(slot: Slot, state: State) -> None:
     left, right = state.to_left_m, state.to_right_m
     if left < 0.0 or right < 0.0:
         seg = int(state.seg_id)
-        if slot.pit_zone and 0 <= seg < len(slot.pit_zone) and slot.pit_zone[seg] and \
-                (left < 0.0 if slot.track.pit.side == LEFT else right < 0.0):
+        pit = slot.track.pit if slot.track is not None else None
+        if pit is not None and slot.pit_zone and 0 <= seg < len(slot.pit_zone) and slot.pit_zone[seg] and \
+                (left < 0.0 if pit.side == LEFT else right < 0.0):
             slot.stuck_run = 0
             return  # in the pit lane
         slot.off_track_steps += 1
@@ -326,7 +327,8 @@ class Host:
             c = slot.robot.drive(state)
         except BaseException as exc:  # noqa: BLE001  (a robot's SystemExit is its fault too)
             raise RobotFault.from_exception(exc, f"drive, step {step}, t={state.sim_time_s:.2f} s") from exc
-        problem = c.problem(slot.max_gear) if type(c) is Controls else f"drive() returned {type(c).__name__}, not Controls"
+        problem = c.problem(slot.max_gear) if type(c) is Controls else \
+            f"drive() returned {type(c).__name__}, not Controls"
         if problem:
             raise RobotFault("invalid-controls", f"drive() returned invalid controls: {problem} "
                                                  f"(step {step}, t={state.sim_time_s:.2f} s)")
@@ -365,6 +367,7 @@ class Host:
 
     def _new_race(self, conn, robot: int, step: int, count: int, n: int) -> None:
         slot = self.slots[robot]
+        assert slot.car is not None, "NEW_RACE before NEW_TRACK"
         complete_car(slot.car, bytes(self.buf[wire.HEADER.size:n]))
         slot.max_gear = slot.car.max_gear
         slot.pit_zone = pit_zone(slot.track)

@@ -10,7 +10,8 @@ race, and at the end the host's summary of each Python car.
 | `track` | the track arrived | `length_m` (the launcher's wall limit needs it) |
 | `progress` | every lap of a Python car | `cars`, `other_lap_times` as in `summary` (step times left out) |
 | `fault` | a robot fault | a `faults.Fault` |
-| `summary` | the host's end | `cars`: per Python car its lap times, step times, incidents, missed pit stops, report; `other_lap_times` |
+| `summary` | the host's end | `cars` (per Python car: lap times, step times, incidents, missed pit |
+|  |  | stops, the robot's report), `other_lap_times` (the other cars', by car index) |
 | `telemetry` | after the summary, when telemetry was lost | `errors`: why (a full disk) |
 """
 

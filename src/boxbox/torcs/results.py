@@ -83,7 +83,7 @@ class RaceResult:
 
 
 def _attrs(section: ET.Element) -> dict[str, str]:
-    return {a.get("name"): a.get("val") for a in section if a.tag in ("attnum", "attstr")}
+    return {a.get("name", ""): a.get("val", "") for a in section if a.tag in ("attnum", "attstr")}
 
 
 def parse_results_file(path: Path) -> list[dict[str, str]]:

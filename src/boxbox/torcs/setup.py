@@ -342,7 +342,8 @@ def build_overlay(bridge: Path, torcs: TorcsInstall) -> Overlay:
         (tmp / "data" / "drivers" / ROBOT_MODULE).mkdir()
         shutil.rmtree(root, ignore_errors=True)
         tmp.rename(root)
-    return Overlay(torcs=torcs, lib_dir=lib, data_dir=data, bridge=lib / "drivers" / ROBOT_MODULE / f"{ROBOT_MODULE}.so")
+    bridge_copy = lib / "drivers" / ROBOT_MODULE / f"{ROBOT_MODULE}.so"
+    return Overlay(torcs=torcs, lib_dir=lib, data_dir=data, bridge=bridge_copy)
 
 
 def ensure_ready(report: Report = _quiet) -> Overlay:
@@ -381,7 +382,8 @@ def doctor() -> list[tuple[str, bool, str]]:
         ("plib headers (libplib-dev)", Path("/usr/include/plib/sg.h").exists(), "/usr/include/plib"),
         ("g++", shutil.which("g++") is not None, shutil.which("g++") or "apt-get install g++"),
     ]
-    include = Path(os.environ["TORCS_SRC"]) if os.environ.get("TORCS_SRC") else cache_dir() / "torcs-headers" / "include"
+    include = Path(os.environ["TORCS_SRC"]) if os.environ.get("TORCS_SRC") else \
+        cache_dir() / "torcs-headers" / "include"
     rows.append(("TORCS headers", (include / "robot.h").exists() or (include / "src/interfaces/robot.h").exists(),
                  str(include)))
     module = bridge_module()

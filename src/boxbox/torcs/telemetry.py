@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from boxbox.files import atomic_path
+from boxbox.model import Car, Track
 from boxbox.torcs import wire
 from boxbox.torcs.rundir import TELEMETRY_FILE, RunDir
 from boxbox.torcs.timing import STEP_S
@@ -220,7 +221,7 @@ class Recorder:
         return cols
 
 
-def track_edges(track) -> dict[str, list[float]]:
+def track_edges(track: Track) -> dict[str, list[float]]:
     """The track's edges for a map: the corners of every segment (TORCS splits turns into segments
     of a few metres, so the polygon follows them closely), closed at the start line."""
     seg = track.seg
@@ -232,7 +233,7 @@ def track_edges(track) -> dict[str, list[float]]:
     return edges
 
 
-def track_info(track, cars: dict[int, object]) -> dict:
+def track_info(track: Track, cars: dict[int, Car | None]) -> dict:
     """What a report needs of the track: length, edges (for the map), pit lane, each car's box."""
     info: dict = {"name": track.name, "category": track.category, "length_m": float(track.length_m),
                   "width_m": float(track.width_m)}
@@ -270,7 +271,8 @@ def write_telemetry(path: Path, recorders: list[Recorder], track=None, cars: dic
         arrays = {}
         for name, _ in COLUMNS:
             if name == "driver":
-                arrays[name] = pa.DictionaryArray.from_arrays(pa.array(np.zeros(n, dtype=np.int32)), pa.array([rec.name]))
+                codes = pa.array(np.zeros(n, dtype=np.int32))
+                arrays[name] = pa.DictionaryArray.from_arrays(codes, pa.array([rec.name]))
             elif name == TARGET_FIELD and name not in cols:
                 arrays[name] = pa.nulls(n, pa.float64())
             else:
