@@ -80,14 +80,15 @@ class RobotFault(Exception):
         self.kind, self.message, self.tb = kind, message, tb
 
     @classmethod
-    def from_exception(cls, exc: BaseException, where: str) -> RobotFault:
-        """An exception out of a robot call, or its sys.exit(): the robot exiting is reported as
-        such at once, never as a hang (SystemExit would otherwise end the host)."""
+    def from_exception(cls, exc: BaseException, context: str) -> RobotFault:
+        """An exception out of a robot call (`context`: "in drive, step 3", "creating the robot"), or
+        its sys.exit(): the robot exiting is reported as such at once, never as a hang (SystemExit
+        would otherwise end the host)."""
         tb = traceback.format_exc()
         if isinstance(exc, SystemExit):
-            return cls("exit", f"the robot called sys.exit({'' if exc.code is None else repr(exc.code)}) "
-                               f"(in {where})", tb)
-        return cls("exception", f"{type(exc).__name__}: {exc} (in {where})", tb)
+            code = "" if exc.code is None else repr(exc.code)
+            return cls("exit", f"the robot called sys.exit({code}) ({context})", tb)
+        return cls("exception", f"{type(exc).__name__}: {exc} ({context})", tb)
 
 
 def decode_track(blob: bytes, name: str, category: str) -> tuple[Track, Car]:
@@ -241,7 +242,7 @@ class Host:
         try:
             return fn(*args)
         except BaseException as exc:  # noqa: BLE001  (a robot's SystemExit is its fault too)
-            raise RobotFault.from_exception(exc, where) from exc
+            raise RobotFault.from_exception(exc, f"in {where}") from exc
 
     # --- the loop ------------------------------------------------------------------------
     def serve(self, conn: socket.socket) -> None:
@@ -326,7 +327,7 @@ class Host:
         try:
             c = slot.robot.drive(state)
         except BaseException as exc:  # noqa: BLE001  (a robot's SystemExit is its fault too)
-            raise RobotFault.from_exception(exc, f"drive, step {step}, t={state.sim_time_s:.2f} s") from exc
+            raise RobotFault.from_exception(exc, f"in drive, step {step}, t={state.sim_time_s:.2f} s") from exc
         problem = c.problem(slot.max_gear) if type(c) is Controls else \
             f"drive() returned {type(c).__name__}, not Controls"
         if problem:
