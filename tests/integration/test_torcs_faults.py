@@ -208,8 +208,9 @@ def test_two_races_writing_the_same_json_file_at_once(tmp_path, overlay):
 
 
 def interrupt_after_lap_one(tmp_path, *signals: int) -> tuple[subprocess.Popen, str, Path]:
-    """A race of the Slow robot, stopped after its first lap by `signals`, sent back to back (so
-    the later ones arrive while the first is being handled)."""
+    """A race of the Slow robot, stopped after its first lap by `signals`, 50 ms apart (so the later
+    ones arrive while the first is being handled: before, a second Ctrl-C 20 to 100 ms after the
+    first lost the results)."""
     run_dir = tmp_path / "run"
     proc = start_race("--laps", "5", "--robot", f"{FAULTY}:Slow", "--run-dir", str(run_dir),
                       "--json", str(tmp_path / "r.json"))
@@ -217,6 +218,7 @@ def interrupt_after_lap_one(tmp_path, *signals: int) -> tuple[subprocess.Popen, 
         assert wait_for(lambda: lap_done(run_dir), 30), proc.stderr
         for sig in signals:
             os.kill(proc.pid, sig)
+            time.sleep(0.05)
         _, err = proc.communicate(timeout=30)
     finally:
         if proc.poll() is None:
