@@ -308,10 +308,7 @@ class Host:
             if rec is not None:
                 rec.rows += row_view
                 if rec.tel is not None:
-                    try:
-                        rec.sig_append(rec.tel(state))
-                    except Exception as exc:
-                        rec.drop_signals(exc)
+                    rec.add_signals(state)
                 if len(rec.rows) >= SPILL_BYTES and not rec.spill():
                     slot.rec = None  # the disk is full: this car's telemetry stops (rec.storage_error says so)
             record_step_time(slot, perf_counter_ns() - t0)

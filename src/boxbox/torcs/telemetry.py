@@ -18,8 +18,10 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -89,7 +91,7 @@ class Recorder:
         self.sig_append = self.signals.append
         self.spool_dir = spool_dir
         self.spilled_steps = 0
-        self.tel = None  # the robot's bound telemetry method, or None: no signals
+        self.tel: Callable[[Any], tuple] | None = None  # the robot's bound telemetry method; None: no signals
         self.names: tuple[str, ...] = ()
         self.error: str | None = None
         self.storage_error: str | None = None  # why the steps could not be kept on disk (then: not recorded)
@@ -169,10 +171,17 @@ class Recorder:
         self.rows += _NO_HEADER
         self.rows += controls
         if self.tel is not None:
-            try:
-                self.sig_append(self.tel(state))
-            except Exception as exc:
-                self.drop_signals(exc)
+            self.add_signals(state)
+
+    def add_signals(self, state) -> None:
+        """The robot's telemetry() tuple for this step (the host calls it only when tel is set)."""
+        tel = self.tel
+        if tel is None:
+            return
+        try:
+            self.sig_append(tel(state))
+        except Exception as exc:
+            self.drop_signals(exc)
 
     def drop_signals(self, exc: BaseException, why: str | None = None) -> None:
         """telemetry() raised (or its values did not fit): keep recording the car, without the
