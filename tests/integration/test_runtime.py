@@ -70,7 +70,7 @@ def test_a_full_disk_keeps_the_result_and_says_where(small_disk, tmp_path, overl
     assert proc.returncode == 4, proc.stderr
     line = error_line(proc)
     assert "the telemetry was not kept" in line and "No space left on device" in line, line
-    assert f"the result is in {run_dir / 'result.json'}" in line, line
+    assert f"the result is in {run_dir / 'result.json'} and {out}" in line, line
     assert "Traceback" not in proc.stderr
     r = read_json(out)
     [me] = r["drivers"]
@@ -232,3 +232,17 @@ def test_a_car_pushed_past_its_box_is_reported_and_a_made_stop_is_not(tmp_path, 
     assert me.pit_stops == 1  # made on lap 2
     [missed] = me.missed_pit_stops
     assert missed["lap"] == 1 and missed["reason"] == "passed its box", missed
+
+
+def test_the_race_command_shows_robot_output_and_missed_stops(tmp_path, overlay):
+    """--verbose shows what the robot prints as it comes; a stop asked for and not made is a
+    warning line per lap."""
+    talks = run_boxbox("race", "--track", "g-track-1", "--laps", "1", "--robot", f"{HOSTILE}:Talks", "--verbose",
+                       "--no-telemetry", "--run-dir", str(tmp_path / "talks"))
+    assert talks.returncode == 0, talks.stderr
+    assert "hello from the robot" in talks.stderr and "a warning from the robot" in talks.stderr
+    asks = run_boxbox("race", "--track", "g-track-1", "--laps", "2", "--robot", f"{HOSTILE}:AsksForAStopOnTheTrack",
+                      "--quiet", "--no-telemetry", "--run-dir", str(tmp_path / "asks"))
+    assert asks.returncode == 0, asks.stderr
+    assert "warning: middle 1 asked for a pit stop on lap 1 that was not made: never entered the pit lane" \
+        in asks.stderr, asks.stderr

@@ -364,7 +364,7 @@ class Race:
         result.drivers = merge_drivers(self._torcs_entries(), host, cfg.names, cfg.car, self._opponent_drivers(),
                                        self.laps_seen)
         result.limits = self._limits()
-        result.error = INTERRUPTED if self.stop.stopped else self._diagnosis()
+        result.error = f"{INTERRUPTED} (run dir {self.run_dir})" if self.stop.stopped else self._diagnosis()
         self._save(result)
         return result
 
