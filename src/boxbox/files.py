@@ -1,4 +1,10 @@
-"""Writing files so that a reader never sees half of one: a temporary file, then a rename."""
+"""Writing files so that a reader never sees half of one: a temporary file beside it, then a rename.
+
+This is boxbox's only write-then-rename: every whole-file write that others may read at the same
+time (results, fault records, telemetry, cached arrays, the bridge build) goes through
+`atomic_path`.  A write that fails (a full disk, an exception in the writer) leaves the old file as
+it was and no temporary file behind.
+"""
 
 from __future__ import annotations
 
@@ -8,36 +14,41 @@ import os
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 
 @contextlib.contextmanager
 def atomic_path(path: Path | str) -> Iterator[Path]:
-    """A temporary path beside `path` to write to (with any writer: np.save, pyarrow, ...); renamed
-    to `path` when the block ends, removed when it raises.  Concurrent writers leave one whole file."""
+    """A fresh temporary path beside `path` (same folder, same suffix) for the block to write; when
+    the block succeeds it is renamed over `path`, and when anything fails it is removed."""
     path = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    fd, tmp_name = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=f".tmp{path.suffix}", dir=path.parent)
     os.close(fd)
+    tmp = Path(tmp_name)
     try:
-        yield Path(tmp)
-        os.chmod(tmp, 0o666 & ~_umask())
+        yield tmp
+        os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600; a result file is as readable as any other
         os.replace(tmp, path)
     except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
+        tmp.unlink(missing_ok=True)
         raise
+
+
+def write_bytes_atomic(path: Path | str, data: bytes) -> None:
+    with atomic_path(path) as tmp:
+        tmp.write_bytes(data)
 
 
 def write_text_atomic(path: Path | str, text: str) -> None:
     """Write text to path atomically: concurrent writers leave one whole file (the last one's)."""
-    with atomic_path(path) as tmp:
-        tmp.write_text(text)
+    write_bytes_atomic(path, text.encode())
+
+
+def write_json_atomic(path: Path | str, data: Any, indent: int | None = None) -> None:
+    write_text_atomic(path, json.dumps(data, indent=indent))
 
 
 def _umask() -> int:
     mask = os.umask(0)
     os.umask(mask)
     return mask
-
-
-def write_json_atomic(path: Path | str, data, indent: int | None = None) -> None:
-    write_text_atomic(path, json.dumps(data, indent=indent))

@@ -46,6 +46,7 @@ def test_robot_fault_stops_the_race_cleanly(robot, tmp_path, overlay):
     error_lines = [ln for ln in proc.stderr.splitlines() if ln.startswith("boxbox: error:")]
     assert len(error_lines) == 1, proc.stderr
     assert cause in error_lines[0], proc.stderr
+    assert error_lines[0].endswith(f"(run dir {run_dir})"), error_lines[0]  # the race's files are named
     if "TORCS" not in cause:  # a robot's fault names the robot
         assert robot in error_lines[0]
     if tb:

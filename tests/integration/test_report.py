@@ -119,7 +119,6 @@ def test_bench_telemetry_prints_the_ratio(tmp_path, overlay):
     assert proc.returncode == 0, proc.stderr
     assert "step time ratio, telemetry on / off:" in proc.stdout
     b = read_json(tmp_path / "b.json")
-    assert [r["mode"] for r in b["races"]] == ["on", "off", "alternate"]
+    assert [r["mode"] for r in b["races"]] == ["on", "off"]
     assert b["races"][0]["telemetry_bytes"] > 0 and b["races"][1]["telemetry_bytes"] == 0
     assert b["ratio"] == pytest.approx(b["step_us_median_on"] / b["step_us_median_off"])
-    assert b["lap_ratios"] and 0.5 < b["lap_ratio_median"] < 2.0

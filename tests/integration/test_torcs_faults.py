@@ -9,6 +9,7 @@ from __future__ import annotations
 import os
 import signal
 import subprocess
+import tempfile
 import time
 from pathlib import Path
 
@@ -119,6 +120,14 @@ def start_race(*args) -> subprocess.Popen:
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, cwd=ROOT)
 
 
+def lap_done(run_dir: Path, lap: int = 1) -> bool:
+    """TORCS's console (RUN_DIR/torcs.out) has the line of this lap."""
+    try:
+        return f"Leader Laps:{lap:>5}" in (run_dir / "torcs.out").read_text()
+    except OSError:
+        return False
+
+
 def wait_for(predicate, timeout: float) -> bool:
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
@@ -142,7 +151,7 @@ def test_second_race_in_the_same_run_dir_is_refused_and_ctrl_c_keeps_the_first_o
         assert elapsed < 15
         assert first.poll() is None
         # lap 1 done, then Ctrl-C: TORCS stopped, the lap kept, exit 130
-        assert wait_for(lambda: (run_dir / "host-progress.json").exists(), 30)
+        assert wait_for(lambda: lap_done(run_dir), 30)
         first.send_signal(signal.SIGINT)
         out, err = first.communicate(timeout=30)
     finally:
@@ -164,8 +173,7 @@ def test_sigterm_stops_a_race_like_ctrl_c(tmp_path, overlay):
     proc = start_race("--laps", "5", "--robot", f"{FAULTY}:Slow", "--run-dir", str(run_dir),
                       "--json", str(tmp_path / "r.json"))
     try:
-        assert wait_for(lambda: (run_dir / "host-connected").exists(), 30), proc.stderr
-        time.sleep(0.5)
+        assert wait_for(lambda: lap_done(run_dir), 30), proc.stderr
         proc.terminate()
         _, err = proc.communicate(timeout=30)
     finally:
@@ -197,3 +205,56 @@ def test_two_races_writing_the_same_json_file_at_once(tmp_path, overlay):
     held.close()
     assert sorted(p.name for p in tmp_path.iterdir() if p.is_file()) == ["same.json"]  # no temporary files left
     assert processes_mentioning(str(tmp_path)) == []
+
+
+def interrupt_after_lap_one(tmp_path, *signals: int) -> tuple[subprocess.Popen, str, Path]:
+    """A race of the Slow robot, stopped after its first lap by `signals`, 50 ms apart (so the later
+    ones arrive while the first is being handled: before, a second Ctrl-C 20 to 100 ms after the
+    first lost the results)."""
+    run_dir = tmp_path / "run"
+    proc = start_race("--laps", "5", "--robot", f"{FAULTY}:Slow", "--run-dir", str(run_dir),
+                      "--json", str(tmp_path / "r.json"))
+    try:
+        assert wait_for(lambda: lap_done(run_dir), 30), proc.stderr
+        for sig in signals:
+            os.kill(proc.pid, sig)
+            time.sleep(0.05)
+        _, err = proc.communicate(timeout=30)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    return proc, err, run_dir
+
+
+def sock_dirs_of(pid: int) -> list[Path]:
+    return sorted(Path(tempfile.gettempdir()).glob(f"boxbox-sock-{pid}-*"))
+
+
+@pytest.mark.parametrize("signals", [(signal.SIGINT, signal.SIGINT), (signal.SIGINT, signal.SIGTERM, signal.SIGINT),
+                                     (signal.SIGHUP,), (signal.SIGHUP, signal.SIGHUP)],
+                         ids=["ctrl-c-twice", "ctrl-c-term-ctrl-c", "sighup", "sighup-twice"])
+def test_signals_while_racing_keep_the_results_and_clean_up(signals, tmp_path, overlay):
+    """Issue 14, cases 3 and 9: a second Ctrl-C while the first is handled, and SIGHUP (the terminal
+    closed), stop the race like one Ctrl-C: the results so far in the run dir and the JSON, exit
+    130, no process and no socket folder left."""
+    proc, err, run_dir = interrupt_after_lap_one(tmp_path, *signals)
+    assert proc.returncode == 130, err
+    lines = [ln for ln in err.splitlines() if ln.startswith("boxbox: error:")]
+    assert len(lines) == 1 and "the race was interrupted" in lines[0], err
+    assert "Traceback" not in err
+    for result in (read_json(tmp_path / "r.json"), read_json(run_dir / "result.json")):
+        [me] = result["drivers"]
+        assert len(me["lap_times"]) >= 1 and result["error"].startswith("the race was interrupted")
+    assert processes_mentioning(str(run_dir)) == []
+    assert sock_dirs_of(proc.pid) == []
+    assert not list(run_dir.glob(".*tmp*")) and not list(run_dir.glob(".telemetry-*"))
+
+
+def test_socket_folders_of_a_launcher_killed_outright_are_removed_by_the_next_race(tmp_path, overlay):
+    gone = subprocess.Popen(["true"])
+    gone.wait()  # a pid that no longer runs
+    stale = Path(tempfile.mkdtemp(prefix=f"boxbox-sock-{gone.pid}-"))
+    (stale / "bridge.sock").touch()
+    proc, _, _ = race(tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    assert not stale.exists()

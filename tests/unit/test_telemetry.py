@@ -56,7 +56,8 @@ def record(rec: Recorder, n: int, **fields) -> None:
     """What the host does per drive step: the state, reply header and controls bytes, then the robot's tuple."""
     for i in range(n):
         rec_bytes = state_bytes(sim_time_s=0.02 * i, speed_x_mps=float(i), laps=1.0, rpm=100.0, **fields)
-        rec.rows += rec_bytes + wire.HEADER.pack(wire.CONTROLS, 0, i, 0) + controls_bytes(steer=-0.5, accel=0.25, gear=2)
+        reply = wire.HEADER.pack(wire.CONTROLS, 0, i, 0) + controls_bytes(steer=-0.5, accel=0.25, gear=2)
+        rec.rows += rec_bytes + reply
         if rec.tel is not None:
             try:
                 rec.sig_append(rec.tel(as_state(rec_bytes)))
@@ -237,7 +238,7 @@ def synthetic_run(run_dir, laps: int = 2):
     pit = track_info(track, {0: car})["pit"]
     t, d_total, k = 0.0, 0.0, 0
     prev_v = 0.0
-    stop_t = None
+    stop_t: float | None = None
     box = pit["box_m"]["0"]
     while d_total < laps * length:
         d = d_total % length
@@ -265,6 +266,7 @@ def synthetic_run(run_dir, laps: int = 2):
     rec.signals[:] = [(v + 5.0,) for v in np.frombuffer(rec.rows, "<f8").reshape(-1, ROW_DOUBLES)[:, 7]]
     write_telemetry(run_dir / FILE_NAME, [rec], track, {0: car})
     lap_times = [60.0, 55.0][:laps]
+    assert stop_t is not None
     event = {"lap": 1, "entry_time": 20.0, "stop_time": stop_t, "leave_time": stop_t + 3.0, "exit_time": 40.0,
              "stop_error_m": 0.1, "fuel": 10.0, "repair": 0.0, "mode": "constant-decel"}
     result = {"track": "g-track-1", "category": "road", "car": "car1-trb1", "laps": laps, "wall_s": 2.0,

@@ -142,7 +142,7 @@ def bench_telemetry(track, laps, runs, robot, json_file, skill_level) -> None:
 
     overlay = ready()
     with Progress(console=err, transient=True) as bar:
-        task = bar.add_task(f"{track}, {laps} laps, telemetry on/off/alternate", total=3 * runs)
+        task = bar.add_task(f"{track}, {laps} laps, telemetry on/off", total=2 * runs)
         res = run_telemetry_bench(overlay, track, laps, runs, robot, lambda: bar.advance(task), skill_level)
     out.print(table(res))
     for line in summary_lines(res):

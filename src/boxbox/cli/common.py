@@ -43,7 +43,7 @@ def race_error(result: RaceResult) -> RaceError:
     first, _, rest = (result.error or "").partition("\n")
     if rest:
         err.print(rest, markup=False, highlight=False)
-    return Interrupted(first) if result.error == INTERRUPTED else RaceError(first)
+    return Interrupted(first) if first.startswith(INTERRUPTED) else RaceError(first)
 
 
 def run_with_progress(cfg: RaceConfig, overlay: Overlay, quiet: bool = False) -> RaceResult:

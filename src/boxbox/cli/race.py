@@ -55,8 +55,11 @@ SET_HELP = "Override a parameter of the boxbox robot (see `boxbox params`), e.g.
                    "other slots in the order given, e.g. --grid-position last.")
 @skill_level_option
 @click.option("--quiet", is_flag=True, help="No progress bar.")
+@click.option("--verbose", is_flag=True,
+              help="Show what the robots print as the race runs (it is always kept in RUN_DIR/host.log).")
 def race(track, car, laps, robots, opponents, fuel_laps, pit_laps, pit_mode, json_file, step_budget_ms, settings,
-         setup_budget_s, learning, run_dir, no_telemetry, report_dir, grid_position, skill_level, quiet) -> None:
+         setup_budget_s, learning, run_dir, no_telemetry, report_dir, grid_position, skill_level, quiet,
+         verbose) -> None:
     """Run one race in TORCS (console mode) and print the results.
 
     \b
@@ -81,8 +84,9 @@ def race(track, car, laps, robots, opponents, fuel_laps, pit_laps, pit_mode, jso
     cfg = launch.RaceConfig(track=track, category=category, car=car, laps=laps, robots=specs, robot_names=names,
                             opponents=opp, options=options, step_budget_ms=int(step_budget_ms), run_dir=run_dir,
                             setup_budget_ms=int(setup_budget_s * 1000), telemetry=not no_telemetry,
-                            skill_level=skill_level, grid_position=grid_slot, learning=learning)
-    _finish(run_with_progress(cfg, overlay, quiet), laps, json_file, report_dir)
+                            skill_level=skill_level, grid_position=grid_slot, learning=learning,
+                            json_file=json_file, verbose=verbose)  # the race writes RUN_DIR/result.json, then this
+    _finish(run_with_progress(cfg, overlay, quiet or verbose), laps, report_dir)
 
 
 def _robot_names(specs: list[str], options, track: str, car: str) -> list[str]:
@@ -99,14 +103,16 @@ def _robot_names(specs: list[str], options, track: str, car: str) -> list[str]:
     return names
 
 
-def _finish(result, laps: int, json_file: Path | None, report_dir: Path | None) -> None:
-    """The table, the JSON and the report (also for a race stopped by a fault), then the verdict."""
-    from boxbox.files import write_json_atomic
+def _finish(result, laps: int, report_dir: Path | None) -> None:
+    """The table and the report (also for a race stopped by a fault), then the verdict (the race has
+    written its JSON: RUN_DIR/result.json, then --json)."""
     from boxbox.report.tables import results_table
 
     out.print(results_table(result))
-    if json_file:
-        write_json_atomic(json_file, result.to_json(), indent=1)
+    for d in result.drivers:
+        for miss in d.missed_pit_stops:
+            err.print(f"[yellow]warning:[/] {d.name} asked for a pit stop on lap {miss['lap']} that was not made: "
+                      f"{miss['reason']} ({miss['detail']})")
     if report_dir is not None:  # a faulted race's partial telemetry is the point of its report
         from boxbox.report.race_report import write_report
 

@@ -56,9 +56,9 @@ def robot_indices(module: str) -> dict[int, dict[str, str]]:
             if index.get("name") != "index":
                 continue
             for entry in index.findall("section"):
-                attrs = {a.get("name"): a.get("val") for a in entry.findall("attstr")}
+                attrs = {a.get("name", ""): a.get("val", "") for a in entry.findall("attstr")}
                 try:
-                    out[int(entry.get("name"))] = {"name": attrs.get("name", ""), "car": attrs.get("car name", "")}
+                    out[int(entry.get("name", ""))] = {"name": attrs.get("name", ""), "car": attrs.get("car name", "")}
                 except (TypeError, ValueError):
                     pass
     return out

@@ -1,9 +1,10 @@
 """The robot host: the Python process that answers the bridge's messages with robot calls.
 
-Started by the race launcher as `python -m boxbox.torcs.host SPEC.json` with the listening
-socket inherited.  One host serves every Python car of a race.  A robot that raises or returns
-bad values is a fault: the host writes `fault.json` (with the traceback) and tells the bridge,
-which brakes the car and ends the race.  SIGUSR1 dumps the current traceback (for hangs).
+Started by the race launcher (forked, or as `python -m boxbox.torcs.host SPEC.json`) with the
+listening socket and the write end of its pipe to the launcher (torcs/hostlink.py) inherited.  One
+host serves every Python car of a race.  A robot that raises, exits, or returns bad values is a
+fault: the host makes a `Fault` record (torcs/faults.py), tells the launcher and the bridge, which
+brakes the car and ends the race.  SIGUSR1 dumps the current traceback (for hangs).
 """
 
 from __future__ import annotations
@@ -23,19 +24,21 @@ from time import perf_counter_ns
 
 import numpy as np
 
-from boxbox.files import write_json_atomic
 from boxbox.model import Car, Controls, Opponent, PitLane, PitOrder, State, Track
 from boxbox.model.state import CAR_STATE_OUT, CAR_STATE_PIT
 from boxbox.model.track import LEFT
 from boxbox.robot.base import RaceOptions, Robot
 from boxbox.robot.loader import load_robot_class
 from boxbox.torcs import wire
-from boxbox.torcs.telemetry import FILE_NAME as TELEMETRY_FILE
+from boxbox.torcs.faults import Fault, FaultKind, RobotCall
+from boxbox.torcs.hostlink import HostLink
+from boxbox.torcs.pitwatch import PitWatch
+from boxbox.torcs.rundir import RunDir
 from boxbox.torcs.telemetry import SPILL_BYTES, Recorder, write_telemetry
+from boxbox.torcs.timing import MIN_SPEED_MPS, STEP_S, TimeModel
 
 STATE_SIZE = wire.STATE_REC.size
 OPP_SIZE = wire.OPPONENT_REC.size
-STEP_S = 0.02  # TORCS calls a robot's drive every 0.02 s of simulated time
 STUCK_SPEED_MPS = 1.0  # slower than this outside the pit counts as stuck
 MAX_STEP_SAMPLES = 1 << 16  # step times kept per car: every step up to this, then every 2nd, 4th...
 
@@ -63,19 +66,33 @@ class Slot:
     longest_stuck_steps: int = 0
     off_track_steps: int = 0
     pit_zone: bytes = b""  # 1 per segment between pit entry and exit
+    pit_watch: PitWatch = field(default_factory=lambda: PitWatch(None, None, b""))  # replaced at NEW_RACE
     recorder: Recorder | None = None  # telemetry (None: not recorded)
     rec: Recorder | None = None  # the recorder while recording (the drive step's check), else None
     start_fuel_l: float | None = None
 
 
 class RobotFault(Exception):
-    def __init__(self, kind: str, message: str, tb: str = "") -> None:
+    """A robot call went wrong; the host turns it into a `Fault` record naming the car."""
+
+    def __init__(self, kind: FaultKind, message: str, tb: str = "") -> None:
         super().__init__(message)
         self.kind, self.message, self.tb = kind, message, tb
 
+    @classmethod
+    def from_exception(cls, exc: BaseException, context: str) -> RobotFault:
+        """An exception out of a robot call (`context`: "in drive, step 3", "creating the robot"), or
+        its sys.exit(): the robot exiting is reported as such at once, never as a hang (SystemExit
+        would otherwise end the host)."""
+        tb = traceback.format_exc()
+        if isinstance(exc, SystemExit):
+            code = "" if exc.code is None else repr(exc.code)
+            return cls("exit", f"the robot called sys.exit({code}) ({context})", tb)
+        return cls("exception", f"{type(exc).__name__}: {exc} ({context})", tb)
+
 
 def decode_track(blob: bytes, name: str, category: str) -> tuple[Track, Car]:
-    t = dict(zip(wire.TRACK_FIELDS, wire.TRACK_REC.unpack_from(blob, 0)))
+    t = dict(zip(wire.TRACK_FIELDS, wire.TRACK_REC.unpack_from(blob, 0), strict=True))
     n = int(t["n_segments"])
     off = wire.TRACK_REC.size
     seg_rows = np.frombuffer(blob, dtype="<f8", count=n * len(wire.SEGMENT_FIELDS), offset=off)
@@ -84,7 +101,7 @@ def decode_track(blob: bytes, name: str, category: str) -> tuple[Track, Car]:
     seg["type"] = seg["type"].astype(int)
     seg["race_info"] = seg["race_info"].astype(int)
     off += wire.SEGMENT_REC.size * n
-    handle = dict(zip(wire.HANDLE_FIELDS, wire.HANDLE_REC.unpack_from(blob, off)))
+    handle = dict(zip(wire.HANDLE_FIELDS, wire.HANDLE_REC.unpack_from(blob, off), strict=True))
     pit = None
     if int(t["pit_type"]) != 0 and t["pit_entry_seg"] >= 0:
         pit = PitLane(side=int(t["pit_side"]), entry_seg=int(t["pit_entry_seg"]), start_seg=int(t["pit_start_seg"]),
@@ -101,7 +118,7 @@ def decode_track(blob: bytes, name: str, category: str) -> tuple[Track, Car]:
 
 
 def complete_car(car: Car, payload: bytes) -> None:
-    r = dict(zip(wire.CAR_FIELDS, wire.CAR_REC.unpack_from(payload, 0)))
+    r = dict(zip(wire.CAR_FIELDS, wire.CAR_REC.unpack_from(payload, 0), strict=True))
     ints = {"car_index", "gear_count", "gear_offset", "pit_seg", "start_rank", "race_laps", "skill_level"}
     for key, value in r.items():
         if key.startswith("gear_ratio_"):
@@ -135,8 +152,9 @@ def watch_step(slot: Slot, state: State) -> None:
     left, right = state.to_left_m, state.to_right_m
     if left < 0.0 or right < 0.0:
         seg = int(state.seg_id)
-        if slot.pit_zone and 0 <= seg < len(slot.pit_zone) and slot.pit_zone[seg] and \
-                (left < 0.0 if slot.track.pit.side == LEFT else right < 0.0):
+        pit = slot.track.pit if slot.track is not None else None
+        if pit is not None and slot.pit_zone and 0 <= seg < len(slot.pit_zone) and slot.pit_zone[seg] and \
+                (left < 0.0 if pit.side == LEFT else right < 0.0):
             slot.stuck_run = 0
             return  # in the pit lane
         slot.off_track_steps += 1
@@ -166,11 +184,18 @@ def incidents(slot: Slot) -> dict:
             "off_track_s": round(slot.off_track_steps * STEP_S, 2)}
 
 
+LAPS_AT = wire.STATE_FIELDS.index("laps")
+SIM_TIME_AT = wire.STATE_FIELDS.index("sim_time_s")
+
+
 class Host:
-    def __init__(self, spec: dict) -> None:
+    """Answers the bridge's messages with robot calls; tells the launcher what it sees (HostLink)."""
+
+    def __init__(self, spec: dict, link: HostLink | None = None) -> None:
         self.spec = spec
-        self.run_dir = Path(spec["run_dir"])
-        opts = spec.get("options", {})
+        self.run_dir = RunDir(spec["run_dir"])
+        self.link = link or HostLink(None)
+        opts = dict(spec.get("options", {}))
         opts["pit_laps"] = tuple(opts.get("pit_laps", ()))
         options = RaceOptions(**opts)
         self.slots: list[Slot] = []
@@ -179,14 +204,18 @@ class Host:
             self.slots.append(Slot(robot=cls(options), spec=entry["spec"], name=entry["name"]))
         if spec.get("telemetry", True):
             for i, slot in enumerate(self.slots):
-                slot.rec = slot.recorder = Recorder(i, slot.name, slot.spec, spool_dir=self.run_dir)
-        self.alternate = bool(spec.get("telemetry_alternate"))  # bench-telemetry: record odd laps only
+                slot.rec = slot.recorder = Recorder(i, slot.name, slot.spec, spool_dir=self.run_dir.path)
+        limits = spec.get("limits", {})
+        self.laps = int(limits.get("laps", 0))
+        self.min_speed_mps = float(limits.get("min_speed_mps", MIN_SPEED_MPS))
+        self.sim_limit_s = math.inf  # set when the track is known
         self.other_laps: dict[int, list[float]] = {}
         self._other_seen: dict[int, int] = {}
-        self.fault: RobotFault | None = None
+        self.fault: Fault | None = None
+        self.buf = bytearray(wire.MAX_MESSAGE_BYTES + 64)
         self.out = bytearray(wire.HEADER.size + 64)
 
-    # --- replies -------------------------------------------------------------------------
+    # --- replies and faults ----------------------------------------------------------------
     def _reply(self, conn: socket.socket, kind: int, robot: int, step: int, rec=None, values=(), flags=0) -> None:
         wire.HEADER.pack_into(self.out, 0, kind, robot, step, flags)
         n = wire.HEADER.size
@@ -195,41 +224,34 @@ class Host:
             n += rec.size
         conn.send(memoryview(self.out)[:n])
 
-    def _record_fault(self, slot: Slot | None, robot: int, step: int, where: str, fault: RobotFault) -> None:
+    def _fail(self, conn, robot: int, step: int, where: RobotCall, fault: RobotFault, reply_kind: int) -> None:
+        """Record the fault (the first one of the race) and tell the bridge: it brakes the car and
+        ends the race."""
+        slot = self.slots[robot] if 0 <= robot < len(self.slots) else None
         if self.fault is None:
-            self.fault = fault
-            info = {"kind": fault.kind, "message": fault.message, "traceback": fault.tb, "robot_index": robot,
-                    "robot": slot.spec if slot else "", "name": slot.name if slot else "", "where": where,
-                    "step": step, "sim_time_s": slot.last_state.sim_time_s if slot and slot.last_state else 0.0}
-            (self.run_dir / "fault.json").write_text(json.dumps(info, indent=1))
+            last = slot.last_state if slot else None
+            self.fault = Fault(kind=fault.kind, message=fault.message, where=where, robot_index=robot,
+                               robot=slot.spec if slot else "", name=slot.name if slot else "", step=step,
+                               sim_time_s=last.sim_time_s if last else 0.0, traceback=fault.tb)
+            report_fault(self.run_dir, self.link, self.fault)
+        self._reply(conn, reply_kind, robot, step, flags=wire.FLAG_FAULT)
 
     @staticmethod
     def _call(where: str, fn, *args):
-        """A robot call: any exception becomes a RobotFault naming the call, with its traceback."""
+        """A robot call: any exception, or its sys.exit(), becomes a RobotFault naming the call."""
         try:
             return fn(*args)
-        except Exception as exc:
-            tb = traceback.format_exc()
-            raise RobotFault("exception", f"{type(exc).__name__}: {exc} (in {where})", tb) from exc
+        except BaseException as exc:  # noqa: BLE001  (a robot's SystemExit is its fault too)
+            raise RobotFault.from_exception(exc, f"in {where}") from exc
 
     # --- the loop ------------------------------------------------------------------------
     def serve(self, conn: socket.socket) -> None:
-        buf = bytearray(wire.MAX_MESSAGE_BYTES + 64)
+        """Answer the bridge until it closes the connection."""
+        buf = self.buf
         header = wire.HEADER.unpack_from
-        state_rec = wire.STATE_REC.unpack_from
-        opp_rec = wire.OPPONENT_REC.unpack_from
-        controls_rec = wire.CONTROLS_REC.pack_into
-        make_state = State._make
-        make_opp = Opponent._make
-        # the CONTROLS reply is packed into buf right after the state record (over the opponents,
-        # decoded by then), so that telemetry records a step with one copy: state, header, controls
-        reply_at = wire.HEADER.size + STATE_SIZE
-        reply_view = memoryview(buf)[reply_at: reply_at + wire.HEADER.size + wire.CONTROLS_REC.size]
-        row_view = memoryview(buf)[wire.HEADER.size: reply_at + wire.HEADER.size + wire.CONTROLS_REC.size]
-        state_view = row_view[:STATE_SIZE]
-        pack_header = wire.HEADER.pack_into
-        hsize = wire.HEADER.size
-        slots = self.slots
+        drive = self._drive_step(conn)
+        handlers = {wire.NEW_TRACK: self._new_track, wire.NEW_RACE: self._new_race, wire.PIT_CMD: self._pit_cmd,
+                    wire.END_RACE: self._end_race, wire.HELLO: self._hello}
         while True:
             try:
                 n = conn.recv_into(buf)
@@ -239,134 +261,162 @@ class Host:
                 return
             kind, robot, step, count = header(buf, 0)
             if kind == wire.DRIVE:
-                t0 = perf_counter_ns()
-                slot = slots[robot]
-                vals = state_rec(buf, hsize)
-                if count:
-                    base = hsize + STATE_SIZE
-                    opps = tuple([make_opp(opp_rec(buf, base + i * OPP_SIZE)) for i in range(count)])
-                    self._track_other_laps(opps)
-                else:
-                    opps = ()
-                state = make_state(vals + (opps,))
-                slot.last_state = state
-                watch_step(slot, state)
-                if step == 1:
-                    slot.start_fuel_l = state.fuel_l
-                if vals[29] != slot.laps_seen:  # laps
-                    self._lap(slot, state)
-                try:
-                    c = slot.robot.drive(state)
-                    problem = c.problem(slot.max_gear) if type(c) is Controls else f"drive() returned {type(c).__name__}, not Controls"
-                    if problem:
-                        raise RobotFault("invalid-controls", f"drive() returned invalid controls: {problem} "
-                                                             f"(step {step}, t={state.sim_time_s:.2f} s)")
-                except RobotFault as fault:
-                    self._fail(conn, slot, robot, step, "drive", fault, wire.CONTROLS)
-                    continue
-                except Exception as exc:
-                    fault = RobotFault("exception", f"{type(exc).__name__}: {exc} (in drive, step {step}, "
-                                                    f"t={state.sim_time_s:.2f} s)", traceback.format_exc())
-                    self._fail(conn, slot, robot, step, "drive", fault, wire.CONTROLS)
-                    continue
-                pack_header(buf, reply_at, wire.CONTROLS, robot, step, 0)
-                controls_rec(buf, reply_at + hsize, c.steer, c.accel, c.brake, c.clutch, c.gear,
-                             1.0 if c.pit_request else 0.0)
-                conn.send(reply_view)
-                rec = slot.rec
-                if rec is not None:
-                    rec.rows += row_view
-                    if rec.tel is not None:
-                        try:
-                            rec.sig_append(rec.tel(state))
-                        except Exception as exc:
-                            rec.drop_signals(exc)
-                    if len(rec.rows) >= SPILL_BYTES:
-                        rec.spill()
-                record_step_time(slot, perf_counter_ns() - t0)
-            elif kind == wire.NEW_TRACK:
-                slot = slots[robot]
-                slot.chunks.append(bytes(buf[hsize:n]))
-                if step + 1 < count:
-                    continue  # more chunks follow
-                blob = b"".join(slot.chunks)
-                slot.chunks = []
-                try:
-                    slot.track, slot.car = decode_track(blob, self.spec["track"], self.spec["category"])
-                    slot.car.name = self.spec["car"]
-                    fuel = self._call("initial_fuel_l", slot.robot.initial_fuel_l, slot.track, slot.car)
-                    if fuel is not None and not (isinstance(fuel, (int, float)) and 0 <= fuel < math.inf):
-                        raise RobotFault("invalid-value", f"initial_fuel_l() returned {fuel!r}; expected litres >= 0 or None")
-                except RobotFault as fault:
-                    self._fail(conn, slot, robot, step, "initial_fuel_l", fault, wire.FUEL)
-                    continue
-                self._reply(conn, wire.FUEL, robot, step, wire.FUEL_REC, (-1.0 if fuel is None else float(fuel),))
-            elif kind == wire.NEW_RACE:
-                slot = slots[robot]
-                complete_car(slot.car, bytes(buf[hsize:n]))
-                slot.max_gear = slot.car.max_gear
-                slot.pit_zone = pit_zone(slot.track)
-                try:
-                    self._call("on_track", slot.robot.on_track, slot.track, slot.car)
-                except RobotFault as fault:
-                    self._fail(conn, slot, robot, step, "on_track", fault, wire.ACK)
-                    continue
-                if slot.recorder is not None:
-                    slot.recorder.start(slot.robot)
-                self._reply(conn, wire.ACK, robot, step)
-            elif kind == wire.PIT_CMD:
-                slot = slots[robot]
-                state = make_state(state_rec(buf, hsize) + ((),))
-                if slot.rec is not None:  # the stop itself: TORCS drives no car it holds in the pit
-                    slot.rec.add(bytes(state_view), state)
-                try:
-                    order = self._call("pit_stop", slot.robot.pit_stop, state)
-                    problem = order.problem() if type(order) is PitOrder else f"pit_stop() returned {type(order).__name__}, not PitOrder"
-                    if problem:
-                        raise RobotFault("invalid-value", f"pit_stop() returned an invalid order: {problem}")
-                except RobotFault as fault:
-                    self._fail(conn, slot, robot, step, "pit_stop", fault, wire.PIT_ORDER)
-                    continue
-                self._reply(conn, wire.PIT_ORDER, robot, step, wire.PIT_ORDER_REC, (float(order.fuel_l), float(order.repair)))
-            elif kind == wire.END_RACE:
-                slot = slots[robot]
-                state = make_state(state_rec(buf, hsize) + ((),))
+                drive(robot, step, count)
+            elif (handler := handlers.get(kind)) is not None:
+                handler(conn, robot, step, count, n)
+
+    def _drive_step(self, conn: socket.socket):
+        """The drive step, a closure over everything it uses (it runs 50 times a simulated second
+        per car: locals are the cheapest lookups). The CONTROLS reply is packed into the receive
+        buffer right after the state record (over the opponents, decoded by then), so telemetry
+        records a step with one copy: state, reply header, controls."""
+        buf, slots, hsize = self.buf, self.slots, wire.HEADER.size
+        state_rec, opp_rec = wire.STATE_REC.unpack_from, wire.OPPONENT_REC.unpack_from
+        make_state, make_opp = State._make, Opponent._make
+        pack_header, pack_controls = wire.HEADER.pack_into, wire.CONTROLS_REC.pack_into
+        reply_at = hsize + STATE_SIZE
+        reply_view = memoryview(buf)[reply_at: reply_at + hsize + wire.CONTROLS_REC.size]
+        row_view = memoryview(buf)[hsize: reply_at + hsize + wire.CONTROLS_REC.size]
+        robot_controls = self._robot_controls
+
+        def drive(robot: int, step: int, count: int) -> None:
+            t0 = perf_counter_ns()
+            slot = slots[robot]
+            vals = state_rec(buf, hsize)
+            if count:
+                opps = tuple([make_opp(opp_rec(buf, reply_at + i * OPP_SIZE)) for i in range(count)])
+                self._track_other_laps(opps)
+            else:
+                opps = ()
+            state = make_state(vals + (opps,))
+            slot.last_state = state
+            watch_step(slot, state)
+            if vals[LAPS_AT] != slot.laps_seen:
                 self._lap(slot, state)
-                try:
-                    self._call("on_race_end", slot.robot.on_race_end, state)
-                except RobotFault as fault:
-                    self._fail(conn, slot, robot, step, "on_race_end", fault, wire.ACK)
-                    continue
-                self._reply(conn, wire.ACK, robot, step)
-            elif kind == wire.HELLO:
-                self._reply(conn, wire.HELLO, robot, step, wire.HELLO_REC, (wire.PROTOCOL_VERSION, 0.0, 0.0))
-            elif kind == wire.SHUTDOWN:
-                continue
+            try:
+                c = robot_controls(slot, state, step)
+            except RobotFault as fault:
+                self._fail(conn, robot, step, "drive", fault, wire.CONTROLS)
+                return
+            pack_header(buf, reply_at, wire.CONTROLS, robot, step, 0)
+            pack_controls(buf, reply_at + hsize, c.steer, c.accel, c.brake, c.clutch, c.gear,
+                          1.0 if c.pit_request else 0.0)
+            conn.send(reply_view)
+            if c.pit_request or slot.pit_watch.active:
+                slot.pit_watch.step(state, c.pit_request)
+            rec = slot.rec
+            if rec is not None:
+                rec.rows += row_view
+                if rec.tel is not None:
+                    rec.add_signals(state)
+                if len(rec.rows) >= SPILL_BYTES and not rec.spill():
+                    slot.rec = None  # the disk is full: this car's telemetry stops (rec.storage_error says so)
+            record_step_time(slot, perf_counter_ns() - t0)
 
-    def _fail(self, conn, slot, robot, step, where, fault: RobotFault, reply_kind: int) -> None:
-        self._record_fault(slot, robot, step, where, fault)
-        self._reply(conn, reply_kind, robot, step, flags=wire.FLAG_FAULT)
+        return drive
 
+    def _robot_controls(self, slot: Slot, state: State, step: int) -> Controls:
+        """The robot's controls for this step, checked; a RobotFault for anything else."""
+        if state.sim_time_s > self.sim_limit_s:
+            raise RobotFault("sim-time-limit", self._sim_limit_text())
+        if step == 1:
+            slot.start_fuel_l = state.fuel_l
+        try:
+            c = slot.robot.drive(state)
+        except BaseException as exc:  # noqa: BLE001  (a robot's SystemExit is its fault too)
+            raise RobotFault.from_exception(exc, f"in drive, step {step}, t={state.sim_time_s:.2f} s") from exc
+        problem = c.problem(slot.max_gear) if type(c) is Controls else \
+            f"drive() returned {type(c).__name__}, not Controls"
+        if problem:
+            raise RobotFault("invalid-controls", f"drive() returned invalid controls: {problem} "
+                                                 f"(step {step}, t={state.sim_time_s:.2f} s)")
+        return c
+
+    def _sim_limit_text(self) -> str:
+        length = self.slots[0].track.length_m if self.slots and self.slots[0].track else 0.0
+        return (f"the race did not finish within {self.sim_limit_s:.0f} s of simulated time ({self.laps} laps "
+                f"of {length:.0f} m at {self.min_speed_mps:g} m/s on average); it was stopped")
+
+    # --- the other messages ----------------------------------------------------------------
+    def _new_track(self, conn, robot: int, step: int, count: int, n: int) -> None:
+        slot = self.slots[robot]
+        slot.chunks.append(bytes(self.buf[wire.HEADER.size:n]))
+        if step + 1 < count:
+            return  # more chunks follow
+        blob = b"".join(slot.chunks)
+        slot.chunks = []
+        try:
+            slot.track, slot.car = decode_track(blob, self.spec["track"], self.spec["category"])
+            slot.car.name = self.spec["car"]
+            self._track_known(slot.track)
+            fuel = self._call("initial_fuel_l", slot.robot.initial_fuel_l, slot.track, slot.car)
+            if fuel is not None and not (isinstance(fuel, (int, float)) and 0 <= fuel < math.inf):
+                raise RobotFault("invalid-value", f"initial_fuel_l() returned {fuel!r}; expected litres >= 0 or None")
+        except RobotFault as fault:
+            self._fail(conn, robot, step, "initial_fuel_l", fault, wire.FUEL)
+            return
+        self._reply(conn, wire.FUEL, robot, step, wire.FUEL_REC, (-1.0 if fuel is None else float(fuel),))
+
+    def _track_known(self, track: Track) -> None:
+        if math.isinf(self.sim_limit_s):
+            self.sim_limit_s = TimeModel(0, 0, self.min_speed_mps).sim_limit_s(self.laps, track.length_m) \
+                if self.laps else math.inf
+            self.link.send("track", length_m=float(track.length_m))
+
+    def _new_race(self, conn, robot: int, step: int, count: int, n: int) -> None:
+        slot = self.slots[robot]
+        assert slot.car is not None, "NEW_RACE before NEW_TRACK"
+        complete_car(slot.car, bytes(self.buf[wire.HEADER.size:n]))
+        slot.max_gear = slot.car.max_gear
+        slot.pit_zone = pit_zone(slot.track)
+        slot.pit_watch = PitWatch(slot.track, slot.car, slot.pit_zone)
+        try:
+            self._call("on_track", slot.robot.on_track, slot.track, slot.car)
+        except RobotFault as fault:
+            self._fail(conn, robot, step, "on_track", fault, wire.ACK)
+            return
+        if slot.recorder is not None:
+            slot.recorder.start(slot.robot)
+        self._reply(conn, wire.ACK, robot, step)
+
+    def _pit_cmd(self, conn, robot: int, step: int, count: int, n: int) -> None:
+        slot = self.slots[robot]
+        state = State._make(wire.STATE_REC.unpack_from(self.buf, wire.HEADER.size) + ((),))
+        if slot.rec is not None:  # the stop itself: TORCS drives no car it holds in the pit
+            slot.rec.add(bytes(self.buf[wire.HEADER.size: wire.HEADER.size + STATE_SIZE]), state)
+        slot.pit_watch.step(state, True)
+        try:
+            order = self._call("pit_stop", slot.robot.pit_stop, state)
+            problem = order.problem() if type(order) is PitOrder else \
+                f"pit_stop() returned {type(order).__name__}, not PitOrder"
+            if problem:
+                raise RobotFault("invalid-value", f"pit_stop() returned an invalid order: {problem}")
+        except RobotFault as fault:
+            self._fail(conn, robot, step, "pit_stop", fault, wire.PIT_ORDER)
+            return
+        self._reply(conn, wire.PIT_ORDER, robot, step, wire.PIT_ORDER_REC, (float(order.fuel_l), float(order.repair)))
+
+    def _end_race(self, conn, robot: int, step: int, count: int, n: int) -> None:
+        slot = self.slots[robot]
+        state = State._make(wire.STATE_REC.unpack_from(self.buf, wire.HEADER.size) + ((),))
+        self._lap(slot, state)
+        try:
+            self._call("on_race_end", slot.robot.on_race_end, state)
+        except RobotFault as fault:
+            self._fail(conn, robot, step, "on_race_end", fault, wire.ACK)
+            return
+        self._reply(conn, wire.ACK, robot, step)
+
+    def _hello(self, conn, robot: int, step: int, count: int, n: int) -> None:
+        self._reply(conn, wire.HELLO, robot, step, wire.HELLO_REC, (wire.PROTOCOL_VERSION, 0.0, 0.0))
+
+    # --- what the host keeps -----------------------------------------------------------------
     def _lap(self, slot: Slot, state: State) -> None:
         laps = int(state.laps)
-        if self.alternate:
-            self._alternate(slot, laps)
         if laps > slot.laps_seen and slot.laps_seen >= 1 and state.last_lap_time_s > 0:
             slot.lap_times.append(state.last_lap_time_s)
-            self._save_progress()
+            self.link.send("progress", **self.cars_json(final=False))  # a host killed later loses no lap
         slot.laps_seen = max(slot.laps_seen, laps)
-
-    def _save_progress(self) -> None:
-        """Lap times so far, once per lap, so a host that is killed or hangs loses none of them."""
-        cars = [{"robot_index": i, "robot": s.spec, "name": s.name,
-                 "car_index": s.car.car_index if s.car else None, "lap_times": s.lap_times,
-                 "steps": s.steps_timed, "start_fuel_l": s.start_fuel_l, "step_us_median": None,
-                 "step_us_p99": None, "report": {}, **incidents(s)} for i, s in enumerate(self.slots)]
-        try:
-            write_json_atomic(self.run_dir / "host-progress.json",
-                              {"cars": cars, "other_lap_times": {str(k): v for k, v in self.other_laps.items()}})
-        except OSError:
-            pass  # only a safety copy: host.json at the end has it all
 
     def _track_other_laps(self, opps: tuple[Opponent, ...]) -> None:
         seen = self._other_seen
@@ -379,84 +429,102 @@ class Host:
                     self.other_laps.setdefault(idx, []).append(o.last_lap_time_s)
                 seen[idx] = laps
 
-    def _alternate(self, slot: Slot, lap: int) -> None:
-        """bench-telemetry: record odd laps only, and keep each whole lap's step median (from lap 2:
-        lap 1 holds the start) with whether it was recorded, so one race compares both."""
-        rec = slot.recorder
-        if rec is None or lap == rec.alt_lap:
-            return
-        if rec.alt_lap >= 2 and slot.step_stride == 1:  # step_ns still holds every step
-            part = sorted(slot.step_ns[rec.alt_mark:])
-            if part:
-                rec.lap_step_us.append((rec.alt_lap, slot.rec is not None, part[len(part) // 2] / 1000))
-        rec.alt_lap, rec.alt_mark = lap, len(slot.step_ns)
-        slot.rec = rec if lap % 2 == 1 else None
+    def cars_json(self, final: bool = True) -> dict:
+        """What the host knows of each Python car (sent at every lap, and whole at the end)."""
+        return {"cars": [car_json(i, slot, final) for i, slot in enumerate(self.slots)],
+                "other_lap_times": {str(k): v for k, v in self.other_laps.items()}}
 
-    def write_telemetry(self) -> None:
-        """RUN_DIR/telemetry.parquet from what was recorded, also after a fault; never raises."""
+    def finish(self) -> None:
+        """At the end, whatever happened: the summary to the launcher first (it is the result), then
+        RUN_DIR/telemetry.parquet from what was recorded (also after a fault), and what became of it."""
+        self.link.send("summary", **self.cars_json())
+        telemetry_errors = self.write_telemetry()
+        if telemetry_errors:
+            self.link.send("telemetry", errors=telemetry_errors)
+
+    def write_telemetry(self) -> list[str]:
+        """Write the telemetry file; never raises. Returns why telemetry was lost, if it was."""
         recorders = [s.recorder for s in self.slots if s.recorder is not None]
+        lost = [f"{r.name}: {r.storage_error}" for r in recorders if r.storage_error]
         if not recorders:
-            return
+            return lost
         try:
             track = next((s.track for s in self.slots if s.track is not None), None)
-            write_telemetry(self.run_dir / TELEMETRY_FILE, recorders, track,
-                            {i: s.car for i, s in enumerate(self.slots)})
+            write_telemetry(self.run_dir.telemetry, recorders, track, {i: s.car for i, s in enumerate(self.slots)})
+        except OSError as exc:
+            lost.append(f"{self.run_dir.telemetry.name} not written: {exc.strerror or exc}")
         except Exception:
             print("boxbox host: writing the telemetry failed", file=sys.stderr)
             traceback.print_exc()
+        finally:
+            for rec in recorders:
+                rec.remove_spool()
+        return lost
 
-    def summary(self) -> dict:
-        cars = []
-        for i, slot in enumerate(self.slots):
-            ns = sorted(slot.step_ns)
-            try:
-                report = slot.robot.race_report() if slot.car is not None else {}
-                json.dumps(report)
-            except Exception as exc:  # a report must never lose the race's results
-                report = {"report_error": f"{type(exc).__name__}: {exc}"}
-            cars.append({
-                "robot_index": i, "robot": slot.spec, "name": slot.name,
-                "car_index": slot.car.car_index if slot.car else None,
-                "lap_times": slot.lap_times, "steps": slot.steps_timed, "start_fuel_l": slot.start_fuel_l,
-                "step_us_median": ns[len(ns) // 2] / 1000 if ns else None,
-                "step_us_p99": ns[min(len(ns) - 1, int(len(ns) * 0.99))] / 1000 if ns else None,
-                "report": report,
-                **incidents(slot),
-            })
-        return {"cars": cars, "other_lap_times": {str(k): v for k, v in self.other_laps.items()}}
+
+def car_json(index: int, slot: Slot, final: bool) -> dict:
+    """One Python car's figures; the step times and the robot's report only at the end (final)."""
+    ns = sorted(slot.step_ns) if final else []
+    report: dict = {}
+    if final and slot.car is not None:
+        try:
+            report = slot.robot.race_report()
+            json.dumps(report)
+        except Exception as exc:  # a report must never lose the race's results
+            report = {"report_error": f"{type(exc).__name__}: {exc}"}
+    return {"robot_index": index, "robot": slot.spec, "name": slot.name,
+            "car_index": slot.car.car_index if slot.car else None,
+            "lap_times": slot.lap_times, "steps": slot.steps_timed, "start_fuel_l": slot.start_fuel_l,
+            "step_us_median": ns[len(ns) // 2] / 1000 if ns else None,
+            "step_us_p99": ns[min(len(ns) - 1, int(len(ns) * 0.99))] / 1000 if ns else None,
+            "missed_pit_stops": slot.pit_watch.finish() if final else list(slot.pit_watch.missed),
+            "report": report, **incidents(slot)}
+
+
+def report_fault(run_dir: RunDir, link: HostLink, fault: Fault) -> None:
+    """Tell the launcher (in memory) and keep RUN_DIR/fault.json (written whole, when the disk allows)."""
+    link.send("fault", fault=fault.to_json())
+    try:
+        fault.write(run_dir.fault)
+    except OSError:
+        pass  # the launcher has it
+
+
+def _accept(listener: socket.socket, timeout_s: float) -> socket.socket | None:
+    listener.settimeout(timeout_s)
+    try:
+        conn, _ = listener.accept()
+    except TimeoutError:
+        return None
+    conn.settimeout(None)
+    return conn
 
 
 def main(argv: list[str]) -> int:
     spec = json.loads(Path(argv[0]).read_text())
-    run_dir = Path(spec["run_dir"])
+    run_dir = RunDir(spec["run_dir"])
+    link = HostLink(spec.get("link_fd"))
     os.environ["BOXBOX_RUN_DIR"] = str(run_dir)  # robots may keep files of their race here
-    hang_file = open(run_dir / "hang-traceback.txt", "w")
+    hang_file = open(run_dir.hang_traceback, "w")  # noqa: SIM115  (open for the process's life)
     faulthandler.register(signal.SIGUSR1, file=hang_file, all_threads=False)
     listener = socket.socket(fileno=int(spec["listen_fd"]))
     try:
-        host = Host(spec)
-    except Exception as exc:  # robot import or constructor failed
-        (run_dir / "fault.json").write_text(json.dumps({
-            "kind": "exception", "message": f"{type(exc).__name__}: {exc} (creating the robot)",
-            "traceback": traceback.format_exc(), "robot_index": -1, "robot": "", "name": "", "where": "__init__",
-            "step": 0, "sim_time_s": 0.0}))
+        host = Host(spec, link)
+    except BaseException as exc:  # noqa: BLE001  (robot import or constructor failed, or exited)
+        fault = RobotFault.from_exception(exc, "creating the robot")
+        report_fault(run_dir, link, Fault(kind=fault.kind, message=fault.message, where="__init__",
+                                          traceback=fault.tb))
         return 1
-    listener.settimeout(float(spec.get("connect_timeout_s", 60)))
-    try:
-        conn, _ = listener.accept()
-    except TimeoutError:
+    conn = _accept(listener, float(spec.get("connect_timeout_s", 60)))
+    if conn is None:
         return 2
-    conn.settimeout(None)
-    (run_dir / "host-connected").touch()  # tells the launcher that TORCS's bridge got through
+    link.send("connected")
     try:
         host.serve(conn)
     except (BrokenPipeError, ConnectionResetError):
-        pass  # TORCS went away while we answered (killed): what we have is written below
+        pass  # TORCS went away while we answered (killed): what we have is sent below
     finally:
-        try:
-            write_json_atomic(run_dir / "host.json", host.summary())
-        finally:
-            host.write_telemetry()  # what was recorded, also after a robot fault
+        host.finish()
     return 1 if host.fault else 0
 
 

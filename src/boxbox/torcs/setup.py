@@ -11,7 +11,9 @@ import fcntl
 import hashlib
 import os
 import shutil
+import struct
 import subprocess
+import sys
 import tarfile
 import tempfile
 from collections.abc import Callable
@@ -19,6 +21,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from boxbox.errors import SetupError
+from boxbox.files import atomic_path, write_text_atomic
 from boxbox.torcs import wire
 from boxbox.torcs.paths import BRIDGE_SOURCE, HEADER_MEMBERS, ROBOT_MODULE, TorcsInstall, cache_dir, system_torcs
 
@@ -188,26 +191,107 @@ def bridge_fingerprint() -> str:
     return digest[:16]
 
 
+def bridge_module() -> Path:
+    """Where the bridge for this source and wire layout is built (and kept)."""
+    return cache_dir() / "bridge" / bridge_fingerprint() / f"{ROBOT_MODULE}.so"
+
+
 def build_bridge(include: Path, torcs: TorcsInstall, report: Report = _quiet) -> Path:
-    out_dir = cache_dir() / "bridge" / bridge_fingerprint()
-    module = out_dir / f"{ROBOT_MODULE}.so"
+    """The bridge module, built when missing, and rebuilt (with a message) when the cached one is
+    damaged: not the file that was built (its hash) or not an ELF shared object (`bridge_problem`)."""
+    module = bridge_module()
+    if module.exists() and not _hash_file(module).exists() and not elf_problem(module.read_bytes()) \
+            and not load_problem(module, torcs):
+        write_text_atomic(_hash_file(module), _sha256(module))  # built before hashes were kept: adopted
     if module.exists():
-        return module
+        problem = bridge_problem(module, torcs, load=False)
+        if problem is None:
+            return module
+        report(f"the bridge module {module} {problem}: rebuilding it")
+        module.unlink(missing_ok=True)
     if not shutil.which("g++"):
         raise SetupError("g++ is needed to build the bridge: apt-get install g++")
     report("compiling the bridge module")
+    out_dir = module.parent
     out_dir.mkdir(parents=True, exist_ok=True)
     (out_dir / "bb_wire.h").write_text(wire.c_header())
-    tmp = out_dir / f"{ROBOT_MODULE}.so.tmp"
-    cmd = ["g++", "-O2", "-shared", "-fPIC", "-Wall", "-o", str(tmp), str(BRIDGE_SOURCE),
-           f"-I{out_dir}", f"-I{include}", f"-L{torcs.shared_lib_dir}", "-lrobottools", "-ltgf",
-           f"-Wl,-rpath,{torcs.shared_lib_dir}"]
-    proc = subprocess.run(cmd, capture_output=True, text=True)
-    if proc.returncode != 0:
-        first = next((ln for ln in proc.stderr.splitlines() if "error" in ln), proc.stderr.strip()[:300])
-        raise SetupError(f"compiling the bridge failed: {first}")
-    tmp.rename(module)
+    with atomic_path(module) as tmp:
+        cmd = ["g++", "-O2", "-shared", "-fPIC", "-Wall", "-o", str(tmp), str(BRIDGE_SOURCE),
+               f"-I{out_dir}", f"-I{include}", f"-L{torcs.shared_lib_dir}", "-lrobottools", "-ltgf",
+               f"-Wl,-rpath,{torcs.shared_lib_dir}"]
+        proc = subprocess.run(cmd, capture_output=True, text=True)
+        if proc.returncode != 0:
+            first = next((ln for ln in proc.stderr.splitlines() if "error" in ln), proc.stderr.strip()[:300])
+            raise SetupError(f"compiling the bridge failed: {first}")
+        if problem := load_problem(tmp, torcs):
+            raise SetupError(f"the bridge module just built does not load: {problem}")
+        write_text_atomic(_hash_file(module), _sha256(tmp))
     return module
+
+
+def _hash_file(module: Path) -> Path:
+    return module.with_name(module.name + ".sha256")
+
+
+def _sha256(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def bridge_problem(module: Path, torcs: TorcsInstall, load: bool = True) -> str | None:
+    """Why the built bridge cannot be raced with, as the end of a sentence, or None when it can:
+    missing, no hash recorded at its build, its contents not those built (a truncated or
+    overwritten file), not a 64-bit ELF shared object, and (load=True) dlopen refusing it."""
+    try:
+        data = module.read_bytes()
+    except OSError as exc:
+        return f"is missing ({exc.strerror or exc})"
+    try:
+        recorded = _hash_file(module).read_text().strip()
+    except OSError:
+        return "has no build record (its sha256 file)"
+    if hashlib.sha256(data).hexdigest() != recorded:
+        return f"is damaged: its contents ({len(data)} bytes) are not those it was built with"
+    if problem := elf_problem(data):
+        return f"is not a shared library: {problem}"
+    if load and (problem := load_problem(module, torcs)):
+        return f"does not load: {problem}"
+    return None
+
+
+def elf_problem(data: bytes) -> str | None:
+    """What is wrong with an x86-64 ELF shared object's header, or None: magic, class, byte order,
+    type, and whether the file holds all its program and section headers (a truncated file does not)."""
+    if len(data) < 64 or data[:4] != b"\x7fELF":
+        return "no ELF header"
+    if data[4] != 2 or data[5] != 1:
+        return "not a 64-bit little-endian ELF file"
+    e_type, e_machine = struct.unpack_from("<HH", data, 16)
+    e_phoff, e_shoff = struct.unpack_from("<QQ", data, 32)
+    e_phentsize, e_phnum, e_shentsize, e_shnum = struct.unpack_from("<HHHH", data, 54)
+    if e_type != 3:  # ET_DYN
+        return f"ELF type {e_type}, not a shared object"
+    if e_machine != 62:  # EM_X86_64, the only machine TORCS is packaged for here
+        return f"ELF machine {e_machine}, not x86-64"
+    if e_phoff + e_phnum * e_phentsize > len(data) or e_shoff + e_shnum * e_shentsize > len(data):
+        return f"truncated ({len(data)} bytes, its headers reach beyond the end)"
+    return None
+
+
+def load_problem(module: Path, torcs: TorcsInstall) -> str | None:
+    """dlopen the module in a child process, as TORCS would (its XML library loaded first: libtgf
+    needs it); the module's entry point must be there. None when it loads."""
+    check = ("import ctypes, os, sys; ctypes.CDLL(sys.argv[2], mode=os.RTLD_GLOBAL); "
+             f"getattr(ctypes.CDLL(sys.argv[1]), {ROBOT_MODULE!r})")
+    try:
+        proc = subprocess.run([sys.executable, "-I", "-S", "-c", check, str(module),
+                               str(torcs.shared_lib_dir / "libtxml.so")],
+                              capture_output=True, text=True, timeout=30, stdin=subprocess.DEVNULL)
+    except (OSError, subprocess.TimeoutExpired) as exc:
+        return f"the load check could not run: {exc}"
+    if proc.returncode == 0:
+        return None
+    lines = proc.stderr.strip().splitlines()
+    return lines[-1] if lines else f"the load check exited with status {proc.returncode}"
 
 
 def _mirror(src: Path, dest: Path, real_subdir: str) -> None:
@@ -258,7 +342,8 @@ def build_overlay(bridge: Path, torcs: TorcsInstall) -> Overlay:
         (tmp / "data" / "drivers" / ROBOT_MODULE).mkdir()
         shutil.rmtree(root, ignore_errors=True)
         tmp.rename(root)
-    return Overlay(torcs=torcs, lib_dir=lib, data_dir=data, bridge=lib / "drivers" / ROBOT_MODULE / f"{ROBOT_MODULE}.so")
+    bridge_copy = lib / "drivers" / ROBOT_MODULE / f"{ROBOT_MODULE}.so"
+    return Overlay(torcs=torcs, lib_dir=lib, data_dir=data, bridge=bridge_copy)
 
 
 def ensure_ready(report: Report = _quiet) -> Overlay:
@@ -297,11 +382,13 @@ def doctor() -> list[tuple[str, bool, str]]:
         ("plib headers (libplib-dev)", Path("/usr/include/plib/sg.h").exists(), "/usr/include/plib"),
         ("g++", shutil.which("g++") is not None, shutil.which("g++") or "apt-get install g++"),
     ]
-    include = Path(os.environ["TORCS_SRC"]) if os.environ.get("TORCS_SRC") else cache_dir() / "torcs-headers" / "include"
+    include = Path(os.environ["TORCS_SRC"]) if os.environ.get("TORCS_SRC") else \
+        cache_dir() / "torcs-headers" / "include"
     rows.append(("TORCS headers", (include / "robot.h").exists() or (include / "src/interfaces/robot.h").exists(),
                  str(include)))
-    module = cache_dir() / "bridge" / bridge_fingerprint() / f"{ROBOT_MODULE}.so"
-    rows.append(("bridge module", module.exists(), str(module)))
+    module = bridge_module()
+    problem = bridge_problem(module, torcs)
+    rows.append(("bridge module", problem is None, str(module) + (f" {problem}" if problem else "")))
     overlay = cache_dir() / "overlay" / bridge_fingerprint()
     rows.append(("overlay", (overlay / "lib" / "drivers" / ROBOT_MODULE).exists(), str(overlay)))
     return rows

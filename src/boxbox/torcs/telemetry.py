@@ -18,15 +18,20 @@ from __future__ import annotations
 
 import json
 import math
-import os
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
+from boxbox.files import atomic_path
+from boxbox.model import Car, Track
 from boxbox.torcs import wire
+from boxbox.torcs.rundir import TELEMETRY_FILE, RunDir
+from boxbox.torcs.timing import STEP_S
 
-FILE_NAME = "telemetry.parquet"
+FILE_NAME = TELEMETRY_FILE  # RUN_DIR/telemetry.parquet
 METADATA_KEY = b"boxbox"
 TARGET_FIELD = "target_speed_mps"  # a robot signal of this name fills the target speed column
 SIGNAL_PREFIX = "sig_"
@@ -76,8 +81,8 @@ class Recorder:
 
     spool_dir: where the steps go when the buffer is full (None: all kept in memory, for tests)."""
 
-    __slots__ = ("index", "name", "spec", "rows", "signals", "sig_append", "tel", "names", "error", "alt_lap",
-                 "alt_mark", "lap_step_us", "spool_dir", "spilled_steps")
+    __slots__ = ("index", "name", "spec", "rows", "signals", "sig_append", "tel", "names", "error", "spool_dir",
+                 "spilled_steps", "storage_error")
 
     def __init__(self, index: int, name: str, spec: str, spool_dir: Path | None = None) -> None:
         self.index, self.name, self.spec = index, name, spec
@@ -86,34 +91,43 @@ class Recorder:
         self.sig_append = self.signals.append
         self.spool_dir = spool_dir
         self.spilled_steps = 0
-        self.tel = None  # the robot's bound telemetry method, or None: no signals
+        self.tel: Callable[[Any], tuple] | None = None  # the robot's bound telemetry method; None: no signals
         self.names: tuple[str, ...] = ()
         self.error: str | None = None
-        # bench-telemetry's lap alternation (see Host._alternate): (lap, recorded, step median us)
-        self.alt_lap, self.alt_mark = 0, 0
-        self.lap_step_us: list[tuple[int, bool, float]] = []
+        self.storage_error: str | None = None  # why the steps could not be kept on disk (then: not recorded)
 
     @property
     def steps(self) -> int:
         return self.spilled_steps + len(self.rows) // ROW_BYTES
 
     def _spool(self, kind: str) -> Path:
-        return self.spool_dir / f".telemetry-{self.index}.{kind}"
+        assert self.spool_dir is not None
+        return RunDir(self.spool_dir).spool(self.index, kind)
 
-    def spill(self) -> None:
-        """Move the buffered steps to the spool files (rows as recorded, signals as float64)."""
+    def spill(self) -> bool:
+        """Move the buffered steps to the spool files (rows as recorded, signals as float64).
+        False when they cannot be written (a full disk): then the car's telemetry is given up, its
+        spool removed (the space goes back to the race's results) and `storage_error` says why."""
         if self.spool_dir is None or not self.rows:
-            return
-        if self.names:
-            sig = self._signal_array()
-            if sig is not None:
-                with open(self._spool("sig"), "ab") as f:
-                    f.write(sig.tobytes())
-        with open(self._spool("rows"), "ab") as f:
-            f.write(self.rows)
+            return True
+        try:
+            if self.names:
+                sig = self._signal_array()
+                if sig is not None:
+                    with open(self._spool("sig"), "ab") as f:
+                        f.write(sig.tobytes())
+            with open(self._spool("rows"), "ab") as f:
+                f.write(self.rows)
+        except OSError as exc:
+            self.storage_error = f"{exc.strerror or exc} at step {self.steps} in {self.spool_dir}"
+            self.remove_spool()
+            self.rows, self.spilled_steps = bytearray(), 0
+            self.signals.clear()
+            return False
         self.spilled_steps += len(self.rows) // ROW_BYTES
         self.rows = bytearray()
         self.signals.clear()
+        return True
 
     def _signal_array(self, spilled: bool = False) -> np.ndarray | None:
         """The buffered signal tuples (after the spooled ones, when spilled) as a (steps, names)
@@ -157,10 +171,17 @@ class Recorder:
         self.rows += _NO_HEADER
         self.rows += controls
         if self.tel is not None:
-            try:
-                self.sig_append(self.tel(state))
-            except Exception as exc:
-                self.drop_signals(exc)
+            self.add_signals(state)
+
+    def add_signals(self, state) -> None:
+        """The robot's telemetry() tuple for this step (the host calls it only when tel is set)."""
+        tel = self.tel
+        if tel is None:
+            return
+        try:
+            self.sig_append(tel(state))
+        except Exception as exc:
+            self.drop_signals(exc)
 
     def drop_signals(self, exc: BaseException, why: str | None = None) -> None:
         """telemetry() raised (or its values did not fit): keep recording the car, without the
@@ -209,18 +230,24 @@ class Recorder:
         return cols
 
 
-def track_info(track, cars: dict[int, object]) -> dict:
+def track_edges(track: Track) -> dict[str, list[float]]:
+    """The track's edges for a map: the corners of every segment (TORCS splits turns into segments
+    of a few metres, so the polygon follows them closely), closed at the start line."""
+    seg = track.seg
+    edges = {}
+    for side in ("left", "right"):
+        for axis in ("x", "y"):
+            points = np.append(seg[f"start_{side}_{axis}"], seg[f"end_{side}_{axis}"][-1])
+            edges[f"{side}_{axis}"] = np.round(points.astype(float), 2).tolist()
+    return edges
+
+
+def track_info(track: Track, cars: dict[int, Car | None]) -> dict:
     """What a report needs of the track: length, edges (for the map), pit lane, each car's box."""
     info: dict = {"name": track.name, "category": track.category, "length_m": float(track.length_m),
                   "width_m": float(track.width_m)}
     try:
-        from boxbox.robot.racingline import middle_line
-
-        mid = middle_line(track, step_m=4.0)
-        nx, ny = -np.sin(mid.heading_rad), np.cos(mid.heading_rad)
-        r = lambda v: np.round(v, 2).tolist()  # noqa: E731
-        info["edges"] = {"left_x": r(mid.x_m + mid.half_left_m * nx), "left_y": r(mid.y_m + mid.half_left_m * ny),
-                         "right_x": r(mid.x_m - mid.half_right_m * nx), "right_y": r(mid.y_m - mid.half_right_m * ny)}
+        info["edges"] = track_edges(track)
     except Exception as exc:  # a map without edges is still a map
         info["edges_error"] = f"{type(exc).__name__}: {exc}"
     pit = track.pit
@@ -253,7 +280,8 @@ def write_telemetry(path: Path, recorders: list[Recorder], track=None, cars: dic
         arrays = {}
         for name, _ in COLUMNS:
             if name == "driver":
-                arrays[name] = pa.DictionaryArray.from_arrays(pa.array(np.zeros(n, dtype=np.int32)), pa.array([rec.name]))
+                codes = pa.array(np.zeros(n, dtype=np.int32))
+                arrays[name] = pa.DictionaryArray.from_arrays(codes, pa.array([rec.name]))
             elif name == TARGET_FIELD and name not in cols:
                 arrays[name] = pa.nulls(n, pa.float64())
             else:
@@ -263,16 +291,14 @@ def write_telemetry(path: Path, recorders: list[Recorder], track=None, cars: dic
                 arrays[name] = pa.array(values)
         tables.append(pa.table(arrays))
     table = pa.concat_tables(tables, promote_options="default") if len(tables) > 1 else tables[0]
-    meta = {"version": 1, "step_s": 0.02,
+    meta = {"version": 1, "step_s": STEP_S,
             "cars": [{"car": r.index, "name": r.name, "robot": r.spec, "steps": r.steps, "signals": list(r.names),
-                      "error": r.error, **({"lap_step_us": r.lap_step_us} if r.lap_step_us else {})}
-                     for r in recorders]}
+                      "error": r.error} for r in recorders]}
     if track is not None:
         meta["track"] = track_info(track, cars or {})
     table = table.replace_schema_metadata({METADATA_KEY: json.dumps(meta).encode()})
-    tmp = path.with_name(f".{path.name}.tmp")
-    pq.write_table(table, tmp, compression="zstd")
-    os.replace(tmp, path)
+    with atomic_path(path) as tmp:
+        pq.write_table(table, tmp, compression="zstd")
     for rec in recorders:
         rec.remove_spool()
     return table.num_rows

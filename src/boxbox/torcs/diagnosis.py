@@ -1,0 +1,116 @@
+"""Why a race did not end properly, in one line (plus a traceback where there is one).
+
+The sources, in order: the robot host's `Fault` (a robot raised, exited, returned bad values, or
+the race outlived its simulated-time limit), the bridge's `BOXBOX-FAULT` line in TORCS's stderr (a
+robot that did not answer in time, a host that went away), the wall limit, and how TORCS and the
+host exited.
+"""
+
+from __future__ import annotations
+
+import re
+import signal
+from dataclasses import dataclass
+
+from boxbox.torcs import wire
+from boxbox.torcs.faults import Fault
+from boxbox.torcs.rundir import RunDir
+
+PROGRESS_LINE = re.compile(r"Sim Time:\s*([\d.]+)\s*\[s\], Leader Laps:\s*(\d+)")
+FAULT_LINE = re.compile(r"BOXBOX-FAULT (\S+) robot=(-?\d+) step=(\d+)(?: budget_ms=(\d+) answer=(\d+))?")
+HOST_LOG_TAIL = 2000  # characters of the host's log shown when it died
+
+
+@dataclass
+class Ending:
+    """What the launcher saw at the end of a race."""
+
+    robots: list[str]  # the Python robots' specs
+    names: list[str]  # their drivers' names
+    step_budget_ms: float
+    setup_budget_ms: float
+    wall_limit_s: float
+    timed_out: bool = False
+    fault: Fault | None = None
+    torcs_code: int | None = None
+    host_code: int | None = None
+
+    def who(self, robot: int) -> str:
+        if 0 <= robot < len(self.robots):
+            return f"robot '{self.robots[robot]}' ({self.names[robot]})"
+        return "the robot host"
+
+
+def diagnose(run_dir: RunDir, end: Ending) -> str | None:
+    """One line saying why the race did not end properly, or None when it did."""
+    err_text = run_dir.read_text(run_dir.torcs_err)
+    fault = end.fault or Fault.read(run_dir.fault)
+    if fault is not None:
+        return fault.line(end.robots[0] if end.robots else "")
+    if marker := FAULT_LINE.search(err_text):
+        return _bridge_fault(run_dir, end, marker)
+    if end.timed_out:
+        hang_tb = run_dir.read_text(run_dir.hang_traceback).strip()
+        limit = f"{end.wall_limit_s:.0f}" if end.wall_limit_s >= 10 else f"{end.wall_limit_s:.2g}"
+        return f"the race did not finish within its wall limit of {limit} s; TORCS was stopped" + \
+            ("\n" + hang_tb if hang_tb else "")
+    if end.torcs_code not in (0, None):
+        tail = torcs_words(run_dir, err_text)
+        if end.torcs_code in (126, 127) and "failed to run command" in tail:  # stdbuf could not exec it
+            return f"TORCS could not be started: {tail}"
+        return f"TORCS {exit_text(end.torcs_code)}" + (f": {tail}" if tail else "") + f" (log {run_dir.torcs_err})"
+    if run_dir.results_file() is None:
+        tail = torcs_words(run_dir, err_text)
+        return "TORCS wrote no results file" + (f": {tail}" if tail else "") + f" (logs {run_dir.path}/torcs.*)"
+    if end.host_code not in (0, None):
+        log = run_dir.read_text(run_dir.host_log).strip()
+        return f"the robot process {exit_text(end.host_code)}" + (f"\n{log[-HOST_LOG_TAIL:]}" if log else "")
+    return None
+
+
+def _bridge_fault(run_dir: RunDir, end: Ending, marker: re.Match) -> str:
+    kind, robot, step = marker.group(1), int(marker.group(2)), int(marker.group(3))
+    who = end.who(robot)
+    if kind == "timeout":
+        hang_tb = run_dir.read_text(run_dir.hang_traceback).strip()
+        return timeout_line(who, end, step, marker) + (f"\nwhere the robot was stuck:\n{hang_tb}" if hang_tb else "")
+    if kind in ("host-gone", "connect"):
+        how = exit_text(end.host_code) if end.host_code is not None else "ended"
+        log = run_dir.read_text(run_dir.host_log).strip()
+        return f"the robot process {how} during the race (step {step}) while driving {who}" + \
+            (f"\n{log[-HOST_LOG_TAIL:]}" if log else "")
+    return f"bridge fault '{kind}' for {who} at step {step}"
+
+
+def torcs_words(run_dir: RunDir, err_text: str) -> str:
+    """TORCS's last complaint: its stderr, else its console lines other than progress; a module it
+    could not load (linuxModLoad) is named first."""
+    lines = [ln.strip() for ln in err_text.splitlines() if ln.strip()]
+    if not lines:
+        out = run_dir.read_text(run_dir.torcs_out)
+        lines = [ln.strip() for ln in out.splitlines() if ln.strip() and not PROGRESS_LINE.search(ln)]
+    load = next((ln for ln in lines if ln.startswith("linuxModLoad:")), None)
+    if load:
+        return "could not load " + load.partition("...")[2].strip()
+    return " | ".join(lines[-3:])
+
+
+def timeout_line(who: str, end: Ending, step: int, marker: re.Match) -> str:
+    """Which call did not answer in time: a drive step (step budget) or a set-up call (set-up budget)."""
+    answer = int(marker.group(5)) if marker.group(5) else wire.CONTROLS
+    if answer == wire.CONTROLS:
+        return f"{who} did not answer within its step budget of {end.step_budget_ms:g} ms (step {step})"
+    call = {wire.FUEL: "initial_fuel_l", wire.PIT_ORDER: "pit_stop", wire.HELLO: "start-up",
+            wire.ACK: "on_track" if step == 0 else "on_race_end"}.get(answer, f"answer kind {answer}")
+    budget_s = int(marker.group(4)) / 1000 if marker.group(4) else end.setup_budget_ms / 1000
+    when = f", step {step}" if answer in (wire.PIT_ORDER, wire.ACK) and step else ""
+    return f"{who} did not answer within its set-up budget of {budget_s:g} s (in {call}{when})"
+
+
+def exit_text(code: int) -> str:
+    if code < 0:
+        try:
+            return f"was killed by {signal.Signals(-code).name}"
+        except ValueError:
+            return f"was killed by signal {-code}"
+    return f"exited with status {code}"

@@ -1,0 +1,61 @@
+"""A robot fault: what stopped the race, as one typed record.
+
+The robot host makes a `Fault` when a robot call raises, exits, returns something invalid, or the
+race outlives its simulated-time limit; it sends it to the launcher (torcs/hostlink.py, in memory)
+and keeps it in RUN_DIR/fault.json (written atomically).  `Fault.from_json` is the only reader.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import asdict, dataclass, fields
+from pathlib import Path
+from typing import Literal
+
+from boxbox.files import write_json_atomic
+
+FaultKind = Literal["exception", "exit", "invalid-controls", "invalid-value", "sim-time-limit"]
+RobotCall = Literal["__init__", "initial_fuel_l", "on_track", "drive", "pit_stop", "on_race_end"]
+
+
+@dataclass(frozen=True)
+class Fault:
+    kind: FaultKind
+    message: str  # one line: what went wrong and in which call
+    where: RobotCall
+    robot_index: int = -1  # the Python car (-1: before any car, e.g. creating the robot)
+    robot: str = ""  # the robot's spec, as given to --robot
+    name: str = ""  # the driver's name
+    step: int = 0  # the drive step (0 before the race)
+    sim_time_s: float = 0.0
+    traceback: str = ""
+
+    def to_json(self) -> dict:
+        return asdict(self)
+
+    @classmethod
+    def from_json(cls, data: dict) -> Fault:
+        known = {f.name for f in fields(cls)}
+        return cls(**{k: v for k, v in data.items() if k in known})
+
+    def write(self, path: Path) -> None:
+        write_json_atomic(path, self.to_json(), indent=1)
+
+    @classmethod
+    def read(cls, path: Path) -> Fault | None:
+        try:
+            return cls.from_json(json.loads(path.read_text()))
+        except (OSError, ValueError, TypeError):
+            return None
+
+    def who(self, default_spec: str = "") -> str:
+        """'robot SPEC (NAME)' for the one-line message."""
+        return f"robot '{self.robot or default_spec}'" + (f" ({self.name})" if self.name else "")
+
+    def line(self, default_spec: str = "") -> str:
+        """The one-line cause, with the robot's traceback below it when there is one."""
+        if self.kind == "sim-time-limit":
+            text = self.message
+        else:
+            text = f"{self.who(default_spec)} failed: {self.message}"
+        return text + ("\n" + self.traceback.rstrip() if self.traceback else "")

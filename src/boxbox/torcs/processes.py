@@ -1,0 +1,192 @@
+"""The race's processes: how they start, and that every one of them ends with the race.
+
+TORCS and the robot host are pinned to one core (they strictly alternate, so this costs nothing
+and makes the socket round trip ~15x cheaper), die with the launcher (PR_SET_PDEATHSIG), run in
+sessions of their own and are killed by process group at the end.  Processes a robot starts may
+leave both (a new session, a double fork): the launcher is their child subreaper for the race, so
+orphans come to it instead of init, and `ChildSweep` kills every process of the race still alive at
+the end (psutil: the launcher's new descendants that carry the race's BOXBOX_RUN_DIR).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import ctypes
+import os
+import signal
+import subprocess
+import sys
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import psutil
+
+PR_SET_PDEATHSIG = 1
+PR_SET_CHILD_SUBREAPER = 36
+PR_GET_CHILD_SUBREAPER = 37
+_libc = ctypes.CDLL(None, use_errno=True)
+
+
+def child_setup(cpu: int | None) -> Callable[[], None]:
+    """What a race's child does first: die with the launcher, and run on the race's core."""
+    def setup() -> None:
+        _libc.prctl(PR_SET_PDEATHSIG, signal.SIGKILL)
+        if cpu is not None:
+            os.sched_setaffinity(0, {cpu})
+    return setup
+
+
+def pick_cpu() -> int | None:
+    cpus = sorted(os.sched_getaffinity(0))
+    return cpus[os.getpid() % len(cpus)] if cpus else None
+
+
+class ForkedHost:
+    """The robot host as a forked child of the launcher (a Popen look-alike).
+
+    A fresh `python -m boxbox.torcs.host` spends about 0.4 s importing numpy and the robot before
+    TORCS can start its race; a fork starts with what the launcher has imported already (it has
+    loaded the robot class to check it). BOXBOX_HOST_EXEC=1 goes back to a fresh interpreter.
+    """
+
+    def __init__(self, spec_path: Path, log_path: Path, cpu: int | None) -> None:
+        sys.stdout.flush()
+        sys.stderr.flush()
+        pid = os.fork()
+        if pid == 0:  # the child: never returns into the launcher's code
+            _host_child(spec_path, log_path, cpu)
+        self.pid = pid
+        self.returncode: int | None = None
+        self.args = ["fork", "boxbox.torcs.host", str(spec_path)]
+
+    def poll(self) -> int | None:
+        if self.returncode is None:
+            try:
+                pid, status = os.waitpid(self.pid, os.WNOHANG)
+            except ChildProcessError:  # reaped elsewhere: it is gone, how is unknown
+                self.returncode = -signal.SIGKILL
+                return self.returncode
+            if pid:
+                self.returncode = os.waitstatus_to_exitcode(status)
+        return self.returncode
+
+    def wait(self, timeout: float | None = None) -> int:
+        deadline = None if timeout is None else time.monotonic() + timeout
+        while (code := self.poll()) is None:
+            if deadline is not None and time.monotonic() > deadline:
+                raise subprocess.TimeoutExpired(self.args, timeout or 0.0)
+            time.sleep(0.002)
+        return code
+
+    def send_signal(self, sig: int) -> None:
+        if self.poll() is None:
+            os.kill(self.pid, sig)
+
+    def kill(self) -> None:
+        self.send_signal(signal.SIGKILL)
+
+
+def _host_child(spec_path: Path, log_path: Path, cpu: int | None) -> None:
+    """The forked host: its own session, default signals, output to the log; then the host's main."""
+    code = 1
+    try:
+        os.setsid()
+        signal.set_wakeup_fd(-1)  # the launcher's stop signals are not the host's
+        for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+            signal.signal(sig, signal.SIG_DFL)
+        child_setup(cpu)()
+        log = os.open(log_path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644)
+        null = os.open(os.devnull, os.O_RDONLY)
+        os.dup2(null, 0)
+        os.dup2(log, 1)
+        os.dup2(log, 2)
+        # what the robot prints goes to the log, whatever the launcher's sys.stdout was (a notebook's
+        # stream, a test's capture); line by line, so --verbose shows it as it comes
+        sys.stdout = open(1, "w", buffering=1, closefd=False)  # noqa: SIM115
+        sys.stderr = open(2, "w", buffering=1, closefd=False)  # noqa: SIM115
+        import atexit
+
+        from boxbox.torcs import host
+
+        atexit._clear()  # the launcher's exit handlers are not the host's to run
+        try:
+            code = host.main([str(spec_path)])
+        finally:
+            atexit._run_exitfuncs()  # a robot's own exit handlers run, as in a fresh interpreter
+    except BaseException:  # noqa: BLE001  (anything here must end the child, reported)
+        import traceback
+
+        os.write(2, traceback.format_exc().encode(errors="replace"))
+    finally:
+        try:
+            sys.stdout.flush()
+            sys.stderr.flush()
+        finally:
+            os._exit(code)
+
+
+def kill_group(proc: subprocess.Popen | ForkedHost | None) -> None:
+    """Kill a child and its process group (it leads a session of its own), and reap it."""
+    if proc is None:
+        return
+    with contextlib.suppress(ProcessLookupError, PermissionError):
+        os.killpg(proc.pid, signal.SIGKILL)
+    with contextlib.suppress(subprocess.TimeoutExpired):
+        proc.wait(timeout=5)
+
+
+class ChildSweep:
+    """For a race: orphans of the race's processes come to this process (a child subreaper), and at
+    the end every new descendant marked with the race's BOXBOX_RUN_DIR is killed and reaped."""
+
+    def __init__(self, run_dir: Path) -> None:
+        self.marker = str(run_dir)
+        self.me = psutil.Process()
+        self.before: set[int] = set()
+        self.was_subreaper = 0
+
+    def __enter__(self) -> ChildSweep:
+        self.before = {p.pid for p in self.me.children(recursive=True)}
+        flag = ctypes.c_int(0)
+        if _libc.prctl(PR_GET_CHILD_SUBREAPER, ctypes.byref(flag)) == 0:
+            self.was_subreaper = flag.value
+        _libc.prctl(PR_SET_CHILD_SUBREAPER, 1)
+        return self
+
+    def __exit__(self, *exc) -> None:
+        try:
+            self.sweep()
+        finally:
+            _libc.prctl(PR_SET_CHILD_SUBREAPER, self.was_subreaper)
+
+    def leftovers(self) -> list[psutil.Process]:
+        found = []
+        for proc in self.me.children(recursive=True):
+            if proc.pid in self.before:
+                continue
+            try:
+                if proc.environ().get("BOXBOX_RUN_DIR") == self.marker:
+                    found.append(proc)
+            except (psutil.NoSuchProcess, psutil.AccessDenied, psutil.ZombieProcess):
+                continue
+        return found
+
+    def sweep(self) -> int:
+        """Kill what is left of the race; returns how many there were."""
+        procs = self.leftovers()
+        for proc in procs:
+            with contextlib.suppress(psutil.NoSuchProcess):
+                proc.kill()
+        psutil.wait_procs(procs, timeout=5)
+        self._reap_orphans()
+        return len(procs)
+
+    def _reap_orphans(self) -> None:
+        """Orphans that ended by themselves came to us as children: reap them (no zombies left)."""
+        for proc in self.me.children():
+            if proc.pid in self.before:
+                continue
+            with contextlib.suppress(psutil.NoSuchProcess, ChildProcessError):
+                if proc.status() == psutil.STATUS_ZOMBIE:
+                    os.waitpid(proc.pid, os.WNOHANG)

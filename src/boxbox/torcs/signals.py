@@ -1,0 +1,68 @@
+"""Signals while a race runs: Ctrl-C, SIGTERM and SIGHUP ask the race to stop, once.
+
+Without this, each signal raised KeyboardInterrupt wherever the launcher happened to be: a second
+Ctrl-C while the first was being handled lost the results, and SIGHUP (the terminal closed) killed
+the launcher outright, results and clean-up with it.  `StopSignals` notes them instead and wakes the
+launcher's select loop (a wakeup pipe), which stops TORCS, collects and writes the results; further
+signals change nothing.  The previous handlers come back when the race is over.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import threading
+
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+
+
+class StopSignals:
+    """A context for one race. `wakeup_fd` becomes readable when a stop signal arrived (None when
+    not in the main thread, where Python cannot catch signals: then the caller's handlers stay)."""
+
+    def __init__(self) -> None:
+        self.received: list[int] = []
+        self.wakeup_fd: int | None = None
+        self._write_fd: int | None = None
+        self._old: dict[int, object] = {}
+        self._old_wakeup = -1
+
+    def __enter__(self) -> StopSignals:
+        if threading.current_thread() is not threading.main_thread():
+            return self
+        self.wakeup_fd, self._write_fd = os.pipe()
+        os.set_blocking(self.wakeup_fd, False)
+        os.set_blocking(self._write_fd, False)
+        for sig in STOP_SIGNALS:
+            self._old[sig] = signal.signal(sig, self._note)
+        self._old_wakeup = signal.set_wakeup_fd(self._write_fd, warn_on_full_buffer=False)
+        return self
+
+    def _note(self, signum: int, frame) -> None:
+        self.received.append(signum)
+
+    @property
+    def stopped(self) -> bool:
+        return bool(self.received)
+
+    def names(self) -> str:
+        return ", ".join(dict.fromkeys(signal.Signals(s).name for s in self.received))
+
+    def drain(self) -> None:
+        if self.wakeup_fd is not None:
+            try:
+                while os.read(self.wakeup_fd, 64):
+                    pass
+            except BlockingIOError:
+                pass
+
+    def __exit__(self, *exc) -> None:
+        if self.wakeup_fd is None:
+            return
+        signal.set_wakeup_fd(self._old_wakeup)
+        for sig, handler in self._old.items():
+            signal.signal(sig, handler)  # type: ignore[arg-type]
+        for fd in (self.wakeup_fd, self._write_fd):
+            if fd is not None:
+                os.close(fd)
+        self.wakeup_fd = self._write_fd = None

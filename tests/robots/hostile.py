@@ -1,0 +1,83 @@
+"""Robots that test the runtime around them (issue 14's cases), one way each."""
+
+import subprocess
+import sys
+import time
+
+from boxbox import Controls
+from boxbox.robot.simple import MiddleRobot
+
+
+class ExitsInDrive(MiddleRobot):
+    """sys.exit() in drive: the robot exiting, reported at once (not a hang after the budget)."""
+
+    def drive(self, state):
+        if state.sim_time_s > 1.0:
+            sys.exit()
+        return super().drive(state)
+
+
+class ExitsInOnTrack(MiddleRobot):
+    def on_track(self, track, car):
+        sys.exit(3)
+
+
+class StartsSessionChild(MiddleRobot):
+    """Starts a child in a session of its own (setsid) and a double-forked one, then races on."""
+
+    started = False
+
+    def drive(self, state):
+        if not self.started:
+            self.started = True
+            subprocess.Popen(["sleep", "600"], start_new_session=True)
+            subprocess.Popen(["sh", "-c", "setsid sleep 601 & exit 0"], start_new_session=True).wait()
+        return super().drive(state)
+
+
+class NeverMoves(MiddleRobot):
+    """Stands on the brakes: the race would never end without its simulated-time limit."""
+
+    def drive(self, state):
+        return Controls(steer=0.0, accel=0.0, brake=1.0, clutch=0.0, gear=1)
+
+
+class NearItsBudget(MiddleRobot):
+    """Takes 4 ms of every drive step: well within a 20 ms step budget, slow over a whole race."""
+
+    def drive(self, state):
+        time.sleep(0.004)
+        return super().drive(state)
+
+
+class AsksForAStopOnTheTrack(MiddleRobot):
+    """Asks for a pit stop all race long but drives the middle of the track: never in the pit lane."""
+
+    def drive(self, state):
+        c = super().drive(state)
+        c.pit_request = True
+        return c
+
+
+class Talks(MiddleRobot):
+    """Prints on stdout and stderr (kept in RUN_DIR/host.log, shown live with verbose)."""
+
+    said = False
+
+    def drive(self, state):
+        if not self.said:
+            self.said = True
+            print("hello from the robot", flush=True)
+            print("a warning from the robot", file=sys.stderr, flush=True)
+        return super().drive(state)
+
+
+
+
+class Crawls(MiddleRobot):
+    """Follows the middle at walking pace (2 m/s): the race lasts longer than its simulated-time limit."""
+
+    def drive(self, state):
+        c = super().drive(state)
+        fast = state.speed_x_mps > 2.0
+        return Controls(steer=c.steer, accel=0.0 if fast else 0.3, brake=0.2 if fast else 0.0, clutch=0.0, gear=1)
