@@ -206,7 +206,7 @@ def test_save_load_round_trip(tmp_path):
 
     fresh = learner(TWO_TURNS)
     assert fresh.load(path) is True
-    for a, b in zip(tl.turns, fresh.turns):
+    for a, b in zip(tl.turns, fresh.turns, strict=False):
         assert b.factor == pytest.approx(a.factor, abs=1e-4)
         assert b.ceiling == pytest.approx(a.ceiling, abs=1e-4)
     assert fresh.turns[0].factor > 1.0

@@ -14,7 +14,8 @@ from boxbox.model import Track
 from boxbox.robot.racingline import RacingLine, middle_line, road_roughness, turn_regions, vertical_curvature
 from trackdata import TRACKS, load
 
-# the restored active-set solver (chosen by race results) takes up to ~4 s CPU, ~8 s wall on a busy machine, on e-track-2
+# the restored active-set solver (chosen by race results) takes up to ~4 s CPU, ~8 s wall on a busy
+# machine, on e-track-2
 MAX_SECONDS = 20.0
 
 

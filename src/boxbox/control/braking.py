@@ -9,14 +9,15 @@ Called per drive step, so pure floats and `math` only.
 from __future__ import annotations
 
 import math
-from enum import Enum
+from enum import StrEnum
 
-from boxbox.control.carmodel import CarModel, G
+from boxbox.control.carmodel import CarModel
+from boxbox.model.constants import G_MPS2 as G
 
 _MAX_EXP_ARG = 700.0  # exp() overflows a float just above 709
 
 
-class BrakeModel(str, Enum):
+class BrakeModel(StrEnum):
     EXACT = "exact"  # integrates the model above
     APPROX = "approx"  # the tutorial seed's formula: the lowest deceleration (at v2) over the whole way
 

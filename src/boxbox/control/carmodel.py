@@ -11,11 +11,9 @@ from dataclasses import dataclass, field, replace
 
 from boxbox.control.tyre import skid_grip_gain
 from boxbox.model.car import Car
+from boxbox.model.constants import AIR_DENSITY_KGPM3 as AIR_DENSITY
 from boxbox.model.skill import SkillLevel
 
-G = 9.81  # m/s^2
-
-AIR_DENSITY = 1.23  # kg/m^3, as used for the wing estimate
 WING_FACTOR = 4.0  # the tutorial's empirical factor on the wing term
 DRAG_FACTOR = 0.645  # the tutorial's empirical factor (about rho / 2) on Cx * front area
 FUEL_KG_PER_L = 1.0  # TORCS counts the fuel load with 1 kg per litre (mass = car mass + fuel)

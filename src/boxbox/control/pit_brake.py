@@ -26,11 +26,12 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 from boxbox.control.stop import SpeedTracker, Stop, StopDriver, StopStatus
+from boxbox.model.constants import G_MPS2
 
 PIT_LOOKAHEAD_M = 6.0  # steering lookahead on the pit path: the turn into the box is tight
 PIT_BRAKE_AHEAD_M = 200.0  # seed: start the stop check this far before the box
 PIT_MU = 0.4  # seed: friction factor for all pit braking (pit surfaces were not analysed)
-G_MPS2 = 9.81
+
 TORCS_CAPTURE_SPEED_MPS = 1.0  # the race engine captures a car slower than this in its box
 
 BrakeDist = Callable[[float, float, float], float]

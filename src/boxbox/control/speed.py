@@ -13,7 +13,8 @@ from collections.abc import Sequence
 import numpy as np
 
 from boxbox.control.braking import BrakeModel, entry_speed_function
-from boxbox.control.carmodel import CarModel, G
+from boxbox.control.carmodel import CarModel
+from boxbox.model.constants import G_MPS2 as G
 from boxbox.model.track import STRAIGHT, Track
 
 DEFAULT_MAX_SPEED_MPS = 100.0
@@ -247,7 +248,7 @@ class SpeedProfile:
         mus = np.broadcast_to(np.asarray(mu, dtype=float), k.shape)
         limit = [
             allowed_speed(1.0 / ki if ki > 0.0 else math.inf, float(m), model, max_speed_mps)
-            for ki, m in zip(k.tolist(), mus.tolist())
+            for ki, m in zip(k.tolist(), mus.tolist(), strict=False)
         ]
         return cls(limit, mus, model, step_m, max_speed_mps=max_speed_mps)
 

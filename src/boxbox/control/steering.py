@@ -42,7 +42,8 @@ def steer_to_line(heading_error_rad: float, lateral_error_m: float, curvature_1p
     which a car that understeers needs on top of the geometric angle; without it the car settles
     outside its line in every turn and only the distance term pulls it back.
     """
-    feed_forward = math.atan(wheelbase_m * curvature_1pm) + understeer_rad_per_mps2 * speed_mps * speed_mps * curvature_1pm
+    feed_forward = (math.atan(wheelbase_m * curvature_1pm)
+                    + understeer_rad_per_mps2 * speed_mps * speed_mps * curvature_1pm)
     correction = math.atan(lateral_gain * lateral_error_m / (abs(speed_mps) + soft_speed_mps))
     damping = yaw_damping_s * (speed_mps * curvature_1pm - yaw_rate_rps)
     return clamp_steer((feed_forward + heading_error_rad + correction + damping) / steer_lock_rad)

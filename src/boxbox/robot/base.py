@@ -34,8 +34,9 @@ class Robot:
 
     def __init__(self, options: RaceOptions | None = None) -> None:
         self.options = options or RaceOptions()
-        self.track: Track | None = None
-        self.car: Car | None = None
+        # None until on_track; typed as set, since every call that reads them comes after it
+        self.track: Track = None  # type: ignore[assignment]
+        self.car: Car = None  # type: ignore[assignment]
 
     @classmethod
     def check_setup(cls, options: RaceOptions, track_name: str, car_name: str) -> None:

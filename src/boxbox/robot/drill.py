@@ -12,6 +12,7 @@ import statistics
 
 from boxbox.control.stop import SpeedTracker, Stop, StopDriver, StopStatus
 from boxbox.model import Car, Controls, State, Track
+from boxbox.model.constants import G_MPS2
 from boxbox.robot.tutorial import TutorialRobot
 
 HOLD_S = 2.0  # stand this long at the marker before driving on
@@ -23,15 +24,19 @@ class StopDrill(TutorialRobot):
     def on_track(self, track: Track, car: Car) -> None:
         super().on_track(track, car)
         args = self.options.robot_args
-        self.marker_m = float(args.get("drill_at_m", 0.0)) % track.length_m
+        at_m = float(args.get("drill_at_m", 0.0))
+        if not 0.0 <= at_m < track.length_m:  # the track's length is known only now, from TORCS
+            raise ValueError(f"--at {at_m:g} m is not on {track.name} ({track.length_m:.0f} m long): "
+                             f"give a marker from 0 to {track.length_m:.0f}")
+        self.marker_m = at_m
         grip = self.tyre_model.mu * float(track.seg["friction"][track.segment_at(self.marker_m)])
         share = float(args.get("drill_grip_share", self.params.pit_stop_grip_share))
-        self.max_decel_mps2 = share * grip * 9.81
+        self.max_decel_mps2 = share * grip * G_MPS2
         self.driver = StopDriver(Stop(self.max_decel_mps2),
-                                 SpeedTracker(full_brake_mps2=grip * 9.81,
+                                 SpeedTracker(full_brake_mps2=grip * G_MPS2,
                                               drag_k_per_m=self.tyre_model.cw / self.tyre_model.mass_kg))
         self.phase = "approach"  # approach -> stopping -> standing -> done
-        self.latched_at_s: float | None = None
+        self.latched_at_s = 0.0
         self.standing_since_s = 0.0
         self.decels: list[float] = []
         self.prev_speed: float | None = None

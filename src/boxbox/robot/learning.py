@@ -38,7 +38,8 @@ class TurnLearner:
     length_m: float
     gain: float = 0.5
     target_margin_m: float = 0.5  # keep at least this much room to the edge in every turn
-    steady_error_m: float = 1.0  # on a racing line: within this of the line (outwards, near the apex) counts as holding it
+    # on a racing line: within this of the line (outwards, near the apex) counts as holding it
+    steady_error_m: float = 1.0
     sample_index: list[int] = field(default_factory=list)  # turn index per profile sample, -1 outside
     last_turn: int = -1  # the turn driven most recently
 
@@ -109,7 +110,8 @@ class TurnLearner:
                 turn.ceiling = turn.factor
             elif turn.min_margin_m < OFF_MARGIN_M or turn.damaged:
                 turn.ceiling = max(MIN_FACTOR, turn.factor * 0.98)
-                turn.factor = max(MIN_FACTOR, turn.factor * (0.96 if turn.min_margin_m < -1.0 or turn.damaged else 0.98))
+                cut = 0.96 if turn.min_margin_m < -1.0 or turn.damaged else 0.98
+                turn.factor = max(MIN_FACTOR, turn.factor * cut)
             elif turn.max_error_m > 3.0 * self.steady_error_m:
                 # pushed off its racing line (understeer): the turn is taken faster than the line
                 # allows, even when the track is wide enough to leave room at the edge

@@ -57,8 +57,13 @@ def load_robot_class(spec: str) -> type[Robot]:
             raise UsageError(f"robot file '{where}' does not exist")
         mod_name = f"boxbox_user_robot_{abs(hash(str(path.resolve())))}"
         module_spec = importlib.util.spec_from_file_location(mod_name, path)
+        if module_spec is None or module_spec.loader is None:
+            raise UsageError(f"robot file '{where}' cannot be imported as Python")
         module = importlib.util.module_from_spec(module_spec)
         sys.modules[mod_name] = module
+        folder = str(path.resolve().parent)
+        if folder not in sys.path:  # the robot's own helpers beside it import as in a script
+            sys.path.insert(0, folder)
         try:
             module_spec.loader.exec_module(module)
         except Exception as exc:

@@ -89,8 +89,8 @@ class PitStops:
         self.model = model or CarModel.from_car(car, fuel_l=car.initial_fuel_l)
         self.events: list[PitEvent] = []
         self.event: PitEvent | None = None
-        self.strategy = PitStrategy(track.length_m, car.tank_l,
-                                    fuel_per_m_l=FUEL_L_PER_M_ESTIMATE * car.fuel_cons_factor, pit_laps=options.pit_laps)
+        self.strategy = PitStrategy(track.length_m, car.tank_l, pit_laps=options.pit_laps,
+                                    fuel_per_m_l=FUEL_L_PER_M_ESTIMATE * car.fuel_cons_factor)
         self.wanted = False  # a stop is planned for this lap and not made yet (TORCS's pit request)
         self.decided_lap = -1
         self.retry = False  # a stop given up in an earlier lap is still owed

@@ -31,11 +31,11 @@ import numpy as np
 
 from boxbox.cache import cached_array
 from boxbox.model.car import Car
+from boxbox.model.constants import G_MPS2
 from boxbox.model.track import LEFT, Track
 
 SPEED_MARGIN_MPS = 0.5  # stay this much under the pit speed limit
 MIN_KNOT_GAP_M = 1.0  # points pushed apart when the box is next to the speed limit start / end
-G_MPS2 = 9.81
 
 
 class PitPath:

@@ -29,7 +29,6 @@ if TYPE_CHECKING:  # annotations only: scipy is imported where a line is compute
     import scipy.sparse as sp
 
 TWO_PI = 2.0 * math.pi
-_DEBUG = False
 
 
 @dataclass(frozen=True, eq=False)
@@ -141,8 +140,6 @@ def _pivot_box_qp(h_csc: sp.csc_matrix, g: np.ndarray, lo: np.ndarray, hi: np.nd
         release = ((state < 0) & (grad < -tol_g)) | ((state > 0) & (grad > tol_g))
         if not (over_lo.any() or over_hi.any() or release.any()):
             return x, True
-        if _DEBUG:
-            print("  pivot", np.count_nonzero(over_lo), np.count_nonzero(over_hi), np.count_nonzero(release), np.flatnonzero(over_lo | over_hi | release)[:8])
         state[over_lo] = -1
         state[over_hi] = 1
         state[release] = 0
@@ -192,8 +189,6 @@ def _solve_box_qp(h: sp.csr_matrix, g: np.ndarray, lo: np.ndarray, hi: np.ndarra
     """min 1/2 x'Hx + g'x subject to lo <= x <= hi, H sparse symmetric positive definite."""
     h_csc = h.tocsc()
     x, ok = _pivot_box_qp(h_csc, g, lo, hi, x0, 20)
-    if _DEBUG:
-        print("pivot ok" if ok else "pivot failed")
     if ok:
         return x
     return _primal_box_qp(h_csc, g, lo, hi, x, 2000)
@@ -268,7 +263,7 @@ def _min_curvature_offsets(mid: MiddleLine, iterations: int, peak_cap: float, ca
         # rows over the cap get penalty weight * (k_i -+ cap_i)^2 (semi-smooth Newton: the set is
         # refreshed every pass; once penalised a row stays so while it is at or over its cap)
         was = over.copy()
-        over = np.where(k_now > cap * 0.999, 1, np.where(k_now < -cap * 0.999, -1, 0)).astype(np.int8)
+        over = np.where(k_now > cap * 0.999, 1, np.where(k_now < -cap * 0.999, -1, 0)).astype(np.int8)  # type: ignore[assignment]
         over[(was != 0) & (np.abs(k_now) >= cap * 0.98)] = was[(was != 0) & (np.abs(k_now) >= cap * 0.98)]
         pw = np.where(over != 0, cap_weight, 0.0)
         target = np.where(over != 0, over * np.where(np.isfinite(cap), cap, 0.0), 0.0)
@@ -280,8 +275,6 @@ def _min_curvature_offsets(mid: MiddleLine, iterations: int, peak_cap: float, ca
         h = h + sp.identity(n, format="csr") * (1e-9 * float(h.diagonal().mean()) + 1e-12)
         g = a.T @ ((1.0 + pw) * c - pw * target)
         new = _solve_box_qp(h, g, lo, hi, off)
-        if _DEBUG:
-            print(f"it k_now max {np.abs(k_now).max():.5f} excess {np.max(np.abs(k_now) - cap):.5f} over {np.count_nonzero(over)} change {np.max(np.abs(new - off)):.4f}")
         done = np.max(np.abs(new - off)) < 2e-3 and np.array_equal(over, was)
         off = new
         if done:
@@ -303,7 +296,7 @@ def turn_regions(mid: MiddleLine, merge_m: float = 60.0) -> list[np.ndarray]:
     edges = np.flatnonzero(np.diff(t.astype(np.int8)))
     if t[-1]:  # a turn running up to the origin's straight sample ends there
         edges = np.append(edges, n - 1)
-    runs = [(int(b0) + 1, int(b1) + 1) for b0, b1 in zip(edges[::2], edges[1::2])]
+    runs = [(int(b0) + 1, int(b1) + 1) for b0, b1 in zip(edges[::2], edges[1::2], strict=False)]
     merged: list[list[int]] = []
     for r0, r1 in runs:
         if merged and (r0 - merged[-1][1]) * mid.step_m < merge_m:

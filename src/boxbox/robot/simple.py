@@ -8,9 +8,8 @@ from __future__ import annotations
 import math
 
 from boxbox.model import Car, Controls, State, Track
+from boxbox.model.constants import G_MPS2 as G
 from boxbox.robot.base import Robot
-
-G = 9.81
 
 
 class MiddleRobot(Robot):

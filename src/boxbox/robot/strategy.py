@@ -54,8 +54,9 @@ def plan_stops(race_laps: float, fuel_per_lap_l: float, tank_l: float, *, pit_lo
     once).  first_stint_fuelled: the first stint's fuel costs no refuelling time (race start: loaded
     before the start), which makes a longer first stint pay; False when planning at a stop, where
     every stint is refuelled.  From the fewest stops the tank allows, more stops are tried until
-    max_extra_stops past the best so far; for each number, every first-stint length with the rest split evenly (the weight cost is convex,
-    so even is best for the refuelled stints).  A fractional race_laps (at a stop: the rest of this
+    max_extra_stops past the best so far; for each number, every first-stint length with the rest
+    split evenly (the weight cost is convex, so even is best for the refuelled stints).  A fractional
+    race_laps (at a stop: the rest of this
     lap plus the laps after it) is planned as whole laps, but the last stint is fuelled for the
     fraction only.  Called per stop, not per step.
     """

@@ -29,7 +29,7 @@ from boxbox.model import Car, Controls, PitOrder, State, Track
 from boxbox.model.constants import DRIVE_STEP_S
 from boxbox.robot.base import FUEL_L_PER_M_ESTIMATE, RaceOptions, Robot
 from boxbox.robot.learning import TurnLearner
-from boxbox.robot.opponents import OpponentParams, collision_brake, nearby, overtake_offset, side_steer
+from boxbox.robot.opponents import Nearby, OpponentParams, collision_brake, nearby, overtake_offset, side_steer
 from boxbox.robot.params import TutorialParams, load_params
 from boxbox.robot.pit import PitParams, PitStops
 from boxbox.robot.racingline import RacingLine
@@ -49,7 +49,7 @@ class TutorialRobot(Robot):
 
     def __init__(self, options: RaceOptions | None = None) -> None:
         super().__init__(options)
-        self.params: TutorialParams | None = None
+        self.params: TutorialParams = None  # type: ignore[assignment]  # set by on_track
         self.learning_file: Path | None = None
 
     @classmethod
@@ -154,7 +154,7 @@ class TutorialRobot(Robot):
     def _limits(self, factors: list[float], model: CarModel) -> list[float]:
         p = self.params
         out = []
-        for k, kv, rough, f, g in zip(self._curv, self._vcurv, self._rough, self._friction, factors):
+        for k, kv, rough, f, g in zip(self._curv, self._vcurv, self._rough, self._friction, factors, strict=False):
             mu = model.mu * f * p.mu_scale * g
             v = allowed_speed(1.0 / k if k > 1e-9 else math.inf, mu, model, p.max_speed_mps, kv)
             if kv < 0.0:
@@ -171,7 +171,7 @@ class TutorialRobot(Robot):
         factors = self.learner.factors_per_sample()
         limits = self._limits(factors, model)
         brake_mu = [model.mu * f * p.brake_mu_scale for f in self._friction]
-        corner_mu = [model.mu * f * p.mu_scale * g for f, g in zip(self._friction, factors)]
+        corner_mu = [model.mu * f * p.mu_scale * g for f, g in zip(self._friction, factors, strict=False)]
         self.profile = SpeedProfile(limits, brake_mu, model, self.step_m, max_speed_mps=p.max_speed_mps,
                                     curvature_1pm=self._curv if p.friction_circle else None, corner_mu=corner_mu,
                                     brake_method=p.brake_method,
@@ -227,12 +227,12 @@ class TutorialRobot(Robot):
         self.learner.observe(i, margin - 0.5 * self.car.width_m, max(0.0, s.damage - self.last_damage), error)
         self.last_damage = s.damage
 
-    def _traffic(self, s: State, v: float) -> tuple:
+    def _traffic(self, s: State, v: float) -> list[Nearby]:
         """The cars near enough to matter, and the overtaking offset moved towards the free side
         (back to the line, a step at a time, when nobody is near)."""
         p = self.params
         cars = nearby(s, self.car.length_m, self.track.length_m, p.back_range_m, p.front_range_m) \
-            if s.opponents else ()
+            if s.opponents else []
         if cars:
             self.offset_m = overtake_offset(self.offset_m, v, s.to_middle_m, cars, 0.5 * self.track.width_m - 1.5,
                                             self.car.length_m, self.opp)
@@ -271,7 +271,7 @@ class TutorialRobot(Robot):
             ty += off * ny
         return steer_to_point(s.x_m, s.y_m, s.yaw_rad, tx, ty, self.car.steer_lock_rad)
 
-    def _avoid_side(self, steer: float, cars: tuple) -> float:
+    def _avoid_side(self, steer: float, cars: list[Nearby]) -> float:
         if not cars:
             return steer
         return side_steer(steer, cars, self.car.length_m, self.car.width_m, self.car.steer_lock_rad, self.opp)
@@ -286,7 +286,7 @@ class TutorialRobot(Robot):
         margin = target - v
         return 0.0, (1.0 if margin >= p.full_accel_margin_mps else 0.4 + 0.6 * margin / p.full_accel_margin_mps)
 
-    def _avoid_collision(self, brake: float, v: float, cars: tuple) -> float:
+    def _avoid_collision(self, brake: float, v: float, cars: list[Nearby]) -> float:
         return collision_brake(brake, v, cars, self.car.width_m, self.opp, self._brakedist) if cars else brake
 
     def _traction(self, s: State, v: float, brake: float, accel: float) -> tuple[float, float]:

@@ -113,7 +113,7 @@ RECORDS = {
 
 
 def record(fields: list[str]) -> struct.Struct:
-    return struct.Struct("<%dd" % len(fields))
+    return struct.Struct(f"<{len(fields)}d")
 
 
 HELLO_REC = record(HELLO_FIELDS)

@@ -9,7 +9,8 @@ from boxbox.control.braking import (
     brake_distance_exact,
     max_entry_speed,
 )
-from boxbox.control.carmodel import CarModel, G
+from boxbox.control.carmodel import CarModel
+from boxbox.model.constants import G_MPS2 as G
 
 RACE_CAR = CarModel(mass_kg=1200.0, ca=2.92, cw=0.43, mu=1.6)
 NO_AERO = CarModel(mass_kg=1000.0, ca=0.0, cw=0.0, mu=1.0)

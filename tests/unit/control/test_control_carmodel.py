@@ -3,8 +3,9 @@ import math
 
 import pytest
 
-from boxbox.control.carmodel import CarModel, G, downforce_coefficient, drag_coefficient
+from boxbox.control.carmodel import CarModel, downforce_coefficient, drag_coefficient
 from boxbox.model.car import Car
+from boxbox.model.constants import G_MPS2 as G
 from trackdata import load
 
 

@@ -4,8 +4,9 @@ import numpy as np
 import pytest
 
 from boxbox.control.braking import brake_distance_exact, max_entry_speed
-from boxbox.control.carmodel import CarModel, G
+from boxbox.control.carmodel import CarModel
 from boxbox.control.speed import SpeedProfile, allowed_speed, bump_speed, crest_speed, segment_speed_limits
+from boxbox.model.constants import G_MPS2 as G
 from boxbox.model.track import LEFT, RIGHT, STRAIGHT, Track
 from trackdata import TRACKS, load
 

@@ -48,7 +48,7 @@ def test_passes_through_its_seven_points(et2: PitPath):
     x = np.array(et2.knots_m)
     assert np.all(np.diff(x) > 0.0)
     assert np.allclose(et2.spline(x), et2.knot_offsets_m, atol=1e-9)
-    for k, y in zip(et2.knots_m, et2.knot_offsets_m):
+    for k, y in zip(et2.knots_m, et2.knot_offsets_m, strict=False):
         assert et2.offset_at_s(k) == pytest.approx(y, abs=0.02)  # 1 m lookup grid
     # the knots are where the tutorial puts them (the lane point moved 1 m ahead of the box-length
     # point: on e-track-2 the own box is the first one, 7.5 m after the speed limit start)

@@ -145,7 +145,7 @@ def brute_force_time(laps: int, fpl: float, tank: float, stops: int, pit_loss: f
     best = math.inf
     for cut in itertools.combinations(range(1, laps), stops):
         bounds = (0, *cut, laps)
-        stints = [b - a for a, b in zip(bounds, bounds[1:])]
+        stints = [b - a for a, b in zip(bounds, bounds[1:], strict=False)]
         if max(stints) + margin > tank / fpl + 1e-9:
             continue
         refuel = sum(stints[1:] if first_free else stints) * fpl / FUEL_RATE_LPS
