@@ -41,6 +41,20 @@ MIN_KNOT_GAP_M = 1.0  # points pushed apart when the box is next to the speed li
 class PitPath:
     """Pit path of `car` on `track` (which must have a pit lane and the car a box)."""
 
+    def _knot_positions(self, track_name: str) -> list[float]:
+        """The spline's 7 points along the path (entry, limit start, box - 1, box, box + 1, limit
+        end, exit), kept strictly increasing around the fixed box (first or last box of the row)."""
+        x = [0.0, self.limit_start_m, self.box_m - self.box_length_m, self.box_m,
+             self.box_m + self.box_length_m, self.limit_end_m, self.exit_m]
+        for i in (2, 1):
+            x[i] = min(x[i], x[i + 1] - MIN_KNOT_GAP_M)
+        for i in (4, 5):
+            x[i] = max(x[i], x[i - 1] + MIN_KNOT_GAP_M)
+        x[6] = max(x[6], x[5] + MIN_KNOT_GAP_M)
+        if x[1] <= x[0]:
+            raise ValueError(f"{track_name}: pit entry too close to the box")
+        return x
+
     def __init__(self, track: Track, car: Car, *, entry_offset_m: float = 0.0, exit_offset_m: float = 0.0,
                  lane_offset_m: float | None = None, kind: str = "hermite", grid_m: float = 1.0) -> None:
         pit = track.pit
@@ -73,16 +87,7 @@ class PitPath:
         self.lane_offset_m = (sign * (abs(self.box_offset_m) - self.lane_width_m)
                               if lane_offset_m is None else float(lane_offset_m))
 
-        x = [0.0, self.limit_start_m, self.box_m - self.box_length_m, self.box_m,
-             self.box_m + self.box_length_m, self.limit_end_m, self.exit_m]
-        # keep the points strictly increasing around the fixed box (first or last box of the row)
-        for i in (2, 1):
-            x[i] = min(x[i], x[i + 1] - MIN_KNOT_GAP_M)
-        for i in (4, 5):
-            x[i] = max(x[i], x[i - 1] + MIN_KNOT_GAP_M)
-        x[6] = max(x[6], x[5] + MIN_KNOT_GAP_M)
-        if x[1] <= x[0]:
-            raise ValueError(f"{track.name}: pit entry too close to the box")
+        x = self._knot_positions(track.name)
         lane = self.lane_offset_m
         y = [float(entry_offset_m), lane, lane, self.box_offset_m, lane, lane, float(exit_offset_m)]
         self.knots_m: tuple[float, ...] = tuple(x)

@@ -212,6 +212,31 @@ def _closed_curvature(x_m: np.ndarray, y_m: np.ndarray) -> tuple[np.ndarray, np.
     return k, heading, d_out
 
 
+def _linear_curvature(px: np.ndarray, py: np.ndarray, nx: np.ndarray, ny: np.ndarray, off: np.ndarray):
+    """Curvature of the line P + off N linearised around `off`: k ~ A off' + c (A sparse, n x n).
+
+    With the current line's unit normal u_i and spacing ds_i, k_i ~ w_i u_i . (R_{i+1} - 2 R_i +
+    R_{i-1}) for R_j = P_j + off_j N_j and w_i = 1 / ds_i^2."""
+    import scipy.sparse as sp
+
+    n = len(px)
+    idx = np.arange(n)
+    prv, nxt = np.roll(idx, 1), np.roll(idx, -1)
+    x, y = px + off * nx, py + off * ny
+    tx = np.roll(x, -1) - np.roll(x, 1)
+    ty = np.roll(y, -1) - np.roll(y, 1)
+    ds = np.maximum(0.5 * np.hypot(tx, ty), 1e-6)
+    ux, uy = -ty / (2 * ds), tx / (2 * ds)
+    w = 1.0 / (ds * ds)
+    c = w * (ux * (np.roll(px, -1) - 2 * px + np.roll(px, 1)) + uy * (np.roll(py, -1) - 2 * py + np.roll(py, 1)))
+    a_prev = w * (ux * nx[prv] + uy * ny[prv])
+    a_mid = -2.0 * w * (ux * nx + uy * ny)
+    a_next = w * (ux * nx[nxt] + uy * ny[nxt])
+    a = sp.csr_matrix((np.concatenate((a_prev, a_mid, a_next)), (np.tile(idx, 3), np.concatenate((prv, idx, nxt)))),
+                      shape=(n, n))
+    return a, c
+
+
 def _min_curvature_offsets(mid: MiddleLine, iterations: int, peak_cap: float, cap_window_m: float,
                            cap_weight: float = 1e3) -> np.ndarray:
     """Lateral offsets (n samples) of the minimum-curvature line inside the bounds of `mid`.
@@ -231,11 +256,6 @@ def _min_curvature_offsets(mid: MiddleLine, iterations: int, peak_cap: float, ca
     px, py = mid.x_m[:n], mid.y_m[:n]
     nx, ny = -np.sin(mid.heading_rad[:n]), np.cos(mid.heading_rad[:n])
     lo, hi = -mid.half_right_m[:n], mid.half_left_m[:n]
-    idx = np.arange(n)
-    prv, nxt = np.roll(idx, 1), np.roll(idx, -1)
-    rows = np.tile(idx, 3)
-    cols = np.concatenate((prv, idx, nxt))
-
     k_mid = np.abs(mid.curvature_1pm[:n])
     win = 2 * int(round(cap_window_m / mid.step_m)) + 1
     envelope = maximum_filter1d(k_mid, min(win, n), mode="wrap")
@@ -245,20 +265,7 @@ def _min_curvature_offsets(mid: MiddleLine, iterations: int, peak_cap: float, ca
     off = np.zeros(n)
     over = np.zeros(n, dtype=np.int8)  # +1 / -1 where k is pushed down from above / below
     for _ in range(max(1, iterations)):
-        # linearise around the current line: its unit normal u_i and spacing ds_i
-        x, y = px + off * nx, py + off * ny
-        tx = np.roll(x, -1) - np.roll(x, 1)
-        ty = np.roll(y, -1) - np.roll(y, 1)
-        ds = np.maximum(0.5 * np.hypot(tx, ty), 1e-6)
-        ux, uy = -ty / (2 * ds), tx / (2 * ds)
-        w = 1.0 / (ds * ds)
-        # k_i ~ w_i u_i . (R_{i+1} - 2 R_i + R_{i-1}) with R_j = P_j + n_j N_j, i.e. k = A n + c
-        c = w * (ux * (np.roll(px, -1) - 2 * px + np.roll(px, 1))
-                 + uy * (np.roll(py, -1) - 2 * py + np.roll(py, 1)))
-        a_prev = w * (ux * nx[prv] + uy * ny[prv])
-        a_mid = -2.0 * w * (ux * nx + uy * ny)
-        a_next = w * (ux * nx[nxt] + uy * ny[nxt])
-        a = sp.csr_matrix((np.concatenate((a_prev, a_mid, a_next)), (rows, cols)), shape=(n, n))
+        a, c = _linear_curvature(px, py, nx, ny, off)
         k_now = a @ off + c
         # rows over the cap get penalty weight * (k_i -+ cap_i)^2 (semi-smooth Newton: the set is
         # refreshed every pass; once penalised a row stays so while it is at or over its cap)
