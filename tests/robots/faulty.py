@@ -134,10 +134,10 @@ class OvershootsTheBoxOnce(TutorialRobot):
 
     def drive(self, state):
         c = super().drive(state)
-        path = self.pit_path
+        path = self.pits.path
         if path is not None and not self.pushed:
             rel = path.signed_coord(state.dist_from_start_m) - path.box_m
-            if self.stop_wanted and -10.0 < rel < 15.0 and not state.in_pit:
+            if self.pits.wanted and -10.0 < rel < 15.0 and not state.in_pit:
                 self.pushing = True
                 return Controls(steer=c.steer, accel=0.3 if state.speed_x_mps < 8.0 else 0.0, brake=0.0,
                                 clutch=0.0, gear=max(1, c.gear), pit_request=True)
