@@ -21,7 +21,7 @@ from boxbox.gym.assists import Assists, check_assists
 from boxbox.gym.pitstop import PitStop
 from boxbox.gym.sensors import SCR_TRACK_ANGLES_DEG, TrackEdges, opponent_sectors
 from boxbox.gym.session import Session, TorcsGone
-from boxbox.gym.spaces import ACTION_RANGES, DEFAULT_ACTIONS, ObservationLayout, Observer, action_space
+from boxbox.gym.spaces import ACTION_RANGES, DEFAULT_ACTIONS, ActionReader, ObservationLayout, Observer, action_space
 from boxbox.model import PitOrder, State, Track
 from boxbox.model.skill import SkillLevel
 from boxbox.torcs import catalog
@@ -78,7 +78,7 @@ class TorcsEnv(gymnasium.Env):
         self.watch = rw.Watch(rw.Limits(max_damage, off_track_s, stuck_s))
         self.initial_fuel_l, self.cpu = initial_fuel_l, cpu
         self.pit_fuel_l, self.pit_repair = pit_fuel_l, pit_repair
-        self.col = {name: i for i, name in enumerate(self.actions)}
+        self.reader = ActionReader(self.actions)
         self.session: Session | None = None
         self.track: Track | None = None
         self.length_m = 0.0
@@ -105,7 +105,7 @@ class TorcsEnv(gymnasium.Env):
     def step(self, action):
         if self.state is None or self.session is None:
             raise RuntimeError("call reset() before step()")
-        steer, throttle, brake, clutch, gear, pit = self._parse(np.asarray(action, dtype=np.float64).tolist())
+        steer, throttle, brake, clutch, gear, pit = self.reader.read(action)
         if self.pit is not None and pit:
             self.pit.request()
         total, progress, reason, fault = 0.0, 0.0, None, None
@@ -141,6 +141,11 @@ class TorcsEnv(gymnasium.Env):
             self.session = None
         self.state = None
 
+    @property
+    def torcs_pid(self) -> int | None:
+        """TORCS's process id while a race runs (for supervisors and tests)."""
+        return self.session.pid if self.session is not None else None
+
     # --- pieces --------------------------------------------------------------------------------
     def _start(self) -> State:
         """A fresh race, past TORCS's start countdown (the car cannot move before 0 s)."""
@@ -167,25 +172,11 @@ class TorcsEnv(gymnasium.Env):
         self.length_m = float(started.track.length_m)
         self.edges = TrackEdges(started.track, self.angles_deg)
         self.assists = Assists(self.assist_names, started.car)
-        self.pit = PitStop.for_car(started.track, started.car) if "pit" in self.col else None
+        self.pit = PitStop.for_car(started.track, started.car) if "pit" in self.actions else None
 
     def _vector(self, s: State) -> np.ndarray:
         assert self.edges is not None
         return self.observer.vector(s, self.edges.ranges(s), opponent_sectors(s))
-
-    def _parse(self, vals: list[float]) -> tuple[float, float, float, float, int, bool]:
-        col = self.col
-        out = {}
-        for name, i in col.items():
-            v = vals[i]
-            lo, hi = ACTION_RANGES[name]
-            if v != v:  # NaN: as 0, inside the range
-                v = 0.0
-            out[name] = lo if v < lo else (hi if v > hi else v)
-        steer = out.get("steer", 0.0)
-        gear = int(round(out["gear"])) if "gear" in out else 1
-        return (steer, out.get("throttle", 0.0), out.get("brake", 0.0),
-                out.get("clutch", 0.0), gear, out.get("pit", 0.0) >= 0.5)
 
     def _controls(self, s: State, steer: float, throttle: float, brake: float, clutch: float,
                   gear: int) -> tuple[tuple, bool]:

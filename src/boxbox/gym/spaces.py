@@ -17,22 +17,22 @@ from boxbox.gym.sensors import OFF_TRACK, OPPONENT_SECTORS, RANGE_M
 from boxbox.model import State
 
 RADPS_TO_RPM = 60.0 / (2.0 * math.pi)
-INF = math.inf
 
-# name: (low, high, what it is); sizes other than 1 are given in `layout`
+# name: (low, high, what it is); sizes other than 1 are given in `layout`.  The bounds are finite
+# (learners scale by them) and generous; a value beyond them is clipped.
 OBSERVATION_FIELDS: dict[str, tuple[float, float, str]] = {
     "angle_rad": (-math.pi, math.pi, "the track axis's direction minus the car's heading (+: track to the left)"),
-    "damage": (0.0, INF, "TORCS's damage points (the car is out at 10000)"),
-    "dist_from_start_m": (0.0, INF, "distance along the track from the start line"),
-    "engine_rpm": (0.0, INF, "engine speed, revolutions per minute"),
-    "fuel_l": (0.0, INF, "fuel in the tank, litres"),
+    "damage": (0.0, 20_000.0, "TORCS's damage points (the car is out at 10000)"),
+    "dist_from_start_m": (0.0, 100_000.0, "distance along the track from the start line"),
+    "engine_rpm": (0.0, 30_000.0, "engine speed, revolutions per minute"),
+    "fuel_l": (0.0, 1_000.0, "fuel in the tank, litres"),
     "gear": (-1.0, 10.0, "gear engaged: -1 reverse, 0 neutral, 1.. forward"),
-    "lap": (0.0, INF, "the lap being driven (TORCS counts 0 before the first crossing of the line)"),
+    "lap": (0.0, 1_000.0, "the lap being driven (TORCS counts 0 before the first crossing of the line)"),
     "opponents_m": (0.0, RANGE_M, "nearest opponent per 10-degree sector, clockwise from straight behind"),
-    "speed_mps": (-INF, INF, "speed along the car's axis and across it (+ left), m/s"),
+    "speed_mps": (-150.0, 150.0, "speed along the car's axis and across it (+ left), m/s"),
     "track_edges_m": (OFF_TRACK, RANGE_M, "range finders to the track edges at the sensor angles; -1 off the track"),
-    "track_pos": (-INF, INF, "offset from the track axis as a fraction of the half width: +1 left edge, -1 right"),
-    "wheel_spin_radps": (-INF, INF, "wheel spin, rad/s: front right, front left, rear right, rear left"),
+    "track_pos": (-50.0, 50.0, "offset from the track axis as a fraction of the half width: +1 left edge, -1 right"),
+    "wheel_spin_radps": (-2_000.0, 2_000.0, "wheel spin, rad/s: front right, front left, rear right, rear left"),
 }
 
 # action name: (low, high)
@@ -97,6 +97,8 @@ class Observer:
         self.edges = sl["track_edges_m"]
         self.opponents = sl["opponents_m"]
         self.items = list(sl.items())
+        space = layout.flat_space()
+        self.low, self.high = space.low, space.high
 
     def vector(self, s: State, edges: np.ndarray, opponents: np.ndarray) -> np.ndarray:
         width = s.to_left_m + s.to_right_m
@@ -107,7 +109,7 @@ class Observer:
                                s.spin_fr_rps, s.spin_fl_rps, s.spin_rr_rps, s.spin_rl_rps)
         out[self.edges] = edges
         out[self.opponents] = opponents
-        return out
+        return np.clip(out, self.low, self.high, out=out)
 
     def observation(self, vector: np.ndarray) -> np.ndarray | dict[str, np.ndarray]:
         if self.flat:
@@ -119,3 +121,24 @@ def action_space(names: tuple[str, ...], top_gear: int = 6) -> spaces.Box:
     low = [ACTION_RANGES[n][0] for n in names]
     high = [float(top_gear) if n == "gear" else ACTION_RANGES[n][1] for n in names]
     return spaces.Box(np.array(low, dtype=np.float32), np.array(high, dtype=np.float32), dtype=np.float32)
+
+
+class ActionReader:
+    """An action (one row of the action Box) as the drive step's numbers: out-of-range values are
+    clipped to the range and NaN reads as 0 (clipped), so no action can make a fault."""
+
+    def __init__(self, names: tuple[str, ...]) -> None:
+        self.columns = [(i, name, *ACTION_RANGES[name]) for i, name in enumerate(names)]
+
+    def read(self, action) -> tuple[float, float, float, float, int, bool]:
+        """(steer, throttle, brake, clutch, gear, pit); gear 1 and the rest 0 when not actions."""
+        values = np.asarray(action, dtype=np.float64).tolist()
+        out = {}
+        for i, name, lo, hi in self.columns:
+            v = values[i]
+            if v != v:
+                v = 0.0
+            out[name] = lo if v < lo else (hi if v > hi else v)
+        gear = int(round(out["gear"])) if "gear" in out else 1
+        return (out.get("steer", 0.0), out.get("throttle", 0.0), out.get("brake", 0.0), out.get("clutch", 0.0),
+                gear, out.get("pit", 0.0) >= 0.5)
