@@ -122,7 +122,7 @@ class TorcsEnv(gymnasium.Env):
                 break
             p = rw.progress_m(s, nxt, self.length_m)
             progress += p
-            total += self._reward(s, nxt, p)
+            total += self._reward(s, nxt, p, driving)
             s = nxt
             reason = self.watch.update(nxt, excused=driving)
             if reason is not None:
@@ -187,10 +187,10 @@ class TorcsEnv(gymnasium.Env):
         throttle, brake, gear = self.assists.apply(s, throttle, brake, gear)
         return (steer, throttle, brake, clutch, gear, False), False
 
-    def _reward(self, before: State, after: State, progress: float) -> float:
+    def _reward(self, before: State, after: State, progress: float, pit: bool) -> float:
         if self.reward_fn is not None:
-            return float(self.reward_fn(before, after, {"progress_m": progress}))
-        return rw.default_reward(before, after, progress, self.weights)
+            return float(self.reward_fn(before, after, {"progress_m": progress, "pit": pit}))
+        return rw.default_reward(before, after, progress, self.weights, pit)
 
     def _pit_order(self, state: State) -> PitOrder:
         if self.pit is None:

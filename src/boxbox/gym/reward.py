@@ -2,8 +2,9 @@
 
 Reward per drive step: the progress along the track in metres (the change of the distance from
 the start line, wrapped at the line), less `damage_weight` per damage point taken and less
-`off_track_m` for a step with the car's centre beyond a track edge.  A callable
-`reward_fn(previous_state, state, info) -> float` replaces it (info holds `progress_m`).
+`off_track_m` for a step with the car's centre beyond a track edge (not while the env drives a pit
+stop).  A callable `reward_fn(previous_state, state, info) -> float` replaces it (info holds
+`progress_m` and `pit`, whether the env drove the step).
 """
 
 from __future__ import annotations
@@ -44,9 +45,11 @@ def off_track(s: State) -> bool:
     return s.to_left_m < 0.0 or s.to_right_m < 0.0
 
 
-def default_reward(before: State, after: State, progress: float, weights: RewardWeights) -> float:
+def default_reward(before: State, after: State, progress: float, weights: RewardWeights,
+                   excused: bool = False) -> float:
+    """`excused`: the env drives (a pit stop): the pit lane is not off the track."""
     reward = progress - weights.damage_weight * max(0.0, after.damage - before.damage)
-    if off_track(after):
+    if not excused and off_track(after):
         reward -= weights.off_track_m
     return reward
 

@@ -159,7 +159,13 @@ class Session:
         wire.CONTROLS_REC.pack_into(self._out, HSIZE, steer, accel, brake, clutch, gear, 1.0 if pit else 0.0)
         self._send(self._out)
         while True:
-            self._recv()
+            try:
+                self._recv()
+            except TorcsGone:
+                if self.proc is not None and self.proc.poll() == 0:  # TORCS ended the race and exited
+                    self.ended = True
+                    return None
+                raise
             kind, robot, step, count = wire.HEADER.unpack_from(self._buf, 0)
             if kind == wire.DRIVE:
                 self._step = step
