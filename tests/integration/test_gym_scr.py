@@ -5,16 +5,16 @@ a restart asked with `meta 1`, and the shutdown at the end of the race."""
 from __future__ import annotations
 
 import math
+import os
 import re
 import socket
 import subprocess
-import sys
 import time
 
 import pytest
 
 from boxbox.gym.env import TorcsEnv
-from helpers import ROOT, processes_mentioning
+from helpers import BOXBOX, ROOT, processes_mentioning, run_boxbox
 
 GROUP = re.compile(r"\((\w+)([^()]*)\)")
 ANGLES = [-45 + 5 * i for i in range(19)]  # not SCR's default: the server must use these
@@ -64,10 +64,10 @@ class Client:
 
 @pytest.fixture
 def server(overlay):
-    proc = subprocess.Popen([sys.executable, "-u", "-c", "from boxbox.gym.scr import serve; "
-                             "serve(port=0, track='g-track-1', opponents=['bt:2'], races=1)"],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
-    first = proc.stdout.readline()
+    proc = subprocess.Popen([*BOXBOX, "scr-server", "--port", "0", "--track", "g-track-1", "--opponents", "bt:2"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT,
+                            env=dict(os.environ, PYTHONUNBUFFERED="1"))
+    first = proc.stderr.readline()
     port = int(re.search(r"127\.0\.0\.1:(\d+)", first).group(1))
     yield proc, port
     proc.kill()
@@ -115,4 +115,17 @@ def test_an_scr_client_drives_restarts_and_is_shut_down_at_the_race_end(server):
     assert last["distRaced"][0] > 2000.0 and steps > 3000  # a whole lap of 2058 m, from the grid
     assert time.monotonic() - started < 60
     assert proc.wait(timeout=10) == 0  # one race served
+    assert "1 race(s) served" in proc.stderr.read()
+    assert processes_mentioning("boxbox-gym-") == []
+
+
+def test_scr_server_and_bench_gym_refuse_bad_input_in_one_line(overlay):
+    for args, message in ((["scr-server", "--track", "g-track-9"], "unknown track 'g-track-9'"),
+                          (["scr-server", "--opponents", "bt:2,bt:2"], "opponent bt:2 is given twice"),
+                          (["scr-server", "--port", "70000"], "70000 is not in the range"),
+                          (["bench-gym", "--track", "nowhere"], "unknown track 'nowhere'")):
+        proc = run_boxbox(*args, timeout=60)
+        assert proc.returncode == 2, proc.stderr
+        lines = [ln for ln in proc.stderr.splitlines() if ln.startswith("boxbox: error:")]
+        assert len(lines) == 1 and message in lines[0], proc.stderr
     assert processes_mentioning("boxbox-gym-") == []

@@ -24,22 +24,24 @@ from boxbox.gym.session import Session, TorcsGone
 from boxbox.gym.spaces import ACTION_RANGES, DEFAULT_ACTIONS, ActionReader, ObservationLayout, Observer, action_space
 from boxbox.model import PitOrder, State, Track
 from boxbox.model.skill import SkillLevel
-from boxbox.torcs import catalog
+from boxbox.torcs import setup
+from boxbox.torcs.checks import check_race
 from boxbox.torcs.launch import RaceConfig
 
 
 def race_config(track: str, car: str, opponents, laps: int, skill_level: str,
                 grid_position: int | None) -> RaceConfig:
-    """The race the env drives, checked against the installed TORCS (UsageError when wrong)."""
-    category = catalog.check_track(track)
-    catalog.check_car(car)
-    opps = [catalog.parse_opponent(o) if isinstance(o, str) else (str(o[0]), int(o[1])) for o in opponents]
-    if not isinstance(laps, int) or laps < 1:
+    """The race the env drives, checked against the installed TORCS (set up first when needed):
+    UsageError with one line when something is wrong."""
+    if not isinstance(laps, int) or isinstance(laps, bool) or laps < 1:
         raise UsageError(f"laps={laps!r} must be a whole number >= 1")
     try:
         level = SkillLevel.parse(skill_level)
     except ValueError as exc:
         raise UsageError(str(exc)) from None
+    setup.ensure_ready()
+    entries = [o if isinstance(o, str) else f"{o[0]}:{o[1]}" for o in opponents]
+    category, opps = check_race(track, car, 1, entries, laps=laps)
     return RaceConfig(track=track, category=category, car=car, laps=laps, robots=["gym"], robot_names=["gym"],
                       opponents=opps, telemetry=False, skill_level=level, grid_position=grid_position)
 
@@ -92,9 +94,7 @@ class TorcsEnv(gymnasium.Env):
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         super().reset(seed=seed)
         if self.session is None:
-            from boxbox.torcs.setup import ensure_ready
-
-            self.session = Session(self.cfg, ensure_ready(), cpu=self.cpu, initial_fuel_l=self.initial_fuel_l,
+            self.session = Session(self.cfg, setup.ensure_ready(), cpu=self.cpu, initial_fuel_l=self.initial_fuel_l,
                                    on_pit=self._pit_order)
         state = self._start()
         self.watch.reset()
