@@ -6,6 +6,7 @@ import glob
 import os
 import signal
 import tempfile
+import time
 
 import gymnasium
 import numpy as np
@@ -126,6 +127,10 @@ def test_bad_input_is_one_line_before_torcs_starts(overlay):
         TorcsEnv(actions=("steer", "throttle", "brake", "gear"))
     with pytest.raises(UsageError, match="unknown TORCS robot"):
         TorcsEnv(opponents=["bq:2"])
+    with pytest.raises(UsageError, match="opponent bt:2 is given twice"):
+        TorcsEnv(opponents=["bt:2", ("bt", 2)])
+    with pytest.raises(UsageError, match="cpu=4096 is not a core this process may use"):
+        TorcsEnv(cpu=4096)
     assert session_dirs() == before
 
 
@@ -161,6 +166,9 @@ def test_torcs_killed_mid_episode_is_reported_and_reset_recovers(overlay):
     obs, _ = env.reset(seed=0)
     for _ in range(50):
         obs, *_ = env.step(middle_driver(obs))
+    time.sleep(0.5)  # a learner may think for as long as it likes: no step budget
+    obs, reward, terminated, truncated, info = env.step(middle_driver(obs))
+    assert not terminated and info["fault"] is None
     pid = env.unwrapped.torcs_pid
     os.kill(pid, signal.SIGKILL)
     obs, reward, terminated, truncated, info = env.step(middle_driver(obs))
@@ -200,3 +208,16 @@ def test_vector_envs_survive_a_crashed_sub_env(overlay, kind):
     assert not terminated.any() and np.isfinite(obs).all()
     venv.close()
     assert not any(psutil.pid_exists(p) for p in new_pids)
+
+
+def test_an_env_dropped_without_close_leaves_nothing(overlay):
+    import gc
+
+    affinity = os.sched_getaffinity(0)
+    env = TorcsEnv(track="g-track-1")
+    env.reset()
+    folder, pid = env.session.dir, env.torcs_pid
+    del env
+    gc.collect()
+    assert not folder.exists() and not psutil.pid_exists(pid)
+    assert os.sched_getaffinity(0) == affinity

@@ -20,7 +20,7 @@ from boxbox.gym import reward as rw
 from boxbox.gym.assists import Assists, check_assists
 from boxbox.gym.pitstop import PitStop
 from boxbox.gym.sensors import SCR_TRACK_ANGLES_DEG, TrackEdges, opponent_sectors
-from boxbox.gym.session import Session, TorcsGone
+from boxbox.gym.session import Session, TorcsGone, usable_cpus
 from boxbox.gym.spaces import ACTION_RANGES, DEFAULT_ACTIONS, ActionReader, ObservationLayout, Observer, action_space
 from boxbox.model import PitOrder, State, Track
 from boxbox.model.skill import SkillLevel
@@ -68,6 +68,8 @@ class TorcsEnv(gymnasium.Env):
         check_assists(self.assist_names, self.actions)
         if not isinstance(action_repeat, int) or action_repeat < 1:
             raise UsageError(f"action_repeat={action_repeat!r} must be a whole number >= 1")
+        if cpu is not None and cpu not in usable_cpus():
+            raise UsageError(f"cpu={cpu!r} is not a core this process may use; choose one of {sorted(usable_cpus())}")
         if render_mode is not None:
             raise UsageError("TORCS runs without a display here: render_mode must be None")
         self.action_repeat = action_repeat

@@ -23,6 +23,7 @@ import socket
 import subprocess
 import tempfile
 import time
+import weakref
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -55,6 +56,18 @@ class Started:
     state: State  # the first drive step's state
 
 
+def _clean_up(folder: Path, running: list[subprocess.Popen], cpu: int) -> None:
+    """What a session leaves: TORCS, the folder, the pinning (at close, or when the env is dropped
+    without it, or at exit)."""
+    for proc in running:
+        with contextlib.suppress(ProcessLookupError, PermissionError):
+            os.killpg(proc.pid, signal.SIGKILL)
+        with contextlib.suppress(subprocess.TimeoutExpired):
+            proc.wait(timeout=5)
+    shutil.rmtree(folder, ignore_errors=True)
+    Pinning.release(cpu)
+
+
 class Pinning:
     """The cores this process's driving thread is pinned to, one per live session (refcounted):
     the thread's own affinity comes back when the last session ends."""
@@ -80,6 +93,11 @@ class Pinning:
             os.sched_setaffinity(0, set(cls.users) if cls.users else (cls.original or os.sched_getaffinity(0)))
 
 
+def usable_cpus() -> set[int]:
+    """The cores this thread may run on (before any session pinned it)."""
+    return set(Pinning.original) if Pinning.users and Pinning.original else os.sched_getaffinity(0)
+
+
 def pick_cpu() -> int:
     """A core for a new session: the one the process's sessions use already, else one by pid (so
     the workers of a vector env spread over the cores)."""
@@ -100,6 +118,8 @@ class Session:
         self.cpu = pick_cpu() if cpu is None else cpu
         self.dir = Path(tempfile.mkdtemp(prefix="boxbox-gym-"))  # short: the socket path has 108 bytes
         self.proc: subprocess.Popen | None = None
+        self._running: list[subprocess.Popen] = []  # what an env dropped without close() leaves to clean up
+        self._finalizer = weakref.finalize(self, _clean_up, self.dir, self._running, self.cpu)
         self.conn: socket.socket | None = None
         self.listener: socket.socket | None = None
         self.ended = False  # TORCS ended the race (END_RACE)
@@ -125,6 +145,7 @@ class Session:
         shutil.rmtree(self.local / "results", ignore_errors=True)  # a finished race's results file
         self.ended = False
         self.proc = self._spawn()
+        self._running.append(self.proc)
         self.conn = self._accept()
         self.conn.settimeout(ANSWER_TIMEOUT_S)
         chunks: list[bytes] = []
@@ -188,15 +209,14 @@ class Session:
                 os.killpg(self.proc.pid, signal.SIGKILL)
             self.proc.wait()
             self.proc = None
+            self._running.clear()
 
     def close(self) -> None:
         self.stop()
         if self.listener is not None:
             self.listener.close()
             self.listener = None
-        shutil.rmtree(self.dir, ignore_errors=True)
-        Pinning.release(self.cpu)
-        self.cpu = -1
+        self._finalizer()  # the folder, the pinning
 
     @property
     def pid(self) -> int | None:
