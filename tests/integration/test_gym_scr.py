@@ -120,7 +120,11 @@ def test_an_scr_client_drives_restarts_and_is_shut_down_at_the_race_end(server):
 
 
 def test_scr_server_and_bench_gym_refuse_bad_input_in_one_line(overlay):
+    taken = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    taken.bind(("127.0.0.1", 0))
+    port = str(taken.getsockname()[1])
     for args, message in ((["scr-server", "--track", "g-track-9"], "unknown track 'g-track-9'"),
+                          (["scr-server", "--port", port], f"UDP port {port} on 127.0.0.1 cannot be used"),
                           (["scr-server", "--opponents", "bt:2,bt:2"], "opponent bt:2 is given twice"),
                           (["scr-server", "--port", "70000"], "70000 is not in the range"),
                           (["bench-gym", "--track", "nowhere"], "unknown track 'nowhere'")):
@@ -128,4 +132,5 @@ def test_scr_server_and_bench_gym_refuse_bad_input_in_one_line(overlay):
         assert proc.returncode == 2, proc.stderr
         lines = [ln for ln in proc.stderr.splitlines() if ln.startswith("boxbox: error:")]
         assert len(lines) == 1 and message in lines[0], proc.stderr
+    taken.close()
     assert processes_mentioning("boxbox-gym-") == []

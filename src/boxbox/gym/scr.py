@@ -27,6 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from boxbox.errors import UsageError
 from boxbox.gym.env import TorcsEnv
 from boxbox.gym.sensors import SCR_TRACK_ANGLES_DEG
 from boxbox.model import State, Track
@@ -126,7 +127,12 @@ class ScrServer:
         self.env_kwargs = dict(env_kwargs, actions=ACTION_ORDER, assists=(), off_track_s=None, stuck_s=None)
         TorcsEnv(**self.env_kwargs).close()  # bad input fails here, before a client waits on it
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-        self.sock.bind((host, port))
+        try:
+            self.sock.bind((host, port))
+        except OSError as exc:
+            self.sock.close()
+            raise UsageError(f"UDP port {port} on {host} cannot be used ({exc.strerror or exc}); "
+                             "choose another --port") from None
         self.port = self.sock.getsockname()[1]
         self.answer_timeout_s, self.gone_after_s = answer_timeout_s, gone_after_s
         self.log = log
