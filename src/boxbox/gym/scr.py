@@ -41,27 +41,34 @@ GROUP = re.compile(rb"\((\w+)((?:\s+[-+0-9.eE]+)+)\)")
 ACTION_ORDER = ("steer", "throttle", "brake", "gear", "clutch")
 
 
-@dataclass
-class Action:
-    """A client's action message; missing fields keep their last values."""
+# the action message's fields and their values until the client sends others; a focus outside
+# [-90, 90] degrees asks for no focus reading
+ACTION_DEFAULTS = {"accel": 0.0, "brake": 0.0, "gear": 0.0, "steer": 0.0, "clutch": 0.0, "focus": 360.0, "meta": 0.0}
 
-    accel: float = 0.0
-    brake: float = 0.0
-    gear: float = 0.0
-    steer: float = 0.0
-    clutch: float = 0.0
-    focus: float = 360.0  # outside [-90, 90]: no focus reading
-    meta: int = 0
+
+class Action:
+    """A client's latest action message; fields it leaves out keep their last values."""
+
+    def __init__(self) -> None:
+        self.values = dict(ACTION_DEFAULTS)
 
     def update(self, message: bytes) -> None:
         for name, values in GROUP.findall(message):
             key = name.decode()
-            if key in ("accel", "brake", "gear", "steer", "clutch", "focus", "meta"):
-                value = float(values.split()[0])
-                setattr(self, key, int(value) if key == "meta" else value)
+            if key in self.values:
+                self.values[key] = float(values.split()[0])
+
+    @property
+    def restart(self) -> bool:
+        return self.values["meta"] == 1.0
+
+    @property
+    def focus_deg(self) -> float:
+        return self.values["focus"]
 
     def vector(self) -> np.ndarray:
-        return np.array([self.steer, self.accel, self.brake, self.gear, self.clutch], dtype=np.float32)
+        v = self.values
+        return np.array([v["steer"], v["accel"], v["brake"], v["gear"], v["clutch"]], dtype=np.float32)
 
 
 def parse_init(message: bytes) -> tuple[float, ...] | None:
@@ -204,11 +211,11 @@ class ScrServer:
                 self.log("the client went silent; race stopped")
                 self.client = None
                 return False
-            if got is IDENTIFIED or action.meta == 1:
+            if got is IDENTIFIED or action.restart:
                 self._send(RESTART)
                 self.log("the client asked for a restart")
                 return False
-            race.focus_deg = action.focus
+            race.focus_deg = action.focus_deg
             obs, _, terminated, _, info = self.env.step(action.vector())
             race.dist_raced_m += info["progress_m"]
             if terminated:
