@@ -7,10 +7,10 @@ and reads the next one, so a step is one socket round trip.  Each race is a fres
 (it starts in about 20 ms), so a reset leaves nothing of the last race behind.
 
 TORCS is pinned to one core with the thread that drives it (they strictly alternate: the round
-trip costs ~3 us instead of ~50 us across cores, see docs/architecture.md), dies with this
-process (PR_SET_PDEATHSIG) and is killed by process group on every reset and on close.  The run
-folder (TORCS's local folder, the race file, the socket, TORCS's stderr) is a temporary folder
-removed on close.
+trip costs ~3 us instead of ~50 us across cores, see docs/architecture.md), dies with the thread
+that started it (PR_SET_PDEATHSIG; in practice with the env's process) and is killed by process
+group on every reset and on close.  The run folder (TORCS's local folder, the race file, the
+socket, TORCS's stderr) is a temporary folder removed on close.
 """
 
 from __future__ import annotations
