@@ -1,7 +1,7 @@
 """The range finders' hot loop in C (raycast.c), compiled on first use into the cache.
 
 numpy needs ~60 us a step for 19 rays against ~170 edge chords (some twenty array operations,
-each paying numpy's call overhead); the C loop needs ~3 us.  The library is built once per source
+each paying numpy's call overhead); the C loop needs 5 to 10 us.  The library is built once per source
 version with the system's C compiler (boxbox's bridge needs one anyway) and loaded with ctypes;
 without a compiler `load()` returns None and gym/sensors.py casts with numpy instead.
 """
