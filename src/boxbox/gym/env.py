@@ -70,9 +70,8 @@ class TorcsEnv(gymnasium.Env):
             raise UsageError(f"action_repeat={action_repeat!r} must be a whole number >= 1")
         if cpu is not None and cpu not in usable_cpus():
             raise UsageError(f"cpu={cpu!r} is not a core this process may use; choose one of {sorted(usable_cpus())}")
-        if render_mode is not None:
-            raise UsageError("TORCS runs without a display here: render_mode must be None")
         self.action_repeat = action_repeat
+        self.render_mode = render_mode  # accepted (tools pass "rgb_array"), but TORCS runs without a display
         self.angles_deg = tuple(float(a) for a in track_sensor_angles_deg)
         self.layout = ObservationLayout.make(len(self.angles_deg))
         self.observer = Observer(self.layout, flat)
@@ -136,6 +135,10 @@ class TorcsEnv(gymnasium.Env):
         if self.pit is not None:
             info["pit"] = self.pit.phase
         return self.observer.observation(self.vector), total, reason is not None, False, info
+
+    def render(self) -> None:
+        """Nothing to show: TORCS runs in console mode (the race's state is in `info`)."""
+        return None
 
     def close(self) -> None:
         if self.session is not None:
