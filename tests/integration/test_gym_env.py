@@ -48,6 +48,10 @@ def test_registered_and_passes_the_gymnasium_checker(overlay):
         if flat:
             assert obs.shape == (gymnasium.spaces.flatdim(env.unwrapped.layout.dict_space()),)
         env.close()
+    env = TorcsEnv(track="g-track-1", render_mode="rgb_array")  # as stable-baselines3's make_vec_env asks
+    env.reset()
+    assert env.render() is None
+    env.close()
     assert session_dirs() == before  # every run folder removed
 
 
