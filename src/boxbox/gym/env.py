@@ -22,7 +22,7 @@ from boxbox.gym.pitstop import PitStop
 from boxbox.gym.sensors import SCR_TRACK_ANGLES_DEG, TrackEdges, opponent_sectors
 from boxbox.gym.session import Session, TorcsGone, usable_cpus
 from boxbox.gym.spaces import ACTION_RANGES, DEFAULT_ACTIONS, ActionReader, ObservationLayout, Observer, action_space
-from boxbox.model import PitOrder, State, Track
+from boxbox.model import Car, PitOrder, State, Track
 from boxbox.model.skill import SkillLevel
 from boxbox.torcs import setup
 from boxbox.torcs.checks import check_race
@@ -83,7 +83,8 @@ class TorcsEnv(gymnasium.Env):
         self.pit_fuel_l, self.pit_repair = pit_fuel_l, pit_repair
         self.reader = ActionReader(self.actions)
         self.session: Session | None = None
-        self.track: Track | None = None
+        self.track: Track | None = None  # the race's track and car, known from the first reset
+        self.car: Car | None = None
         self.length_m = 0.0
         self.state: State | None = None
         self.vector: np.ndarray | None = None
@@ -101,7 +102,7 @@ class TorcsEnv(gymnasium.Env):
         self.watch.reset()
         self.state = state
         self.vector = self._vector(state)
-        return self.observer.observation(self.vector), {"state": state, "track": self.track}
+        return self.observer.observation(self.vector), {"state": state}
 
     def step(self, action):
         if self.state is None or self.session is None:
@@ -173,7 +174,7 @@ class TorcsEnv(gymnasium.Env):
         raise RaceError(f"TORCS could not start the race ({self.cfg.track}, {self.cfg.car}): {error}")
 
     def _new_track(self, started) -> None:
-        self.track = started.track
+        self.track, self.car = started.track, started.car
         self.length_m = float(started.track.length_m)
         self.edges = TrackEdges(started.track, self.angles_deg)
         self.assists = Assists(self.assist_names, started.car)
