@@ -67,6 +67,8 @@ def test_observation_fields_at_the_start(overlay):
     assert obs["opponents_m"].min() < 30.0  # bt's car next to us on the grid
     assert obs["fuel_l"][0] > 0 and obs["damage"][0] == 0
     assert -1.0 < obs["track_pos"][0] < 1.0
+    track, car = env.unwrapped.track, env.unwrapped.car
+    assert (track.name, round(track.length_m)) == ("g-track-1", 2058) and car.name == "car1-trb1" and car.max_gear == 6
     env.close()
 
 
