@@ -8,6 +8,10 @@ tracker (control/pit_brake.py, control/stop.py); the gears by speed (control/gea
 captures the car, the env answers its pit call (fuel and repair: `order`), and once the car has
 driven out to the end of the pit path the agent drives again.  A request stands until the stop is
 made; a stop the filter gives up (the car pushed past its box) is tried again on the next lap.
+
+robot/pit.py (`PitStops`) composes the same pieces for a robot: there the strategy decides each
+lap whether to stop and the robot's own steering is filtered; here the agent decides, at any
+moment, and the env drives the whole way in and out, so it holds the pieces itself.
 """
 
 from __future__ import annotations
