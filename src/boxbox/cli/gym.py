@@ -1,0 +1,73 @@
+"""`boxbox scr-server` and `boxbox bench-gym`: the Gymnasium env's commands (in boxbox.gym)."""
+
+from __future__ import annotations
+
+import click
+
+from boxbox.cli.common import err, out, ready
+from boxbox.cli.types import LAPS, CommaList, OutputFile
+
+
+@click.command("scr-server")
+@click.option("--port", type=click.IntRange(0, 65535), default=3001, show_default=True,
+              help="UDP port on 127.0.0.1 (SCR's first car uses 3001; 0 picks a free one).")
+@click.option("--track", default="g-track-1", show_default=True, help="Track name, e.g. e-track-2.")
+@click.option("--car", default="car1-trb1", show_default=True, help="The client's car.")
+@click.option("--opponents", type=CommaList("MODULE:IDX,...", unique=False), default="",
+              help="TORCS robots, e.g. bt:2,berniw:3.")
+@click.option("--laps", type=LAPS, default=1, show_default=True, help="Race length in laps.")
+@click.option("--races", type=click.IntRange(0, None), default=1, show_default=True,
+              help="Races to serve, one client after another (0: until Ctrl-C).")
+def scr_server(port, track, car, opponents, laps, races) -> None:
+    """Serve SCR clients (the championship's UDP text protocol) on stock TORCS.
+
+    \b
+    Example: boxbox scr-server --port 3001 --track g-track-1
+    then start an SCR client (snakeoil-style) against 127.0.0.1:3001.
+    """
+    from boxbox.gym.scr import serve
+
+    ready()
+    served = serve(port=port, track=track, car=car, opponents=opponents, laps=laps, races=races or None,
+                   log=lambda text: err.print(f"[dim]scr-server:[/] {text}", highlight=False))
+    err.print(f"[dim]{served} race(s) served[/]")
+
+
+@click.command("bench-gym")
+@click.option("--track", default="g-track-1", show_default=True, help="Track name.")
+@click.option("--steps", type=click.IntRange(1_000, None), default=100_000, show_default=True,
+              help="Env steps of the one-env measurement.")
+@click.option("--episode-steps", type=click.IntRange(10, None), default=1_000, show_default=True,
+              help="Steps per episode in the speed measurements.")
+@click.option("--envs", type=click.IntRange(0, 64), default=8, show_default=True,
+              help="Sub-envs of the AsyncVectorEnv (0: skip it).")
+@click.option("--vector-steps", type=click.IntRange(10, None), default=5_000, show_default=True,
+              help="Steps of each sub-env of the AsyncVectorEnv.")
+@click.option("--episodes", type=click.IntRange(10, None), default=1_000, show_default=True,
+              help="Short episodes for the reset time, memory, files and processes.")
+@click.option("--json", "json_file", type=OutputFile(), help="Write the rows as JSON.")
+def bench_gym(track, steps, episode_steps, envs, vector_steps, episodes, json_file) -> None:
+    """The Gymnasium env's speed, reset time and resource use, with gym_torcs's figures beside.
+
+    Example: boxbox bench-gym --episodes 200
+    """
+    from dataclasses import asdict
+
+    from rich.table import Table
+
+    from boxbox.files import write_json_atomic
+    from boxbox.gym.bench import run_bench
+    from boxbox.torcs.checks import check_race
+
+    ready()
+    check_race(track, "car1-trb1", 1)
+    rows = run_bench(track, steps, episode_steps, envs, vector_steps, episodes,
+                     log=lambda text: err.print(f"[dim]bench-gym:[/] {text}", highlight=False))
+    table = Table(title=f"bench-gym: boxbox/TORCS-v0 on {track}, random actions")
+    for col in ("measure", "boxbox/TORCS-v0", "target", "gym_torcs (published)"):
+        table.add_column(col, justify="right" if col == "boxbox/TORCS-v0" else "left")
+    for r in rows:
+        table.add_row(r.measure, r.value, r.target, r.gym_torcs)
+    out.print(table)
+    if json_file:
+        write_json_atomic(json_file, [asdict(r) for r in rows], indent=1)
