@@ -32,7 +32,9 @@ from boxbox.errors import RaceError
 from boxbox.model import Car, Opponent, PitOrder, State, Track
 from boxbox.torcs import wire
 from boxbox.torcs.host import complete_car, decode_track
-from boxbox.torcs.launch import RaceConfig, _child_setup, prepare_local_dir
+from boxbox.torcs.launch import RaceConfig, prepare_local_dir
+from boxbox.torcs.processes import child_setup
+from boxbox.torcs.rundir import RunDir
 from boxbox.torcs.setup import Overlay
 
 HSIZE = wire.HEADER.size
@@ -130,7 +132,7 @@ class Session:
         self._step = 0
         Pinning.acquire(self.cpu)
         try:
-            self.local = prepare_local_dir(self.dir, overlay, cfg)
+            self.local = prepare_local_dir(RunDir(self.dir), overlay, cfg)
             self.listener = socket.socket(socket.AF_UNIX, socket.SOCK_SEQPACKET | socket.SOCK_CLOEXEC)
             self.listener.bind(str(self.dir / "bridge.sock"))
             self.listener.listen(1)
@@ -233,7 +235,7 @@ class Session:
         with open(self.dir / "torcs.err", "wb") as err:
             try:
                 return subprocess.Popen(cmd, cwd=o.data_dir, env=env, stdin=subprocess.DEVNULL,
-                                        stdout=subprocess.DEVNULL, stderr=err, preexec_fn=_child_setup(self.cpu),
+                                        stdout=subprocess.DEVNULL, stderr=err, preexec_fn=child_setup(self.cpu),
                                         start_new_session=True)
             except OSError as exc:
                 raise RaceError(f"TORCS could not be started ({cmd[0]}): {exc.strerror or exc}; "
