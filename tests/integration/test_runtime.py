@@ -246,3 +246,11 @@ def test_the_race_command_shows_robot_output_and_missed_stops(tmp_path, overlay)
     assert asks.returncode == 0, asks.stderr
     assert "warning: middle 1 asked for a pit stop on lap 1 that was not made: never entered the pit lane" \
         in asks.stderr, asks.stderr
+
+
+def test_numpy_scalars_in_controls_drive_a_real_race(tmp_path, overlay):
+    cfg = launch.RaceConfig(track="g-track-1", category="road", laps=2, telemetry=False, run_dir=tmp_path / "run",
+                            robots=[f"{ROBOTS / 'hostile.py'}:NumpyControls"])
+    result = launch.run_race(cfg, overlay)
+    assert result.error is None, result.error
+    assert result.drivers[0].laps == 2

@@ -81,3 +81,14 @@ class Crawls(MiddleRobot):
         c = super().drive(state)
         fast = state.speed_x_mps > 2.0
         return Controls(steer=c.steer, accel=0.0 if fast else 0.3, brake=0.2 if fast else 0.0, clutch=0.0, gear=1)
+
+
+class NumpyControls(MiddleRobot):
+    """Answers with numpy scalars and 0-d arrays, and a gear as a whole float (as State.gear is)."""
+
+    def drive(self, state):
+        import numpy as np
+
+        c = super().drive(state)
+        return Controls(steer=np.float32(c.steer), accel=np.float64(c.accel), brake=np.array(c.brake),
+                        clutch=np.float32(c.clutch), gear=np.int64(c.gear) if state.laps > 1 else float(c.gear))

@@ -12,7 +12,7 @@ import statistics
 
 from boxbox.control.stop import SpeedTracker, Stop, StopDriver, StopStatus
 from boxbox.model import Car, Controls, State, Track
-from boxbox.model.constants import G_MPS2
+from boxbox.model.constants import DRIVE_STEP_S, G_MPS2
 from boxbox.robot.tutorial import TutorialRobot
 
 HOLD_S = 2.0  # stand this long at the marker before driving on
@@ -60,7 +60,7 @@ class StopDrill(TutorialRobot):
             self.result["latch_dist_m"] = round(left, 2)
             self.result["latch_decel_mps2"] = round(r.decel_mps2, 2)
         if self.prev_speed is not None and v > 0.5:
-            self.decels.append((self.prev_speed - v) / 0.02)
+            self.decels.append((self.prev_speed - v) / DRIVE_STEP_S)
         self.prev_speed = v
         if self.phase == "stopping" and (r.status is StopStatus.FINISHED or v < 0.05):
             self.phase, self.standing_since_s = "standing", s.sim_time_s

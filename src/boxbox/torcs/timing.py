@@ -22,7 +22,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-STEP_S = 0.02  # TORCS calls a robot's drive every 0.02 s of simulated time
+from boxbox.model.constants import DRIVE_STEP_S
+
+STEP_S = DRIVE_STEP_S  # TORCS calls a robot's drive every 0.02 s of simulated time
 MIN_SPEED_MPS = 5.0  # the slowest average a race is allowed (18 km/h)
 START_S = 30.0  # processes starting, TORCS loading the track and cars
 ENGINE_S_PER_CAR_STEP = 0.001  # TORCS's own work per car and step, with a wide margin (it is ~20 us)
