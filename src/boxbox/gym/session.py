@@ -10,7 +10,8 @@ TORCS is pinned to one core with the thread that drives it (they strictly altern
 trip costs ~3 us instead of ~50 us across cores, see docs/architecture.md), dies with the thread
 that started it (PR_SET_PDEATHSIG; in practice with the env's process) and is killed by process
 group on every reset and on close.  The run folder (TORCS's local folder, the race file, the
-socket, TORCS's stderr) is a temporary folder removed on close.
+socket, TORCS's stderr) is a temporary folder removed on close (or by the next session, when the
+env's process was killed outright).
 """
 
 from __future__ import annotations
@@ -32,7 +33,7 @@ from boxbox.errors import RaceError
 from boxbox.model import Car, Opponent, PitOrder, State, Track
 from boxbox.torcs import wire
 from boxbox.torcs.host import complete_car, decode_track
-from boxbox.torcs.launch import RaceConfig, prepare_local_dir, torcs_command
+from boxbox.torcs.launch import RaceConfig, prepare_local_dir, remove_stale_sockets, torcs_command
 from boxbox.torcs.processes import child_setup
 from boxbox.torcs.rundir import RunDir
 from boxbox.torcs.setup import Overlay
@@ -43,6 +44,7 @@ OPP_SIZE = wire.OPPONENT_REC.size
 CONNECT_TIMEOUT_S = 30.0  # TORCS connects within ~20 ms; this much means it is stuck
 ANSWER_TIMEOUT_S = 60.0  # TORCS answers a step in microseconds; this much means it hangs
 SETUP_BUDGET_MS = 120_000
+FOLDER_PREFIX = "boxbox-gym-"  # TMP/boxbox-gym-<pid>-*: a session's folder
 
 PitHandler = Callable[[State], PitOrder]
 
@@ -118,7 +120,8 @@ class Session:
         self.initial_fuel_l = initial_fuel_l
         self.on_pit = on_pit or (lambda state: PitOrder())
         self.cpu = pick_cpu() if cpu is None else cpu
-        self.dir = Path(tempfile.mkdtemp(prefix="boxbox-gym-"))  # short: the socket path has 108 bytes
+        remove_stale_sockets(FOLDER_PREFIX)  # of env processes killed outright
+        self.dir = Path(tempfile.mkdtemp(prefix=f"{FOLDER_PREFIX}{os.getpid()}-"))  # short: a socket path has 108 bytes
         self.run = RunDir(self.dir)  # the names of TORCS's files in it
         self.proc: subprocess.Popen | None = None
         self._running: list[subprocess.Popen] = []  # what an env dropped without close() leaves to clean up

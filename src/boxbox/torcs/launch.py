@@ -441,10 +441,11 @@ def _add_error_line(result: RaceResult, line: str) -> None:
         result.error = f"{first}\n{line}" + nl + rest
 
 
-def remove_stale_sockets() -> None:
-    """Socket folders of launchers that are gone (killed outright, so they could not clean up)."""
-    for path in Path(tempfile.gettempdir()).glob(f"{SOCK_PREFIX}*"):
-        pid = path.name.removeprefix(SOCK_PREFIX).partition("-")[0]
+def remove_stale_sockets(prefix: str = SOCK_PREFIX) -> None:
+    """Socket folders (PREFIX<pid>-...) of launchers that are gone (killed outright, so they could
+    not clean up); the Gymnasium env's folders too (gym/session.py)."""
+    for path in Path(tempfile.gettempdir()).glob(f"{prefix}*"):
+        pid = path.name.removeprefix(prefix).partition("-")[0]
         if pid.isdigit() and not psutil.pid_exists(int(pid)):
             shutil.rmtree(path, ignore_errors=True)
 
