@@ -35,7 +35,8 @@ def random_actions(env, n: int, seed: int = 0) -> np.ndarray:
 
 
 def session_dirs() -> set[str]:
-    return set(glob.glob(os.path.join(tempfile.gettempdir(), "boxbox-gym-*")))
+    """This process's env folders (other test runs on the machine have their own)."""
+    return set(glob.glob(os.path.join(tempfile.gettempdir(), f"boxbox-gym-{os.getpid()}-*")))
 
 
 def test_registered_and_passes_the_gymnasium_checker(overlay):
@@ -214,6 +215,15 @@ def test_vector_envs_survive_a_crashed_sub_env(overlay, kind):
     assert not terminated.any() and np.isfinite(obs).all()
     venv.close()
     assert not any(psutil.pid_exists(p) for p in new_pids)
+
+
+def test_folders_of_env_processes_killed_outright_are_removed(overlay):
+    stale = os.path.join(tempfile.gettempdir(), "boxbox-gym-999999999-test")  # no such process
+    os.makedirs(os.path.join(stale, "local"))
+    env = TorcsEnv(track="g-track-1")
+    env.reset()
+    assert not os.path.exists(stale)
+    env.close()
 
 
 def test_an_env_dropped_without_close_leaves_nothing(overlay):

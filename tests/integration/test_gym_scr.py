@@ -116,7 +116,7 @@ def test_an_scr_client_drives_restarts_and_is_shut_down_at_the_race_end(server):
     assert time.monotonic() - started < 60
     assert proc.wait(timeout=10) == 0  # one race served
     assert "1 race(s) served" in proc.stderr.read()
-    assert processes_mentioning("boxbox-gym-") == []
+    assert processes_mentioning(f"boxbox-gym-{proc.pid}-") == []  # the server's TORCS (its folder has its pid)
 
 
 def test_scr_server_and_bench_gym_refuse_bad_input_in_one_line(overlay):
@@ -133,4 +133,3 @@ def test_scr_server_and_bench_gym_refuse_bad_input_in_one_line(overlay):
         lines = [ln for ln in proc.stderr.splitlines() if ln.startswith("boxbox: error:")]
         assert len(lines) == 1 and message in lines[0], proc.stderr
     taken.close()
-    assert processes_mentioning("boxbox-gym-") == []

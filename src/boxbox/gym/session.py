@@ -10,7 +10,8 @@ TORCS is pinned to one core with the thread that drives it (they strictly altern
 trip costs ~3 us instead of ~50 us across cores, see docs/architecture.md), dies with the thread
 that started it (PR_SET_PDEATHSIG; in practice with the env's process) and is killed by process
 group on every reset and on close.  The run folder (TORCS's local folder, the race file, the
-socket, TORCS's stderr) is a temporary folder removed on close.
+socket, TORCS's stderr) is a temporary folder removed on close (or by the next session, when the
+env's process was killed outright).
 """
 
 from __future__ import annotations
@@ -32,7 +33,7 @@ from boxbox.errors import RaceError
 from boxbox.model import Car, Opponent, PitOrder, State, Track
 from boxbox.torcs import wire
 from boxbox.torcs.host import complete_car, decode_track
-from boxbox.torcs.launch import RaceConfig, prepare_local_dir
+from boxbox.torcs.launch import RaceConfig, prepare_local_dir, remove_stale_sockets, torcs_command
 from boxbox.torcs.processes import child_setup
 from boxbox.torcs.rundir import RunDir
 from boxbox.torcs.setup import Overlay
@@ -43,6 +44,7 @@ OPP_SIZE = wire.OPPONENT_REC.size
 CONNECT_TIMEOUT_S = 30.0  # TORCS connects within ~20 ms; this much means it is stuck
 ANSWER_TIMEOUT_S = 60.0  # TORCS answers a step in microseconds; this much means it hangs
 SETUP_BUDGET_MS = 120_000
+FOLDER_PREFIX = "boxbox-gym-"  # TMP/boxbox-gym-<pid>-*: a session's folder
 
 PitHandler = Callable[[State], PitOrder]
 
@@ -118,7 +120,9 @@ class Session:
         self.initial_fuel_l = initial_fuel_l
         self.on_pit = on_pit or (lambda state: PitOrder())
         self.cpu = pick_cpu() if cpu is None else cpu
-        self.dir = Path(tempfile.mkdtemp(prefix="boxbox-gym-"))  # short: the socket path has 108 bytes
+        remove_stale_sockets(FOLDER_PREFIX)  # of env processes killed outright
+        self.dir = Path(tempfile.mkdtemp(prefix=f"{FOLDER_PREFIX}{os.getpid()}-"))  # short: a socket path has 108 bytes
+        self.run = RunDir(self.dir)  # the names of TORCS's files in it
         self.proc: subprocess.Popen | None = None
         self._running: list[subprocess.Popen] = []  # what an env dropped without close() leaves to clean up
         self._finalizer = weakref.finalize(self, _clean_up, self.dir, self._running, self.cpu)
@@ -132,7 +136,7 @@ class Session:
         self._step = 0
         Pinning.acquire(self.cpu)
         try:
-            self.local = prepare_local_dir(RunDir(self.dir), overlay, cfg)
+            self.local = prepare_local_dir(self.run, overlay, cfg)
             self.listener = socket.socket(socket.AF_UNIX, socket.SOCK_SEQPACKET | socket.SOCK_CLOEXEC)
             self.listener.bind(str(self.dir / "bridge.sock"))
             self.listener.listen(1)
@@ -230,9 +234,8 @@ class Session:
         env = dict(os.environ, LD_LIBRARY_PATH=str(o.torcs.shared_lib_dir), BOXBOX_SOCKET=str(self.dir / "bridge.sock"),
                    BOXBOX_STEP_BUDGET_MS="0",  # no limit: a learner may think for as long as it likes
                    BOXBOX_SETUP_BUDGET_MS=str(SETUP_BUDGET_MS))
-        cmd = [str(o.torcs.binary), "-l", f"{self.local}/", "-L", f"{o.lib_dir}/", "-D", f"{o.data_dir}/",
-               "-r", str(self.dir / "race.xml")]
-        with open(self.dir / "torcs.err", "wb") as err:
+        cmd = torcs_command(o, self.run)
+        with open(self.run.torcs_err, "wb") as err:
             try:
                 return subprocess.Popen(cmd, cwd=o.data_dir, env=env, stdin=subprocess.DEVNULL,
                                         stdout=subprocess.DEVNULL, stderr=err, preexec_fn=child_setup(self.cpu),
@@ -318,7 +321,7 @@ class Session:
     def torcs_words(self) -> str:
         """TORCS's last lines on stderr."""
         try:
-            lines = (self.dir / "torcs.err").read_text(errors="replace").split("\n")
+            lines = self.run.torcs_err.read_text(errors="replace").split("\n")
         except OSError:
             return ""
         return " | ".join(ln.strip() for ln in lines if ln.strip())[-300:]

@@ -149,6 +149,12 @@ def prepare_local_dir(run_dir: RunDir, overlay: Overlay, cfg: RaceConfig) -> Pat
     return local
 
 
+def torcs_command(overlay: Overlay, run_dir: RunDir) -> list[str]:
+    """TORCS in console mode on a race's folder (also the Gymnasium env's, gym/session.py)."""
+    return [str(overlay.torcs.binary), "-l", f"{run_dir.local}/", "-L", f"{overlay.lib_dir}/", "-D",
+            f"{overlay.data_dir}/", "-r", str(run_dir.race_file)]
+
+
 def write_driver_files(local: Path, data_dir: Path, opponents: list[tuple[str, int]], level: SkillLevel) -> None:
     """The race's own copy of each TORCS robot's driver file, with `skill level` set for the
     indices that race: TORCS reads LOCAL/drivers/NAME/NAME.xml before the installed one, so nothing
@@ -244,8 +250,7 @@ class Race:
 
     def _start_torcs(self) -> None:
         overlay, run_dir = self.overlay, self.run_dir
-        cmd = [str(overlay.torcs.binary), "-l", f"{run_dir.local}/", "-L", f"{overlay.lib_dir}/", "-D",
-               f"{overlay.data_dir}/", "-r", str(run_dir.race_file)]
+        cmd = torcs_command(overlay, run_dir)
         if wrapper := os.environ.get("BOXBOX_TORCS_WRAPPER"):  # e.g. "gdb -batch -ex run -ex bt --args"
             cmd = [*wrapper.split(), *cmd]
         if shutil.which("stdbuf"):
@@ -436,10 +441,11 @@ def _add_error_line(result: RaceResult, line: str) -> None:
         result.error = f"{first}\n{line}" + nl + rest
 
 
-def remove_stale_sockets() -> None:
-    """Socket folders of launchers that are gone (killed outright, so they could not clean up)."""
-    for path in Path(tempfile.gettempdir()).glob(f"{SOCK_PREFIX}*"):
-        pid = path.name.removeprefix(SOCK_PREFIX).partition("-")[0]
+def remove_stale_sockets(prefix: str = SOCK_PREFIX) -> None:
+    """Socket folders (PREFIX<pid>-...) of launchers that are gone (killed outright, so they could
+    not clean up); the Gymnasium env's folders too (gym/session.py)."""
+    for path in Path(tempfile.gettempdir()).glob(f"{prefix}*"):
+        pid = path.name.removeprefix(prefix).partition("-")[0]
         if pid.isdigit() and not psutil.pid_exists(int(pid)):
             shutil.rmtree(path, ignore_errors=True)
 
