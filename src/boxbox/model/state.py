@@ -6,9 +6,7 @@ Units are in the names; `to_start` is metres on straights and radians on turns (
 
 from __future__ import annotations
 
-from typing import NamedTuple, NoReturn
-
-from boxbox.model.names import no_such_field
+from typing import NamedTuple
 
 # car_state bits (TORCS RM_CAR_STATE_*)
 CAR_STATE_PIT = 0x1  # stopped in its pit right now
@@ -37,9 +35,6 @@ class Opponent(NamedTuple):
     damage: float
     length_m: float
     width_m: float
-
-    def __getattr__(self, name: str) -> NoReturn:
-        no_such_field(self, name)
 
 class State(NamedTuple):
     sim_time_s: float
@@ -90,6 +85,3 @@ class State(NamedTuple):
     def in_pit(self) -> bool:
         """Stopped in the pit (captured by the race engine)."""
         return int(self.car_state) & CAR_STATE_PIT != 0
-
-    def __getattr__(self, name: str) -> NoReturn:
-        no_such_field(self, name)
