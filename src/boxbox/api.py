@@ -66,6 +66,7 @@ def race(track: str = "e-track-2", *, laps: int = 3, robots: Sequence[str | type
     """
     from boxbox.robot.loader import load_robot_class, spec_for_class
     from boxbox.torcs import checks, launch, setup
+    from boxbox.torcs.signals import restore_handlers
 
     level = skill_level if isinstance(skill_level, SkillLevel) else _parse_level(skill_level)
     _check_choices(laps, learning, pit_mode)
@@ -83,7 +84,10 @@ def race(track: str = "e-track-2", *, laps: int = 3, robots: Sequence[str | type
                             opponents=opp, options=options, step_budget_ms=step_budget_ms, telemetry=telemetry,
                             run_dir=Path(run_dir).resolve() if run_dir is not None else None, skill_level=level,
                             grid_position=checks.check_grid_position(grid_position, len(opp)), learning=learning)
-    raced = launch.run_race(cfg, overlay)
+    try:
+        raced = launch.run_race(cfg, overlay)
+    finally:
+        restore_handlers()  # a race stopped by Ctrl-C leaves its own handler in place
     result = RaceResult(**{f.name: getattr(raced, f.name) for f in dataclasses.fields(raced)})
     if report:
         result.report(None if report is True else report)

@@ -55,5 +55,8 @@ def main() -> None:
         err.print(f"boxbox: error: {exc.format_message()} (see --help)", markup=False, highlight=False)
         sys.exit(2)
     except BoxboxError as exc:
+        if exc.exit_code == 130:  # stopped by a signal: more of them (Ctrl-C pressed again) must not
+            for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):  # kill the exit (SIG_IGN
+                signal.signal(sig, signal.SIG_IGN)  # holds through the interpreter's shutdown)
         err.print(f"boxbox: error: {exc}", markup=False, highlight=False)
         sys.exit(exc.exit_code)

@@ -60,9 +60,23 @@ class StopSignals:
         if self.wakeup_fd is None:
             return
         signal.set_wakeup_fd(self._old_wakeup)
-        for sig, handler in self._old.items():
-            signal.signal(sig, handler)  # type: ignore[arg-type]
+        if not self.received:
+            for sig, handler in self._old.items():
+                signal.signal(sig, handler)  # type: ignore[arg-type]
+        # else this handler stays: a late Ctrl-C (pressed again as the stopped race winds down) is
+        # noted, not raised, so the results being written and the exit status 130 hold; the
+        # command line exits next, and boxbox.race puts Python's handlers back (restore_handlers)
         for fd in (self.wakeup_fd, self._write_fd):
             if fd is not None:
                 os.close(fd)
         self.wakeup_fd = self._write_fd = None
+
+
+def restore_handlers() -> None:
+    """Python's own handlers for the stop signals again, where a stopped race left its own."""
+    if threading.current_thread() is not threading.main_thread():
+        return
+    for sig in STOP_SIGNALS:
+        handler = signal.getsignal(sig)
+        if getattr(handler, "__self__", None).__class__ is StopSignals:
+            signal.signal(sig, signal.default_int_handler if sig == signal.SIGINT else signal.SIG_DFL)
