@@ -1,7 +1,8 @@
 """The few car constants the speed and braking controllers need: mass, downforce, drag, tyre grip.
 
-The aerodynamic coefficients follow the tutorial robot's estimates (see TORCS.md, "The tutorial
-robot's constants"): forces are CA * v^2 (downforce, N) and CW * v^2 (drag, N) with v in m/s.
+The aerodynamic coefficients follow the TORCS robot tutorial's estimates (its chapters on
+downforce and drag; TORCS's simuv2 aero.cpp for the factors): forces are CA * v^2 (downforce, N) and
+CW * v^2 (drag, N) with v in m/s.
 """
 
 from __future__ import annotations

@@ -1,6 +1,7 @@
 """The pit brake filter: brake for the pit entry, keep the pit speed limit, stop at the own box.
 
-Rebuilt from seed pit-brake-filter.txt over plain numbers.  Positions are pit-path coordinates `s`:
+Rebuilt over plain numbers from the TORCS robot tutorial's pit brake filter (chapter "Pit
+stops"; bt's driver.cpp, filterBPit).  Positions are pit-path coordinates `s`:
 metres along the track from the pit entry, negative (metres to go) while approaching it; the caller
 maps distances from the start line (see robot.pitpath.PitPath.signed_coord).  The braking distance
 is injected: brakedist(v_from_mps, v_to_mps, mu) -> metres.

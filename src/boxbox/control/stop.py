@@ -1,7 +1,8 @@
 """Stopping at a point with a constant deceleration, and a cheap speed tracker.
 
-The stop controller follows the idea of seed stop-controller.txt (constant deceleration instead of an
-exponential decay): with D metres left at speed V, braking at A = V^2 / (2 D) reaches the point
+The stop controller follows the idea of the ART autonomous vehicle navigator's stop controller (UT
+Austin's ART project: constant deceleration instead of an exponential decay): with D metres left at
+speed V, braking at A = V^2 / (2 D) reaches the point
 exactly as the speed reaches zero, after T = 2 D / V.  A is recomputed every cycle, so errors of the
 lower speed loop are corrected on the way.  Everything here is called per drive step: plain floats.
 """

@@ -55,7 +55,7 @@ class TutorialParams:
     # clutch at the start (1 = open): slips from clutch_start down to closed at clutch_release_mps
     clutch_start: float = 0.7
     clutch_release_mps: float = 15.0
-    # gears (gear-changing.txt)
+    # gears (the tutorial's gear changing chapter)
     shift: float = 0.9
     shift_margin_mps: float = 4.0
     # traction control and ABS (slip in m/s)

@@ -1,11 +1,12 @@
 """Pit strategy: when to stop, how much fuel and repair to take.
 
-Decision (tutorial rules, TORCS.md "Pit strategy"): stop when the fuel will not reach the finish and
+Decision (the TORCS robot tutorial's pit strategy, chapter "Pit stops"): stop when the fuel will not
+reach the finish and
 less than 1.5 laps of fuel are left, when damage exceeds 5000, or in a requested lap.
 
 Order: enough fuel to finish plus a margin, split over as many stops as minimise the race time:
   each stop costs  pit_loss_s (driving the pit lane instead of the track) + 2 s + fuel / 8 l/s
-                   + repair * 0.007 s                       (TORCS race defaults, TORCS.md)
+                   + repair * 0.007 s                       (TORCS's race manager defaults, raceengine.xml)
   carried fuel costs  s_per_lap_per_kg * fuel mass per lap  (a heavier car is slower).
 The default 0.022 s/lap/kg is measured: car1-trb1 on e-track-2 lapped 1.5 s slower with 68 kg more
 fuel (4 laps with 26 l and with 94 l, laps 2-4); TORCS adds the fuel to the car's mass as
