@@ -145,15 +145,16 @@ def test_robot_children_in_their_own_sessions_end_with_the_race(tmp_path, overla
 
 
 def test_a_robot_within_its_step_budget_is_never_stopped_for_being_slow(tmp_path, overlay):
-    """Case 12: 4 ms of every step with a 20 ms budget, a whole race: the wall limit is derived
-    from the budget, so it cannot cut the race short."""
+    """Case 12: 4 ms of every step with a 50 ms budget, a whole race: the wall limit is derived
+    from the budget, so it cannot cut the race short. (A 20 ms budget was too close on a busy
+    virtual machine: one step of the 2,000 took over 20 ms there once.)"""
     cfg = launch.RaceConfig(track="michigan", category="oval", laps=1, robots=[f"{HOSTILE}:NearItsBudget"],
-                            run_dir=tmp_path / "run", step_budget_ms=20, setup_budget_ms=5000, telemetry=False)
+                            run_dir=tmp_path / "run", step_budget_ms=50, setup_budget_ms=5000, telemetry=False)
     result = launch.run_race(cfg, overlay)
     assert result.error is None and result.drivers[0].laps == 1
     limits = result.limits
     steps = limits["sim_limit_s"] / STEP_S
-    assert limits["wall_limit_s"] >= steps * 0.020 > result.wall_s
+    assert limits["wall_limit_s"] >= steps * 0.050 > result.wall_s
     assert result.wall_s > result.drivers[0].time / STEP_S * 0.004  # it did take 4 ms a step
 
 

@@ -43,7 +43,7 @@ class NeverMoves(MiddleRobot):
 
 
 class NearItsBudget(MiddleRobot):
-    """Takes 4 ms of every drive step: well within a 20 ms step budget, slow over a whole race."""
+    """Takes 4 ms of every drive step: well within a 50 ms step budget, slow over a whole race."""
 
     def drive(self, state):
         time.sleep(0.004)
