@@ -107,91 +107,28 @@ def middle_line(track: Track, step_m: float = 2.0, margin_m: float = 0.0) -> Mid
                       z_m=z0 + frac * (seg["end_z_m"].astype(float)[ids] - z0))
 
 
-def _pivot_box_qp(h_csc: sp.csc_matrix, g: np.ndarray, lo: np.ndarray, hi: np.ndarray,
-                  x0: np.ndarray, max_iter: int) -> tuple[np.ndarray, bool]:
-    """Block active-set pivoting for min 1/2 x'Hx + g'x, lo <= x <= hi: solve on the free
-    variables with the others held at their bounds, pin every free one that overshoots, release
-    every pinned one whose gradient points inward, repeat.  Usually done in a handful of sparse
-    solves, but it can cycle; returns (x, converged)."""
-    from scipy.sparse.linalg import splu
+def _solve_box_qp(h: sp.csr_matrix, g: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """min 1/2 x'Hx + g'x subject to lo <= x <= hi, H sparse symmetric positive definite.
 
-    n = len(g)
-    x = np.clip(x0, lo, hi)
-    state = np.zeros(n, dtype=np.int8)  # 0 free, -1 at lo, +1 at hi
-    state[x <= lo] = -1
-    state[x >= hi] = 1
-    # loose tolerances: H is ill-conditioned (fourth differences), and flipping variables on
-    # round-off-sized overshoots or gradients is what makes block pivoting cycle
-    tol_x = 1e-6
-    tol_g = 1e-7 * (float(np.abs(h_csc.diagonal()).max()) or 1.0)
-    for _ in range(max_iter):
-        free = state == 0
-        x = np.where(state < 0, lo, np.where(state > 0, hi, x))
-        fi = np.flatnonzero(free)
-        if len(fi):
-            pinned = np.flatnonzero(~free)
-            rhs = -g[fi]
-            if len(pinned):
-                rhs -= h_csc[fi][:, pinned] @ x[pinned]
-            x[fi] = splu(h_csc[fi][:, fi].tocsc()).solve(rhs)
-        grad = h_csc @ x + g
-        over_lo = free & (x < lo - tol_x)
-        over_hi = free & (x > hi + tol_x)
-        release = ((state < 0) & (grad < -tol_g)) | ((state > 0) & (grad > tol_g))
-        if not (over_lo.any() or over_hi.any() or release.any()):
-            return x, True
-        state[over_lo] = -1
-        state[over_hi] = 1
-        state[release] = 0
-    return np.clip(x, lo, hi), False
+    PIQP (a proximal interior-point QP solver, Schwan et al., "PIQP: A Proximal Interior-Point
+    Quadratic Programming Solver", IEEE CDC 2023) copes with this H: fourth differences make it
+    ill-conditioned, where first-order (ADMM) solvers crawl.  H is scaled to a unit diagonal
+    first; the optimum does not change."""
+    import piqp
+    import scipy.sparse as sp
 
-
-def _primal_box_qp(h_csc: sp.csc_matrix, g: np.ndarray, lo: np.ndarray, hi: np.ndarray,
-                   x0: np.ndarray, max_iter: int) -> np.ndarray:
-    """Primal active set, the slow but sure way: from a feasible point, Newton step on the free
-    variables; if it leaves the box, go as far as the first bound and pin that variable; else take
-    it and release pinned variables whose gradient points inward.  The cost falls at every step,
-    so it cannot cycle."""
-    from scipy.sparse.linalg import splu
-
-    x = np.clip(x0, lo, hi)
-    pinned = (x <= lo) | (x >= hi)
-    tol_g = 1e-10 * (float(np.abs(h_csc.diagonal()).max()) or 1.0)
-    for _ in range(max_iter):
-        fi = np.flatnonzero(~pinned)
-        target = x.copy()
-        if len(fi):
-            pi = np.flatnonzero(pinned)
-            rhs = -g[fi]
-            if len(pi):
-                rhs -= h_csc[fi][:, pi] @ x[pi]
-            target[fi] = splu(h_csc[fi][:, fi].tocsc()).solve(rhs)
-        p = target - x
-        with np.errstate(divide="ignore", invalid="ignore"):
-            ratio = np.where(p < -1e-15, (lo - x) / p, np.where(p > 1e-15, (hi - x) / p, np.inf))
-        alpha = float(ratio.min()) if len(ratio) else np.inf
-        if alpha < 1.0:
-            x = np.clip(x + alpha * p, lo, hi)
-            pinned |= ratio <= alpha * (1.0 + 1e-9) + 1e-15
-            continue
-        x = target
-        grad = h_csc @ x + g
-        at_lo, at_hi = pinned & (x <= lo), pinned & (x >= hi)
-        release = (at_lo & (grad < -tol_g)) | (at_hi & (grad > tol_g))
-        if not release.any():
-            break
-        pinned &= ~release
-    return x
-
-
-def _solve_box_qp(h: sp.csr_matrix, g: np.ndarray, lo: np.ndarray, hi: np.ndarray,
-                  x0: np.ndarray) -> np.ndarray:
-    """min 1/2 x'Hx + g'x subject to lo <= x <= hi, H sparse symmetric positive definite."""
-    h_csc = h.tocsc()
-    x, ok = _pivot_box_qp(h_csc, g, lo, hi, x0, 20)
-    if ok:
-        return x
-    return _primal_box_qp(h_csc, g, lo, hi, x, 2000)
+    scale = 1.0 / (float(np.abs(h.diagonal()).max()) or 1.0)
+    solver = piqp.SparseSolver()
+    solver.settings.eps_abs = 1e-10
+    solver.settings.eps_rel = 1e-12
+    solver.settings.eps_duality_gap_abs = 1e-12
+    solver.settings.eps_duality_gap_rel = 1e-12
+    solver.settings.max_iter = 500
+    solver.setup(sp.triu(h * scale).tocsc(), g * scale, x_l=lo, x_u=hi)
+    status = solver.solve()
+    if status != piqp.PIQP_SOLVED:
+        raise RuntimeError(f"racing line: the QP solver stopped with {status}")
+    return np.clip(solver.result.x, lo, hi)
 
 
 def _closed_curvature(x_m: np.ndarray, y_m: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -281,7 +218,7 @@ def _min_curvature_offsets(mid: MiddleLine, iterations: int, peak_cap: float, ca
         # would leave a free sideways shift) without moving the line measurably
         h = h + sp.identity(n, format="csr") * (1e-9 * float(h.diagonal().mean()) + 1e-12)
         g = a.T @ ((1.0 + pw) * c - pw * target)
-        new = _solve_box_qp(h, g, lo, hi, off)
+        new = _solve_box_qp(h, g, lo, hi)
         done = np.max(np.abs(new - off)) < 2e-3 and np.array_equal(over, was)
         off = new
         if done:
