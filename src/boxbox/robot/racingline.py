@@ -353,8 +353,17 @@ class RacingLine:
         self.curvature_1pm = closed(k)
         self.length_factor = closed(factor)
         self.path_length_m = float(chord.sum())
-        self.vertical_curvature_1pm = closed(vertical_curvature(mid.z_m[:n], self.step_m))
-        self.roughness_1pm = closed(road_roughness(mid.z_m[:n], self.step_m))
+        z_m, step = mid.z_m[:n], self.step_m
+
+        def vertical() -> np.ndarray:
+            return np.stack((vertical_curvature(z_m, step), road_roughness(z_m, step)))
+
+        # cached like the line: scipy.ndimage's filters cost a race ~0.3 s of imports alone
+        kv, rough = cached_array("road-profiles", [Path(__file__).read_bytes(), repr(step).encode(),
+                                                   np.ascontiguousarray(z_m).tobytes()], vertical) \
+            if cache else vertical()
+        self.vertical_curvature_1pm = closed(kv)
+        self.roughness_1pm = closed(rough)
 
         # plain lists for the per-step lookups
         self._n = n

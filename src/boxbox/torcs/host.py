@@ -500,6 +500,18 @@ def _accept(listener: socket.socket, timeout_s: float) -> socket.socket | None:
     return conn
 
 
+def serve_profiled(host: Host, conn: socket.socket, stats_file: str) -> None:
+    """host.serve under cProfile, its statistics written to stats_file (BOXBOX_PROFILE=FILE: where
+    a robot's step time goes; read with `python -m pstats FILE`)."""
+    import cProfile
+
+    profiler = cProfile.Profile()
+    try:
+        profiler.runcall(host.serve, conn)
+    finally:
+        profiler.dump_stats(stats_file)
+
+
 def main(argv: list[str]) -> int:
     spec = json.loads(Path(argv[0]).read_text())
     run_dir = RunDir(spec["run_dir"])
@@ -520,7 +532,7 @@ def main(argv: list[str]) -> int:
         return 2
     link.send("connected")
     try:
-        host.serve(conn)
+        serve_profiled(host, conn, profile) if (profile := os.environ.get("BOXBOX_PROFILE")) else host.serve(conn)
     except (BrokenPipeError, ConnectionResetError):
         pass  # TORCS went away while we answered (killed): what we have is sent below
     finally:
