@@ -177,8 +177,9 @@ def test_brakes_hard_at_high_speed_before_the_slowest_point(name):
     robot = robot_for(name)
     profile = robot.profile
     slowest_m = int(np.argmin(profile.target_speeds)) * profile.step_m
-    assert profile.target_speeds.min() < 60.0
-    c = robot.drive(line_state(robot, slowest_m - 20.0, 80.0))
+    slowest_mps = float(profile.target_speeds.min())
+    assert slowest_mps < 70.0  # michigan's banked turns: 64 m/s
+    c = robot.drive(line_state(robot, slowest_m - 20.0, slowest_mps + 16.0))
     assert c.brake > 0.0
     assert c.accel == 0.0
     assert c.problem(robot.car.max_gear) is None

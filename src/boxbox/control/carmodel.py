@@ -26,6 +26,26 @@ def ground_effect_factor(car: Car) -> float:
     return 2.0 * math.exp(-3.0 * (1.5 * heights_m) ** 4)
 
 
+def axle_downforce_coefficients(car: Car) -> tuple[float, float]:
+    """(front, rear) downforce in N/(m/s)^2: simuv2 puts each Clift on its own axle and each
+    wing's force at the wing (aero.cpp, wing.cpp)."""
+    h = ground_effect_factor(car)
+    front = h * car.front_clift + WING_FACTOR * AIR_DENSITY * car.front_wing_area_m2 * math.sin(car.front_wing_angle_rad)
+    rear = h * car.rear_clift + WING_FACTOR * AIR_DENSITY * car.rear_wing_area_m2 * math.sin(car.rear_wing_angle_rad)
+    return front, rear
+
+
+def cornering_downforce_coefficient(car: Car) -> float:
+    """The downforce (N/(m/s)^2) that counts for cornering: each axle must hold the side force of
+    the weight it carries, so the axle with the least downforce per share of weight sets the limit,
+    min(CA_front / w_front, CA_rear / w_rear).  A car whose downforce is split like its weight
+    corners on all of it; car1-trb1 (52 % of its weight in front, 37 % of its downforce) on
+    about 72 % of it, which matters in fast turns."""
+    front, rear = axle_downforce_coefficients(car)
+    share = min(max(car.front_weight_share, 0.05), 0.95)
+    return min(front / share, rear / (1.0 - share))
+
+
 def downforce_coefficient(car: Car, include_front_wing: bool = True) -> float:
     """CA in N/(m/s)^2: h * (front + rear Clift) + 4 * 1.23 * wing area * sin(wing angle).
 
@@ -66,7 +86,8 @@ class CarModel:
     """Point-mass car: mass (with fuel), downforce CA, drag CW (both N per (m/s)^2), tyre friction mu.
 
     `empty_mass_kg` is the mass without fuel (defaults to `mass_kg`), so `with_fuel` can re-derive
-    the mass as the fuel burns.
+    the mass as the fuel burns.  `ca_corner`: the downforce that counts in a turn, the weaker
+    axle's (cornering_downforce_coefficient; defaults to `ca`).
     """
 
     mass_kg: float
@@ -74,10 +95,13 @@ class CarModel:
     cw: float
     mu: float
     empty_mass_kg: float = field(default=-1.0, compare=False)
+    ca_corner: float = -1.0
 
     def __post_init__(self) -> None:
         if self.empty_mass_kg < 0.0:
             object.__setattr__(self, "empty_mass_kg", self.mass_kg)
+        if self.ca_corner < 0.0:
+            object.__setattr__(self, "ca_corner", self.ca)
 
     @classmethod
     def from_car(cls, car: Car, fuel_l: float = 0.0, include_front_wing: bool = True) -> CarModel:
@@ -87,6 +111,7 @@ class CarModel:
             cw=drag_coefficient(car),
             mu=tyre_mu(car),
             empty_mass_kg=car.mass_kg,
+            ca_corner=cornering_downforce_coefficient(car) if include_front_wing else downforce_coefficient(car, False),
         )
 
     def with_fuel(self, fuel_l: float) -> CarModel:

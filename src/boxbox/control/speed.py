@@ -23,22 +23,28 @@ QUARTER_TURN_RAD = math.pi / 2.0
 
 def allowed_speed(
     radius_m: float, mu: float, model: CarModel, max_speed_mps: float = DEFAULT_MAX_SPEED_MPS,
-    vertical_curvature_1pm: float = 0.0,
+    vertical_curvature_1pm: float = 0.0, bank_rad: float = 0.0,
 ) -> float:
-    """Highest speed through a turn of radius_m: sqrt(mu g r / (1 - min(1, r mu (CA / m + kv)))).
+    """Highest speed through a turn of radius_m on a road banked by bank_rad into the turn:
+    sqrt(g r (mu cos b + sin b) / (cos b - mu sin b - r mu (CA / m + kv))).
 
-    Downforce grows with v^2 like the needed side force, so above r = m / (CA mu) any speed holds:
-    then (and for r = inf) the result is max_speed_mps, which also caps every other result
-    (pass math.inf for no cap).  `vertical_curvature_1pm` (kv, + in a dip, - over a crest) adds
-    v^2 kv per kg to the tyres' load like downforce does: a dip carries the car faster, a crest
-    slower.
+    The side force the tyres must give along the road is v^2/r cos b - g sin b per kg and their load
+    g cos b + v^2/r sin b + v^2 (CA / m + kv): banking into the turn turns part of gravity into side
+    force and part of the side force into load (b < 0, a road falling away outwards, does the
+    opposite); b = 0 is sqrt(mu g r / (1 - r mu (CA / m + kv))).  CA is the downforce the weaker
+    axle corners on (model.ca_corner, see carmodel.py).  Downforce grows with v^2 like
+    the needed side force, so where the denominator reaches 0 any speed holds: then (and for
+    r = inf) the result is max_speed_mps, which also caps every other result (pass math.inf for no
+    cap).  `vertical_curvature_1pm` (kv, + in a dip, - over a crest) adds v^2 kv per kg to the
+    tyres' load like downforce does: a dip carries the car faster, a crest slower.
     """
     if math.isinf(radius_m):
         return max_speed_mps
-    denom = 1.0 - min(1.0, radius_m * mu * (model.ca / model.mass_kg + vertical_curvature_1pm))
+    cos_b, sin_b = (1.0, 0.0) if bank_rad == 0.0 else (math.cos(bank_rad), math.sin(bank_rad))
+    denom = cos_b - mu * sin_b - radius_m * mu * (model.ca_corner / model.mass_kg + vertical_curvature_1pm)
     if denom <= 0.0:
         return max_speed_mps
-    return min(max_speed_mps, math.sqrt(max(0.0, mu * G * radius_m) / denom))
+    return min(max_speed_mps, math.sqrt(max(0.0, G * radius_m * (mu * cos_b + sin_b)) / denom))
 
 
 def crest_speed(vertical_curvature_1pm: float, model: CarModel, load_share: float = 0.5,
@@ -191,6 +197,7 @@ class SpeedProfile:
         n = len(limit)
         max_entry_speed = max_entry_speed or entry_speed_function(BrakeModel.EXACT)
         ca_per_kg = model.ca / model.mass_kg
+        corner_ca_per_kg = model.ca_corner / model.mass_kg
         speeds = list(limit)
         # The slowest sample can never be forced lower (everything is >= the smallest limit), so a
         # pass backwards from it settles the loop; the loop repeats only as a safeguard.
@@ -210,7 +217,9 @@ class SpeedProfile:
                     mu_brake *= load / flat_load
                 if lateral is not None and lateral[0][i] > 0.0:
                     # grip left for braking once the turn takes its share: sqrt(1 - used^2)
-                    used = v_sq * lateral[0][i] / (lateral[1][i] * load)
+                    # (the weaker axle's load: the turn's share as allowed_speed counts it)
+                    corner_load = max(0.1 * G, load + (corner_ca_per_kg - ca_per_kg) * v_sq)
+                    used = v_sq * lateral[0][i] / (lateral[1][i] * corner_load)
                     mu_brake *= math.sqrt(1.0 - min(used, MAX_LATERAL_SHARE) ** 2)
                 v = min(limit[i], max_entry_speed(v_next, step_m, mu_brake, model))
                 if v < speeds[i]:

@@ -38,6 +38,7 @@ class Car:
     fuel_cons_factor: float = 1.0
     brake_pressure_max: float = 0.0
     brake_front_rear: float = 0.5
+    front_weight_share: float = 0.5  # share of the car's weight on the front axle
     # tyres (the car file's "stiffness", "dynamic friction", "elasticity factor" per wheel; TORCS's
     # defaults where it is silent): the shape of the magic formula, see control/tyre.py
     tyre_stiffness_fr: float = 30.0

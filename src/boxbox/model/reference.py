@@ -68,6 +68,7 @@ PREFIXES = (
     ("torque_curve_nm", "engine torque curve: torque per point"), ("wheel_radius_", "wheel radius per wheel"),
     ("spin_", "wheel spin per wheel"), ("brake_pressure_max", "brake system's highest pressure"),
     ("brake_front_rear", "brake balance, share to the front"), ("max_torque_nm", "most engine torque"),
+    ("front_weight_share", "share of the weight on the front axle"),
     ("max_power_w", "most engine power"), ("height_m", "height"), ("skill_level", "TORCS's skill level, 0 rookie .. "
     "3 pro (model.skill.SkillLevel; docs/rules.md)"), ("gear_count", "TORCS's _gearNb: the top gear + 1"),
 )

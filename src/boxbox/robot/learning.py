@@ -3,8 +3,10 @@
 The tutorial robot adds the smallest margin it saw in a turn to that turn's radius for the next
 lap.  Here each turn (a stretch where the speed profile is limited by curvature) has a grip
 factor scaling its cornering speed: a lap with room to spare raises it, leaving the track or
-picking up damage in the turn lowers it and caps it there.  Factors are kept per track and car
-in a JSON file, so the next race starts from what the last one learned.
+picking up damage in the turn lowers it and caps it there.  The cap is not for good: every clean
+lap in the turn lifts it by CEILING_RECOVERY, so a turn slowed by one bad lap (another car, a
+slide out of the turn before) earns its speed back.  Factors are kept per track and car in a JSON
+file, so the next race starts from what the last one learned.
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ OFF_MARGIN_M = -0.3  # a wheel this far over the edge counts as leaving the trac
 CRASH_MARGIN_M = -2.0  # this far over the edge, or CRASH_DAMAGE points in one lap, is a crash:
 CRASH_DAMAGE = 50.0  # the turn loses CRASH_FACTOR at once (a few per cent a lap crashed dirt-3
 CRASH_FACTOR = 0.9  # in the same turn lap after lap)
+CEILING_RECOVERY = 1.01  # a clean lap in a turn lifts its ceiling by 1 %, up to MAX_FACTOR
 
 
 @dataclass
@@ -119,12 +122,14 @@ class TurnLearner:
             elif 0.0 <= turn.max_error_m < self.steady_error_m:
                 # a racing line uses the whole width, so the margin says little there; a car that
                 # stayed on its line through the turn had grip to spare
+                turn.ceiling = min(MAX_FACTOR, turn.ceiling * CEILING_RECOVERY)
                 turn.factor = min(turn.ceiling, turn.factor * (1.0 + self.gain * 0.02))
             elif turn.max_error_m < 0.0 and turn.min_margin_m > self.target_margin_m:
                 # no line to hold (a middle-line robot): room to spare beyond the margin we keep: take
                 # part of it (equilibrium near the target, not at the edge, where one gust of
                 # understeer costs a wall)
                 spare = min(turn.min_margin_m - self.target_margin_m, 2.0)
+                turn.ceiling = min(MAX_FACTOR, turn.ceiling * CEILING_RECOVERY)
                 turn.factor = min(turn.ceiling, turn.factor * (1.0 + self.gain * 0.05 * spare))
             turn.min_margin_m = 1e9
             turn.max_error_m = -1.0

@@ -46,6 +46,7 @@ class TutorialParams:
     brake_method: str = "exact"  # braking distance: "exact" or "approx" (the seed's formula)
     friction_circle: bool = True  # brake less where the line turns (grip shared with cornering)
     elevation: bool = True  # crests unload the tyres and dips load them: turn and brake accordingly
+    banking: bool = True  # a road banked into the turn carries the car faster (and one banked away slower)
     crest_load_share: float = 0.5  # over a crest keep at least this share of the car's weight on the tyres
     bump_accel_mps2: float = 4.0  # over short bumps (a washboard) keep v^2 x their curvature below this
     max_speed_mps: float = 100.0

@@ -48,6 +48,7 @@ class MiddleLine:
     seg_id: np.ndarray  # segment holding each sample
     curvature_1pm: np.ndarray  # exact curvature of the middle line from the segments, + left
     z_m: np.ndarray  # elevation of the middle (linear along each segment, as TORCS has it)
+    bank_rad: np.ndarray  # the road's roll, + where the left edge is higher (TORCS's banking angle)
 
     @property
     def n(self) -> int:
@@ -101,10 +102,13 @@ def middle_line(track: Track, step_m: float = 2.0, margin_m: float = 0.0) -> Mid
     with np.errstate(divide="ignore"):
         k = np.where(turn, sign / np.where(radius > 0, radius, math.inf), 0.0)
     z0 = seg["start_z_m"].astype(float)[ids]
+    no_bank = np.zeros(len(starts))  # tracks recorded before the bridge sent banking
+    b0 = seg.get("banking_start_rad", no_bank).astype(float)[ids]
+    b1 = seg.get("banking_end_rad", no_bank).astype(float)[ids]
     return MiddleLine(length_m=length_m, step_m=length_m / n, dist_m=dist_m, x_m=x, y_m=y,
                       heading_rad=heading, half_left_m=half, half_right_m=half.copy(),
                       friction=seg["friction"].astype(float)[ids], seg_id=ids, curvature_1pm=k,
-                      z_m=z0 + frac * (seg["end_z_m"].astype(float)[ids] - z0))
+                      z_m=z0 + frac * (seg["end_z_m"].astype(float)[ids] - z0), bank_rad=b0 + frac * (b1 - b0))
 
 
 def _solve_box_qp(h: sp.csr_matrix, g: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:

@@ -18,6 +18,8 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+import numpy as np
+
 from boxbox.control.braking import brake_distance
 from boxbox.control.carmodel import CarModel
 from boxbox.control.gears import GearBox
@@ -82,6 +84,9 @@ class TutorialRobot(Robot):
         self._curv = [abs(k) for k in self.line.curvature_1pm[: self.n].tolist()]
         self._vcurv = self.line.vertical_curvature_1pm[: self.n].tolist() if p.elevation else [0.0] * self.n
         self._rough = self.line.roughness_1pm[: self.n].tolist() if p.elevation else [0.0] * self.n
+        # banking into the turn the line takes (TORCS's angle is + with the left edge higher)
+        turn_sign = np.sign(self.line.curvature_1pm[: self.n])
+        self._bank = (-turn_sign * mid.bank_rad[: self.n]).tolist() if p.banking else [0.0] * self.n
         self.learner = TurnLearner.from_limits(self._limits([1.0] * self.n, self.tyre_model), self.step_m,
                                                self.line.length_m, p.max_speed_mps, gain=p.learn_gain,
                                                target_margin_m=p.learn_margin_m,
@@ -154,9 +159,10 @@ class TutorialRobot(Robot):
     def _limits(self, factors: list[float], model: CarModel) -> list[float]:
         p = self.params
         out = []
-        for k, kv, rough, f, g in zip(self._curv, self._vcurv, self._rough, self._friction, factors, strict=False):
+        for k, kv, rough, f, g, bank in zip(self._curv, self._vcurv, self._rough, self._friction, factors,
+                                            self._bank, strict=False):
             mu = model.mu * f * p.mu_scale * g
-            v = allowed_speed(1.0 / k if k > 1e-9 else math.inf, mu, model, p.max_speed_mps, kv)
+            v = allowed_speed(1.0 / k if k > 1e-9 else math.inf, mu, model, p.max_speed_mps, kv, bank)
             if kv < 0.0:
                 v = min(v, crest_speed(kv, model, p.crest_load_share, p.max_speed_mps))
             if rough > 0.0:

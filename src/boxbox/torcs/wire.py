@@ -62,6 +62,7 @@ HANDLE_FIELDS = [
     "mu_fr", "mu_fl", "mu_rr", "mu_rl",
     "drivetrain",  # 0 RWD, 1 FWD, 2 4WD
     "fuel_cons_factor", "brake_pressure_max", "brake_front_rear",
+    "front_weight_share",  # the car file's front-rear weight repartition (share on the front axle)
     # tyres: the magic formula's stiffness, dynamic friction and elasticity factor, per wheel
     "tyre_stiffness_fr", "tyre_stiffness_fl", "tyre_stiffness_rr", "tyre_stiffness_rl",
     "tyre_dynamic_friction_fr", "tyre_dynamic_friction_fl", "tyre_dynamic_friction_rr", "tyre_dynamic_friction_rl",

@@ -3,7 +3,13 @@ import math
 
 import pytest
 
-from boxbox.control.carmodel import CarModel, downforce_coefficient, drag_coefficient
+from boxbox.control.carmodel import (
+    CarModel,
+    axle_downforce_coefficients,
+    cornering_downforce_coefficient,
+    downforce_coefficient,
+    drag_coefficient,
+)
 from boxbox.model.car import Car
 from boxbox.model.constants import G_MPS2 as G
 from trackdata import load
@@ -73,3 +79,32 @@ def test_plain_constructor_and_frozen():
     assert m.with_fuel(10.0).mass_kg == 910.0
     with pytest.raises(dataclasses.FrozenInstanceError):
         m.mass_kg = 1.0  # type: ignore[misc]
+
+
+def test_axle_downforce_adds_up_to_the_whole_car():
+    _, car = load("g-track-1")
+    front, rear = axle_downforce_coefficients(car)
+    assert front + rear == pytest.approx(downforce_coefficient(car))
+    assert 0.0 < front < rear  # car1-trb1: small front wing, big rear wing
+
+
+@pytest.mark.parametrize("front_share", [0.3, 0.52, 0.7])
+def test_cornering_downforce_is_the_weaker_axles(front_share):
+    """Each axle holds the side force of its own weight: the axle with less downforce per share of
+    weight limits, and a car with downforce split like its weight corners on all of it."""
+    _, car = load("g-track-1")
+    car = dataclasses.replace(car, front_weight_share=front_share)
+    front, rear = axle_downforce_coefficients(car)
+    ca = cornering_downforce_coefficient(car)
+    assert ca == pytest.approx(min(front / front_share, rear / (1.0 - front_share)))
+    assert ca <= downforce_coefficient(car) + 1e-12
+    balanced = dataclasses.replace(car, front_weight_share=front / (front + rear))
+    assert cornering_downforce_coefficient(balanced) == pytest.approx(downforce_coefficient(car))
+
+
+def test_car_model_corners_on_the_weaker_axle():
+    _, car = load("g-track-1")
+    car = dataclasses.replace(car, front_weight_share=0.52)
+    model = CarModel.from_car(car)
+    assert model.ca_corner == pytest.approx(cornering_downforce_coefficient(car))
+    assert CarModel(mass_kg=1000.0, ca=2.0, cw=0.4, mu=1.0).ca_corner == 2.0  # default: all of it

@@ -211,6 +211,7 @@ static void fill_handle(bb_handle *r, void *h) {
     r->fuel_cons_factor = GfParmGetNum(h, SECT_ENGINE, PRM_FUELCONS, NULL, 1.0);
     r->brake_pressure_max = GfParmGetNum(h, SECT_BRKSYST, PRM_BRKPRESS, NULL, 0.0);
     r->brake_front_rear = GfParmGetNum(h, SECT_BRKSYST, PRM_BRKREP, NULL, 0.5);
+    r->front_weight_share = GfParmGetNum(h, SECT_CAR, PRM_FRWEIGHTREP, NULL, 0.5);
 }
 
 static void newTrack(int index, tTrack *track, void *carHandle, void **carParmHandle, tSituation *s) {
