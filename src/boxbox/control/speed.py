@@ -26,25 +26,27 @@ def allowed_speed(
     vertical_curvature_1pm: float = 0.0, bank_rad: float = 0.0,
 ) -> float:
     """Highest speed through a turn of radius_m on a road banked by bank_rad into the turn:
-    sqrt(g r (mu cos b + sin b) / (cos b - mu sin b - r mu (CA / m + kv))).
+    sqrt(g r (mu cos b + sin b) / (1 - r mu (CA / m + kv))).
 
-    The side force the tyres must give along the road is v^2/r cos b - g sin b per kg and their load
-    g cos b + v^2/r sin b + v^2 (CA / m + kv): banking into the turn turns part of gravity into side
-    force and part of the side force into load (b < 0, a road falling away outwards, does the
-    opposite); b = 0 is sqrt(mu g r / (1 - r mu (CA / m + kv))).  CA is the downforce the weaker
-    axle corners on (model.ca_corner, see carmodel.py).  Downforce grows with v^2 like
-    the needed side force, so where the denominator reaches 0 any speed holds: then (and for
-    r = inf) the result is max_speed_mps, which also caps every other result (pass math.inf for no
-    cap).  `vertical_curvature_1pm` (kv, + in a dip, - over a crest) adds v^2 kv per kg to the
-    tyres' load like downforce does: a dip carries the car faster, a crest slower.
+    Banking into the turn turns part of gravity into side force (sin b) and leaves cos b of it as
+    load; b < 0, a road falling away outwards, does the opposite; b = 0 is sqrt(mu g r / (1 - r mu
+    (CA / m + kv))).  The load that the turn's own acceleration would add through the bank (a
+    rigid point mass's mu sin b in the denominator) is left out, as the simplix robots do: with it,
+    michigan's 7.7 degree turn promised 71 m/s where car1-trb1 slid into the wall at full lock at
+    60.  CA is the downforce the weaker axle corners on (model.ca_corner, see carmodel.py).
+    Downforce grows with v^2 like the needed side force, so where the denominator reaches 0 any
+    speed holds: then (and for r = inf) the result is max_speed_mps, which also caps every other
+    result (pass math.inf for no cap).  `vertical_curvature_1pm` (kv, + in a dip, - over a crest)
+    adds v^2 kv per kg to the tyres' load like downforce does: a dip carries the car faster, a
+    crest slower.
     """
     if math.isinf(radius_m):
         return max_speed_mps
-    cos_b, sin_b = (1.0, 0.0) if bank_rad == 0.0 else (math.cos(bank_rad), math.sin(bank_rad))
-    denom = cos_b - mu * sin_b - radius_m * mu * (model.ca_corner / model.mass_kg + vertical_curvature_1pm)
+    lateral_g = mu if bank_rad == 0.0 else mu * math.cos(bank_rad) + math.sin(bank_rad)
+    denom = 1.0 - radius_m * mu * (model.ca_corner / model.mass_kg + vertical_curvature_1pm)
     if denom <= 0.0:
         return max_speed_mps
-    return min(max_speed_mps, math.sqrt(max(0.0, G * radius_m * (mu * cos_b + sin_b)) / denom))
+    return min(max_speed_mps, math.sqrt(max(0.0, G * radius_m * lateral_g) / denom))
 
 
 def crest_speed(vertical_curvature_1pm: float, model: CarModel, load_share: float = 0.5,
