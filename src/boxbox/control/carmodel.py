@@ -29,9 +29,9 @@ def ground_effect_factor(car: Car) -> float:
 def axle_downforce_coefficients(car: Car) -> tuple[float, float]:
     """(front, rear) downforce in N/(m/s)^2: simuv2 puts each Clift on its own axle and each
     wing's force at the wing (aero.cpp, wing.cpp)."""
-    h = ground_effect_factor(car)
-    front = h * car.front_clift + WING_FACTOR * AIR_DENSITY * car.front_wing_area_m2 * math.sin(car.front_wing_angle_rad)
-    rear = h * car.rear_clift + WING_FACTOR * AIR_DENSITY * car.rear_wing_area_m2 * math.sin(car.rear_wing_angle_rad)
+    h, wing = ground_effect_factor(car), WING_FACTOR * AIR_DENSITY
+    front = h * car.front_clift + wing * car.front_wing_area_m2 * math.sin(car.front_wing_angle_rad)
+    rear = h * car.rear_clift + wing * car.rear_wing_area_m2 * math.sin(car.rear_wing_angle_rad)
     return front, rear
 
 

@@ -94,7 +94,7 @@ class TutorialParams:
     pit_stop_grip_share: float = 0.9  # constant-decel stop: deceleration as a share of the lane's grip
     # learning
     learning: bool = True
-    learn_gain: float = 1.0  # fraction of the spare margin turned into turn-speed grip per lap (2 % a lap on a held line)
+    learn_gain: float = 1.0  # share of the spare margin turned into turn grip per lap (2 % a lap on a held line)
     learn_margin_m: float = 0.5  # room to the track edge the learning keeps in every turn
     learn_steady_error_m: float = 1.5  # racing line: within this of the line near the apex raises a turn, 3x lowers it
 
