@@ -122,6 +122,34 @@ def bench_pits(tracks, laps, jobs, json_file, skill_level) -> None:
         write_json_atomic(json_file, rows, indent=1)
 
 
+@click.command("bench-learning")
+@click.option("--tracks", type=CommaList("TRACK,..."), default=DEFAULT_TRACKS, show_default=True,
+              help="Tracks, comma separated.")
+@click.option("--races", type=click.IntRange(2, 50), default=5, show_default=True,
+              help="Races in a row per track on one learning store.")
+@click.option("--laps", type=LAPS, default=3, show_default=True, help="Race length in laps.")
+@click.option("--robot", default="boxbox", show_default=True, help="Python robot that learns.")
+@click.option("--jobs", type=JOBS, default=None, help="Tracks raced in parallel (default: the number of CPUs).")
+@click.option("--json", "json_file", type=OutputFile(), help="Write the races as JSON.")
+@skill_level_option
+def bench_learning(tracks, races, laps, robot, jobs, json_file, skill_level) -> None:
+    """Race each track several times in a row on one learning store: is the last race as fast as the first?
+
+    Example: boxbox bench-learning --tracks g-track-1,aalborg --races 5
+    """
+    from boxbox.bench.learning import run_learning_bench
+    from boxbox.files import write_json_atomic
+    from boxbox.robot.loader import load_robot_class
+
+    overlay = ready()
+    load_robot_class(robot)
+    table, series = run_learning_bench(overlay, tracks, laps, races, robot, jobs or os.cpu_count() or 1, err,
+                                       skill_level)
+    out.print(table)
+    if json_file:
+        write_json_atomic(json_file, series, indent=1)
+
+
 @click.command("bench-telemetry")
 @click.option("--track", default="g-track-1", show_default=True, help="Track name, e.g. e-track-2.")
 @click.option("--laps", type=LAPS, default=20, show_default=True, help="Race length in laps.")
