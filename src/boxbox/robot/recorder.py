@@ -11,6 +11,7 @@ import dataclasses
 import json
 import os
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -36,7 +37,8 @@ def save_track(path: Path, track: Track, car: Car) -> None:
     meta = {"name": track.name, "category": track.category, "length_m": track.length_m, "width_m": track.width_m,
             "pit": dataclasses.asdict(track.pit) if track.pit else None, "car": dataclasses.asdict(car)}
     tmp = path.with_name(path.name + ".tmp.npz")
-    np.savez(tmp, meta=np.asarray(json.dumps(meta)), **track.seg)
+    arrays: dict[str, Any] = {"meta": np.asarray(json.dumps(meta)), **track.seg}
+    np.savez(tmp, **arrays)
     tmp.replace(path)
 
 
