@@ -94,10 +94,15 @@ def point_mass_car(car: Car, skill_level: SkillLevel, fuel_l: float = 0.0) -> Po
     if not forward or not car.torque_curve_nm:
         raise BoxboxError(f"car {car.name}: no forward gears or torque curve recorded")
     cw = model.cw + wing_drag_coefficient(car)
+    wheels = ("fr", "fl", "rr", "rl")
+    op_loads = [getattr(car, f"tyre_operating_load_{w}_n") for w in wheels]
     return PointMassCar(mass_kg=model.mass_kg, ca_n_per_mps2=model.ca, cw_n_per_mps2=cw,
                         mu=model.mu, wheel_radius_m=radius, gear_ratios=tuple(forward),
                         torque_curve_radps=car.torque_curve_radps, torque_curve_nm=car.torque_curve_nm,
-                        limiter_radps=car.rpm_redline or car.rpm_max)
+                        limiter_radps=car.rpm_redline or car.rpm_max,
+                        load_factor_max=max(getattr(car, f"tyre_load_factor_max_{w}") for w in wheels),
+                        load_factor_min=max(getattr(car, f"tyre_load_factor_min_{w}") for w in wheels),
+                        operating_load_n=sum(op_loads) if all(op_loads) else 0.0)
 
 
 def _side(seg: dict[str, np.ndarray], ids: np.ndarray, frac: np.ndarray, side: str) -> SideParts:
@@ -107,6 +112,14 @@ def _side(seg: dict[str, np.ndarray], ids: np.ndarray, frac: np.ndarray, side: s
                      border_friction=seg[f"{side}_border_friction"][ids].astype(float),
                      outer_width_m=(outer0 + frac * (outer1 - outer0)).astype(float),
                      outer_friction=seg[f"{side}_outer_friction"][ids].astype(float))
+
+
+def _grippy(side: SideParts, main_friction: np.ndarray) -> SideParts:
+    """The side with its parts that grip less than the track cut off (a wall from there out)."""
+    border_ok = (side.border_width_m <= 0) | (side.border_friction >= main_friction)
+    outer_ok = border_ok & (side.outer_friction >= main_friction)
+    return dataclasses.replace(side, border_wall=side.border_wall | ~border_ok,
+                               outer_width_m=np.where(outer_ok, side.outer_width_m, 0.0))
 
 
 def _pit_exempt(track: Track, ids: np.ndarray, side: int) -> np.ndarray:
@@ -142,8 +155,11 @@ def limit_lap(track: Track, car: Car, skill_level: SkillLevel, track_limits: str
     pm = point_mass_car(car, skill_level)
     widths = {"strict": drivable_width("strict", half, turn, left, right, car.width_m)}
     if track_limits == "torcs":
-        widths["torcs"] = drivable_width("torcs", half, turn, left, right, car.width_m,
-                                         _pit_exempt(track, ids, LEFT), _pit_exempt(track, ids, RIGHT))
+        exempt = _pit_exempt(track, ids, LEFT), _pit_exempt(track, ids, RIGHT)
+        widths["torcs"] = drivable_width("torcs", half, turn, left, right, car.width_m, *exempt)
+        main_mu = mid.friction[:-1]  # the sides only where they grip as well as the track
+        widths["torcs-grip"] = drivable_width("torcs", half, turn, _grippy(left, main_mu), _grippy(right, main_mu),
+                                              car.width_m, *exempt)
     best: LimitLap | None = None
     for name, (room_l, room_r) in widths.items():
         off = min_curvature_offsets(x, y, nx, ny, room_l, room_r)
@@ -152,7 +168,7 @@ def limit_lap(track: Track, car: Car, skill_level: SkillLevel, track_limits: str
         v = lap_speeds_mps(ds, k, np.maximum(mu, 1e-3), pm, kv, bank_rad=bank, grade=grade)
         lap = LimitLap(track=track.name, car=car.name, skill_level=skill_level, track_limits=track_limits,
                        lap_time_s=lap_time_s(ds, v), top_speed_mps=float(v.max()), dist_m=mid.dist_m[:-1],
-                       offset_m=off, speed_mps=v, left_m=widths[track_limits][0], right_m=widths[track_limits][1],
+                       offset_m=off, speed_mps=v, left_m=room_l, right_m=room_r,
                        line=name)
         if best is None or lap.lap_time_s < best.lap_time_s:
             best = lap

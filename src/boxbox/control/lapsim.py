@@ -52,6 +52,29 @@ class PointMassCar:
     torque_curve_radps: tuple[float, ...]
     torque_curve_nm: tuple[float, ...]
     limiter_radps: float
+    # the tyres' load sensitivity (simuv2 wheel.cpp): grip = mu x load x f(load), f = min + (max -
+    # min) exp(ln((1 - min) / (max - min)) load / operating load): 1 at the operating load, more
+    # below it, less above (downforce). max == min == 1: no sensitivity. operating_load_n 0: 1.2 m g.
+    load_factor_max: float = 1.0
+    load_factor_min: float = 1.0
+    operating_load_n: float = 0.0
+
+    def load_factor(self, load_per_kg: np.ndarray | float) -> np.ndarray:
+        """f at a normal load of `load_per_kg` (N per kg of the car, m/s^2)."""
+        lo, hi = self.load_factor_min, self.load_factor_max
+        if hi - lo <= 1e-9:
+            return np.full_like(np.asarray(load_per_kg, dtype=float), lo)
+        op = (self.operating_load_n or 1.2 * self.mass_kg * G_MPS2) / self.mass_kg
+        k = math.log((1.0 - lo) / (hi - lo))
+        return lo + (hi - lo) * np.exp(k * np.maximum(np.asarray(load_per_kg, dtype=float), 0.0) / op)
+
+    def load_factor_at(self, load_per_kg: float) -> float:
+        """load_factor for one load, in plain floats (the passes call it per sample)."""
+        lo, hi = self.load_factor_min, self.load_factor_max
+        if hi - lo <= 1e-9:
+            return lo
+        op = (self.operating_load_n or 1.2 * self.mass_kg * G_MPS2) / self.mass_kg
+        return lo + (hi - lo) * math.exp(math.log((1.0 - lo) / (hi - lo)) * max(load_per_kg, 0.0) / op)
 
     def __post_init__(self) -> None:
         numbers = (self.mass_kg, self.ca_n_per_mps2, self.cw_n_per_mps2, self.mu, self.wheel_radius_m,
@@ -64,6 +87,11 @@ class PointMassCar:
             raise ValueError("at least one forward gear, every ratio > 0")
         if len(self.torque_curve_radps) < 2 or len(self.torque_curve_radps) != len(self.torque_curve_nm):
             raise ValueError("the torque curve needs two or more (rad/s, N m) points")
+        if not (0.0 < self.load_factor_min <= 1.0 <= self.load_factor_max) and \
+                not self.load_factor_min == self.load_factor_max == 1.0:
+            raise ValueError("load factors: 0 < min <= 1 <= max")
+        if not math.isfinite(self.operating_load_n) or self.operating_load_n < 0:
+            raise ValueError("operating_load_n must be finite and >= 0")
 
 
 def drive_force_n(speed_mps: np.ndarray, car: PointMassCar) -> np.ndarray:
@@ -88,25 +116,34 @@ def _tilt(curvature_1pm: np.ndarray, bank_rad: np.ndarray | float) -> tuple[np.n
 def corner_speed_mps(curvature_1pm: np.ndarray, mu: np.ndarray, car: PointMassCar,
                      vertical_curvature_1pm: np.ndarray | float = 0.0, max_speed_mps: float = 150.0,
                      bank_rad: np.ndarray | float = 0.0) -> np.ndarray:
-    """Highest steady speed (m/s) through each sample (curvature 1/m, + left; bank in rad):
-    v^2 (|k| cos b - mu (|k| sin b + CA/m + kv)) <= g (mu cos b + sin b)."""
+    """Highest steady speed (m/s) through each sample (curvature 1/m, + left; bank in rad): the
+    highest v with |v^2 |k| cos b - g sin b| <= mu f(N) N, N = g cos b + v^2 (|k| sin b + CA/m + kv)
+    per kg (bisection: mu f(N) N grows with v while the need grows faster past the limit)."""
     k = np.abs(np.asarray(curvature_1pm, dtype=float))
     cos_b, sin_b = _tilt(curvature_1pm, bank_rad)
-    mu_a = np.asarray(mu, dtype=float)
-    grip_per_v2 = mu_a * (k * sin_b + car.ca_n_per_mps2 / car.mass_kg + np.asarray(vertical_curvature_1pm))
-    room = k * cos_b - grip_per_v2
-    top = G_MPS2 * (mu_a * cos_b + sin_b)
-    with np.errstate(divide="ignore"):
-        v = np.sqrt(np.where(room > 0.0, np.maximum(top, 0.0) / np.where(room > 0, room, 1.0), np.inf))
-    return np.minimum(v, max_speed_mps)
+    mu_a = np.broadcast_to(np.asarray(mu, dtype=float), k.shape)
+    kv = np.broadcast_to(np.asarray(vertical_curvature_1pm, dtype=float), k.shape)
+
+    def fits(v: np.ndarray) -> np.ndarray:
+        v2 = v * v
+        load = G_MPS2 * cos_b + v2 * (k * sin_b + car.ca_n_per_mps2 / car.mass_kg + kv)
+        return np.abs(v2 * k * cos_b - G_MPS2 * sin_b) <= mu_a * car.load_factor(load) * np.maximum(load, 0.0)
+
+    lo, hi = np.zeros_like(k), np.full_like(k, max_speed_mps)
+    top = fits(hi)
+    for _ in range(40):
+        mid = 0.5 * (lo + hi)
+        ok = fits(mid)
+        lo, hi = np.where(ok, mid, lo), np.where(ok, hi, mid)
+    return np.where(top, max_speed_mps, lo)
 
 
 def _grip_left_mps2(v: float, k: float, mu: float, kv: float, car: PointMassCar,
                     cos_b: float = 1.0, sin_b: float = 0.0) -> float:
     """Longitudinal acceleration the friction circle leaves beside the lateral need at speed v."""
     ak = abs(k)
-    load = G_MPS2 * cos_b + v * v * (ak * sin_b + car.ca_n_per_mps2 / car.mass_kg + kv)
-    total, lateral = mu * max(0.0, load), abs(v * v * ak * cos_b - G_MPS2 * sin_b)
+    load = max(0.0, G_MPS2 * cos_b + v * v * (ak * sin_b + car.ca_n_per_mps2 / car.mass_kg + kv))
+    total, lateral = mu * car.load_factor_at(load) * load, abs(v * v * ak * cos_b - G_MPS2 * sin_b)
     return math.sqrt(total * total - lateral * lateral) if total > lateral else 0.0
 
 

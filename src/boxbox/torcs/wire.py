@@ -77,6 +77,11 @@ HANDLE_FIELDS = [
     "tyre_stiffness_fr", "tyre_stiffness_fl", "tyre_stiffness_rr", "tyre_stiffness_rl",
     "tyre_dynamic_friction_fr", "tyre_dynamic_friction_fl", "tyre_dynamic_friction_rr", "tyre_dynamic_friction_rl",
     "tyre_elasticity_fr", "tyre_elasticity_fl", "tyre_elasticity_rr", "tyre_elasticity_rl",
+    # tyres' load sensitivity (simuv2 wheel.cpp): mu x (min + (max - min) exp(k load / operating load)),
+    # per wheel; operating load 0 where the car file is silent (simuv2 then takes 1.2 x the static load)
+    "tyre_load_factor_max_fr", "tyre_load_factor_max_fl", "tyre_load_factor_max_rr", "tyre_load_factor_max_rl",
+    "tyre_load_factor_min_fr", "tyre_load_factor_min_fl", "tyre_load_factor_min_rr", "tyre_load_factor_min_rl",
+    "tyre_operating_load_fr_n", "tyre_operating_load_fl_n", "tyre_operating_load_rr_n", "tyre_operating_load_rl_n",
     # the engine's torque curve (rad/s, N m), torque_points of them
     "torque_points",
     *[f"torque_rpm_{i}" for i in range(MAX_TORQUE_POINTS)],

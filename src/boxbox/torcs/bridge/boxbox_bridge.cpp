@@ -229,6 +229,15 @@ static void fill_handle(bb_handle *r, void *h) {
         dyn_friction[i] = GfParmGetNum(h, wheels[i], PRM_RFACTOR, NULL, 0.8);
         elasticity[i] = GfParmGetNum(h, wheels[i], PRM_EFACTOR, NULL, 0.7);
     }
+    double *lf_max = &r->tyre_load_factor_max_fr, *lf_min = &r->tyre_load_factor_min_fr;
+    double *op_load = &r->tyre_operating_load_fr_n;
+    for (int i = 0; i < 4; i++) {  // simuv2 keeps max >= 1.6 and min <= 0.8 whatever the file says
+        lf_max[i] = GfParmGetNum(h, wheels[i], PRM_LOADFMAX, NULL, 1.6);
+        if (lf_max[i] < 1.6) lf_max[i] = 1.6;
+        lf_min[i] = GfParmGetNum(h, wheels[i], PRM_LOADFMIN, NULL, 0.8);
+        if (lf_min[i] > 0.8) lf_min[i] = 0.8;
+        op_load[i] = GfParmGetNum(h, wheels[i], PRM_OPLOAD, NULL, 0.0);
+    }
     fill_torque_curve(r, h);
     const char *train = GfParmGetStr(h, SECT_DRIVETRAIN, PRM_TYPE, VAL_TRANS_RWD);
     r->drivetrain = strcmp(train, VAL_TRANS_FWD) == 0 ? 1 : (strcmp(train, VAL_TRANS_4WD) == 0 ? 2 : 0);
