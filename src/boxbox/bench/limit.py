@@ -12,11 +12,13 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
+import json
 import math
 import shutil
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -26,6 +28,7 @@ from boxbox.control.lapsim import PointMassCar, lap_speeds_mps, lap_time_s
 from boxbox.control.minline import closed_curvature, min_curvature_offsets
 from boxbox.control.trackwidth import BORDER_WALL, SideParts, drivable_width, surface_friction
 from boxbox.errors import BoxboxError
+from boxbox.files import atomic_path
 from boxbox.model import Car, Track
 from boxbox.model.car import FWD
 from boxbox.model.skill import SkillLevel
@@ -176,11 +179,50 @@ def limit_lap(track: Track, car: Car, skill_level: SkillLevel, track_limits: str
     return best
 
 
+def _model_version() -> str:
+    """A hash of the sources the limit lap depends on: a changed model computes its laps again."""
+    import boxbox.control.carmodel as carmodel
+    import boxbox.control.lapsim as lapsim
+    import boxbox.control.minline as minline
+    import boxbox.control.trackwidth as trackwidth
+    import boxbox.control.tyre as tyre
+    import boxbox.robot.racingline as racingline
+
+    digest = hashlib.sha256()
+    for module in (carmodel, lapsim, minline, trackwidth, tyre, racingline):
+        digest.update(Path(str(module.__file__)).read_bytes())
+    digest.update(Path(__file__).read_bytes())
+    return digest.hexdigest()[:16]
+
+
 def limit_for(track: str, car: str, skill_level: SkillLevel, track_limits: str = "torcs") -> LimitLap:
-    """limit_lap for a track and car by name (recorded from TORCS when not cached)."""
+    """limit_lap for a track and car by name (recorded from TORCS when not cached), kept under the
+    cache folder per track, car, skill level, track limits and model version."""
+    key = f"{track}-{car}-{int(skill_level)}-{track_limits}-{_record_key(track, car)}-{_model_version()}"
+    path = cache_dir() / "limit" / "laps" / f"{key}.npz"
+    try:
+        with np.load(path) as z:
+            scalars = json.loads(str(z["meta"]))
+            return LimitLap(skill_level=SkillLevel(scalars.pop("skill_level")), **scalars,
+                            **{f: z[f] for f in _ARRAYS})
+    except (OSError, ValueError, KeyError):
+        pass
     t, c = recorded_track(track, car)
     c = dataclasses.replace(c, name=car) if not c.name else c
-    return limit_lap(t, c, skill_level, track_limits)
+    lap = limit_lap(t, c, skill_level, track_limits)
+    meta = {f.name: getattr(lap, f.name) for f in dataclasses.fields(lap) if f.name not in _ARRAYS}
+    meta["skill_level"] = int(lap.skill_level)
+    arrays: dict[str, Any] = {"meta": np.asarray(json.dumps(meta)), **{f: getattr(lap, f) for f in _ARRAYS}}
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with atomic_path(path) as tmp, open(tmp, "wb") as fh:
+            np.savez(fh, **arrays)
+    except OSError:
+        pass  # a read-only cache only costs time
+    return lap
+
+
+_ARRAYS = ("dist_m", "offset_m", "speed_mps", "left_m", "right_m")
 
 
 def plot_limit(lap: LimitLap, path: Path) -> None:
