@@ -25,7 +25,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TaskID, TextC
 from rich.table import Table
 
 from boxbox.bench.cache import cache_key, load_cached, package_version, python_robot_version, store, torcs_robot_version
-from boxbox.errors import UsageError
+from boxbox.errors import BoxboxError, UsageError
 from boxbox.files import write_json_atomic, write_text_atomic
 from boxbox.model.skill import DEFAULT_SKILL_LEVEL, SkillLevel
 from boxbox.options import LEARNING_MODES, LearningMode
@@ -38,7 +38,7 @@ from boxbox.torcs.setup import Overlay
 
 ROW_FIELDS = ["track", "car", "robot", "name", "laps", "time", "best_lap", "damage", "pit_stops", "penalty",
               "wall_s", "error", "cached", "gap_to_best_s", "category", "car_driven", "rank", "run_dir",
-              "stuck_s", "longest_stuck_s", "off_track_s"]
+              "stuck_s", "longest_stuck_s", "off_track_s", "fastest_lap", "limit_lap", "limit_gap_pct"]
 
 
 # --- inputs ------------------------------------------------------------------------------------
@@ -56,6 +56,7 @@ class BenchSpec:
     settings: dict | None = None  # --set values for Python robots (RaceOptions.robot_args["set"])
     skill_level: SkillLevel = DEFAULT_SKILL_LEVEL  # every car's, boxbox's and TORCS's robots alike
     grid_position: int | None = None  # the Python cars' grid slot in races --together (None: pole)
+    limit: bool = True  # compute each track's limit lap (bench/limit.py) and every robot's gap to it
 
 
 def expand_all(names: list[str], all_names: list[str]) -> list[str]:
@@ -190,7 +191,10 @@ class BenchResult:
         if self.settings:
             title += ", set " + " ".join(f"{k}={v}" for k, v in self.settings.items())
         cols = ["track"] + (["car"] if len(self.cars) > 1 else []) + ["robot"] + (["pos"] if self.together else [])
-        cols += ["laps", "time", "gap", "best lap", "damage", "pits", "wall s", "note"]
+        cols += ["laps", "time", "gap", "best lap", "damage", "pits", "penalty"]
+        if any(r.get("limit_lap") for r in self.rows):
+            cols += ["limit", "vs limit"]
+        cols += ["wall s", "note"]
         table = Table(title=title)
         for col in cols:
             # only robot and note give way (wrap) when the terminal is narrow
@@ -216,14 +220,17 @@ class BenchResult:
                          "laps": str(r["laps"]), "time": _styled(fmt_time(r["time"]), style),
                          "gap": _styled(gap, style), "best lap": fmt_time(r["best_lap"]), "damage": str(r["damage"]),
                          "pits": str(r["pit_stops"]), "wall s": f"{r['wall_s']:.2f}" if r["wall_s"] else "-",
-                         "note": " ".join(notes)}
+                         "note": " ".join(notes), "penalty": f"{r['penalty']:.1f}" if r["penalty"] else "-",
+                         "limit": fmt_time(r.get("limit_lap")) if i == 0 else "", "vs limit": _vs_limit(r)}
                 table.add_row(*(cells[c] for c in cols), end_section=i == len(rows) - 1 and n < len(groups) - 1)
         return table
 
     def summary_table(self) -> Table:
         """Per robot (and car) over all tracks: finished races, wins, mean gap to the best."""
         table = Table(title="per robot, all tracks")
-        for col in ("robot", "car", "finished", "best on", "mean gap s", "mean gap %", "total damage"):
+        limited = any(r.get("limit_gap_pct") is not None for r in self.rows)
+        for col in ("robot", "car", "finished", "best on", "mean gap s", "mean gap %", "total damage") + (
+                ("mean vs limit %", "least vs limit %") if limited else ()):
             table.add_column(col, justify="left" if col in ("robot", "car") else "right")
         keys = list(dict.fromkeys((r["robot"], r["car"]) for r in self.rows))
         for robot, car in keys:
@@ -231,10 +238,22 @@ class BenchResult:
             done = [r for r in rows if r["gap_to_best_s"] is not None]
             gaps = [r["gap_to_best_s"] for r in done]
             pct = [100.0 * r["gap_to_best_s"] / (r["time"] - r["gap_to_best_s"]) for r in done]
-            table.add_row(escape(_robot_label(robot)), car, f"{len(done)}/{len(rows)}",
-                          str(sum(g == 0.0 for g in gaps)), f"{statistics.mean(gaps):.3f}" if gaps else "-",
-                          f"{statistics.mean(pct):.2f}" if pct else "-", str(sum(r["damage"] for r in rows)))
+            cells = [escape(_robot_label(robot)), car, f"{len(done)}/{len(rows)}",
+                     str(sum(g == 0.0 for g in gaps)), f"{statistics.mean(gaps):.3f}" if gaps else "-",
+                     f"{statistics.mean(pct):.2f}" if pct else "-", str(sum(r["damage"] for r in rows))]
+            if limited:
+                vs = [r["limit_gap_pct"] for r in rows if r.get("limit_gap_pct") is not None]
+                cells += [f"{statistics.mean(vs):.2f}" if vs else "-", f"{min(vs):.2f}" if vs else "-"]
+            table.add_row(*cells)
         return table
+
+
+def _vs_limit(row: dict) -> str:
+    """The fastest lap's gap to the limit lap, red when it beats the limit."""
+    gap = row.get("limit_gap_pct")
+    if gap is None:
+        return "-"
+    return f"[bold red]{gap:+.1f} %[/]" if gap < 0 else f"+{gap:.1f} %"
 
 
 def _robot_label(entry: str) -> str:
@@ -394,10 +413,34 @@ def run_bench(spec: BenchSpec, overlay: Overlay, console: Console) -> BenchResul
     outcomes, todo = race_or_recall(unique, overlay, spec.jobs, spec.use_cache, console)
     rows = [row_of(track, car, robot, job, *outcomes[job.key]) for track, car, robot, job in planned]
     _set_gaps(rows, spec.laps)
+    if spec.limit:
+        _set_limits(rows, spec.skill_level, console)
     return BenchResult(laps=spec.laps, tracks=list(spec.tracks), cars=list(spec.cars), robots=[r.entry for r in robots],
                        skill_level=spec.skill_level.torcs_name,
                        rows=rows, together=spec.together, learning=spec.learning, settings=spec.settings,
                        wall_s=time.perf_counter() - started, raced=len(todo), cached=len(unique) - len(todo))
+
+
+def _set_limits(rows: list[dict], skill_level: SkillLevel, console: Console) -> None:
+    """Each row's fastest lap, its track's limit lap (bench/limit.py, for the car the robot drove)
+    and the gap between them in % (negative: the lap beat the limit, so the model is wrong there)."""
+    from boxbox.bench.limit import gap_percent, limit_for
+
+    limits: dict[tuple[str, str], float | None] = {}
+    for r in rows:
+        laps = [t for t in r.get("lap_times") or [] if t and t > 0]
+        r["fastest_lap"] = min(laps) if laps else (r["best_lap"] or None)
+        key = (r["track"], r["car_driven"] or r["car"])
+        if key not in limits:
+            try:
+                with console.status(f"limit lap: {key[0]}, {key[1]}"):
+                    limits[key] = round(limit_for(key[0], key[1], skill_level).lap_time_s, 3)
+            except (BoxboxError, ValueError) as exc:
+                console.print(f"[yellow]no limit lap for {key[0]} with {key[1]}: {exc}[/]")
+                limits[key] = None
+        limit_s = r["limit_lap"] = limits[key]
+        gap = gap_percent(r["fastest_lap"], limit_s) if r["fastest_lap"] and limit_s else None
+        r["limit_gap_pct"] = round(gap, 2) if gap is not None else None
 
 
 def _race_all(todo: list[RaceJob], overlay: Overlay, workers: int, n_cached: int,

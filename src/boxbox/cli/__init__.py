@@ -15,6 +15,7 @@ from boxbox.cli.bench import bench, bench_learning, bench_pits, bench_speed, ben
 from boxbox.cli.common import err
 from boxbox.cli.gym import bench_gym, scr_server
 from boxbox.cli.info import cars, doctor, robots, setup, tracks
+from boxbox.cli.limit import limit
 from boxbox.cli.race import drill, params, race
 from boxbox.cli.reliability import soak, sweep
 from boxbox.cli.report import report
@@ -34,7 +35,7 @@ def main_group() -> None:
 
 
 for _command in (race, params, drill, setup, doctor, tracks, cars, robots, bench, bench_speed, bench_pits,
-                 bench_telemetry, bench_learning, report, sweep, soak, scr_server, bench_gym):
+                 bench_telemetry, bench_learning, report, sweep, soak, scr_server, bench_gym, limit):
     main_group.add_command(_command)
 
 

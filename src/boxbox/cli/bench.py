@@ -35,9 +35,10 @@ JOBS = click.IntRange(1, 64)
 @click.option("--csv", "csv_file", type=OutputFile(), help="Write the rows as CSV.")
 @click.option("--grid-position", type=GridPosition(), default=None,
               help="With --together: the Python robots' grid slot, 1 (pole, the default) .. or 'last'.")
+@click.option("--no-limit", is_flag=True, help="Skip the limit lap per track (`boxbox limit`) and the gaps to it.")
 @skill_level_option
 def bench(tracks, cars, robots, laps, together, jobs, no_cache, learning, settings, json_file, csv_file,
-          grid_position, skill_level) -> None:
+          grid_position, no_limit, skill_level) -> None:
     """Race robots on tracks (each alone by default) and compare times; results are cached.
 
     \b
@@ -53,7 +54,8 @@ def bench(tracks, cars, robots, laps, together, jobs, no_cache, learning, settin
     spec = BenchSpec(tracks=expand_all(tracks, list(catalog.tracks())), cars=expand_all(cars, catalog.cars()),
                      robots=robots, laps=laps, together=together, jobs=jobs or os.cpu_count() or 1,
                      use_cache=not no_cache, learning=learning, settings=parse_set(settings) if settings else None,
-                     skill_level=skill_level, grid_position=_grid_slot(grid_position, robots, together))
+                     skill_level=skill_level, grid_position=_grid_slot(grid_position, robots, together),
+                     limit=not no_limit)
     plan(spec)  # every name checked before anything races
     result = run_bench(spec, overlay, err)
     out.print(result.table())

@@ -12,9 +12,13 @@ friction per sample, spacing in metres):
    friction circle leaves, less drag.
 
 The lap is closed (a flying lap: both passes run round twice so the start joins the finish).
+Banking (bank_rad, TORCS's sign: + where the left side is higher) tilts the friction circle: on a
+road sloping down towards the turn's centre by beta, the road carries m v^2 |k| sin(beta) + m g
+cos(beta) and the tyres need only m v^2 |k| cos(beta) - m g sin(beta) across it. The grade (sine of
+the slope, + uphill) takes g x grade from the engine and adds it to the brakes.
 The result is an upper bound on speed only as far as the model covers the simulation: it leaves
-out load transfer, the tyres' slip and the drivetrain's losses, which all cost time, and it does
-not know banking or the sides of the track beyond the line it is given.
+out load transfer, the tyres' slip, rolling resistance and the drivetrain's losses, which all cost
+time, and it knows the sides of the track only through the line and friction it is given.
 This follows the textbook QSS method (e.g. Brayshaw and Harrison, "A quasi steady state approach
 to race car lap simulation", Proc. IMechE D 219, 2005; TUMFTM's laptime-simulation on GitHub).
 """
@@ -48,6 +52,29 @@ class PointMassCar:
     torque_curve_radps: tuple[float, ...]
     torque_curve_nm: tuple[float, ...]
     limiter_radps: float
+    # the tyres' load sensitivity (simuv2 wheel.cpp): grip = mu x load x f(load), f = min + (max -
+    # min) exp(ln((1 - min) / (max - min)) load / operating load): 1 at the operating load, more
+    # below it, less above (downforce). max == min == 1: no sensitivity. operating_load_n 0: 1.2 m g.
+    load_factor_max: float = 1.0
+    load_factor_min: float = 1.0
+    operating_load_n: float = 0.0
+
+    def load_factor(self, load_per_kg: np.ndarray | float) -> np.ndarray:
+        """f at a normal load of `load_per_kg` (N per kg of the car, m/s^2)."""
+        lo, hi = self.load_factor_min, self.load_factor_max
+        if hi - lo <= 1e-9:
+            return np.full_like(np.asarray(load_per_kg, dtype=float), lo)
+        op = (self.operating_load_n or 1.2 * self.mass_kg * G_MPS2) / self.mass_kg
+        k = math.log((1.0 - lo) / (hi - lo))
+        return lo + (hi - lo) * np.exp(k * np.maximum(np.asarray(load_per_kg, dtype=float), 0.0) / op)
+
+    def load_factor_at(self, load_per_kg: float) -> float:
+        """load_factor for one load, in plain floats (the passes call it per sample)."""
+        lo, hi = self.load_factor_min, self.load_factor_max
+        if hi - lo <= 1e-9:
+            return lo
+        op = (self.operating_load_n or 1.2 * self.mass_kg * G_MPS2) / self.mass_kg
+        return lo + (hi - lo) * math.exp(math.log((1.0 - lo) / (hi - lo)) * max(load_per_kg, 0.0) / op)
 
     def __post_init__(self) -> None:
         numbers = (self.mass_kg, self.ca_n_per_mps2, self.cw_n_per_mps2, self.mu, self.wheel_radius_m,
@@ -60,6 +87,11 @@ class PointMassCar:
             raise ValueError("at least one forward gear, every ratio > 0")
         if len(self.torque_curve_radps) < 2 or len(self.torque_curve_radps) != len(self.torque_curve_nm):
             raise ValueError("the torque curve needs two or more (rad/s, N m) points")
+        if not (0.0 < self.load_factor_min <= 1.0 <= self.load_factor_max) and \
+                not self.load_factor_min == self.load_factor_max == 1.0:
+            raise ValueError("load factors: 0 < min <= 1 <= max")
+        if not math.isfinite(self.operating_load_n) or self.operating_load_n < 0:
+            raise ValueError("operating_load_n must be finite and >= 0")
 
 
 def drive_force_n(speed_mps: np.ndarray, car: PointMassCar) -> np.ndarray:
@@ -75,51 +107,79 @@ def drive_force_n(speed_mps: np.ndarray, car: PointMassCar) -> np.ndarray:
     return best
 
 
+def _tilt(curvature_1pm: np.ndarray, bank_rad: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
+    """cos and sin of the road's slope down towards the turn's centre (beta = -bank x sign(k))."""
+    beta = -np.asarray(bank_rad, dtype=float) * np.sign(np.asarray(curvature_1pm, dtype=float))
+    return np.cos(beta), np.sin(beta)
+
+
 def corner_speed_mps(curvature_1pm: np.ndarray, mu: np.ndarray, car: PointMassCar,
-                     vertical_curvature_1pm: np.ndarray | float = 0.0, max_speed_mps: float = 150.0) -> np.ndarray:
-    """Highest steady speed (m/s) through each sample: v^2 (|k| - mu (CA/m + kv)) <= mu g."""
+                     vertical_curvature_1pm: np.ndarray | float = 0.0, max_speed_mps: float = 150.0,
+                     bank_rad: np.ndarray | float = 0.0) -> np.ndarray:
+    """Highest steady speed (m/s) through each sample (curvature 1/m, + left; bank in rad): the
+    highest v with |v^2 |k| cos b - g sin b| <= mu f(N) N, N = g cos b + v^2 (|k| sin b + CA/m + kv)
+    per kg (bisection: mu f(N) N grows with v while the need grows faster past the limit)."""
     k = np.abs(np.asarray(curvature_1pm, dtype=float))
-    grip_per_v2 = np.asarray(mu) * (car.ca_n_per_mps2 / car.mass_kg + np.asarray(vertical_curvature_1pm))
-    room = k - grip_per_v2
-    with np.errstate(divide="ignore"):
-        v = np.sqrt(np.where(room > 0.0, np.asarray(mu) * G_MPS2 / np.where(room > 0, room, 1.0), np.inf))
-    return np.minimum(v, max_speed_mps)
+    cos_b, sin_b = _tilt(curvature_1pm, bank_rad)
+    mu_a = np.broadcast_to(np.asarray(mu, dtype=float), k.shape)
+    kv = np.broadcast_to(np.asarray(vertical_curvature_1pm, dtype=float), k.shape)
+
+    def fits(v: np.ndarray) -> np.ndarray:
+        v2 = v * v
+        load = G_MPS2 * cos_b + v2 * (k * sin_b + car.ca_n_per_mps2 / car.mass_kg + kv)
+        return np.abs(v2 * k * cos_b - G_MPS2 * sin_b) <= mu_a * car.load_factor(load) * np.maximum(load, 0.0)
+
+    lo, hi = np.zeros_like(k), np.full_like(k, max_speed_mps)
+    top = fits(hi)
+    for _ in range(40):
+        mid = 0.5 * (lo + hi)
+        ok = fits(mid)
+        lo, hi = np.where(ok, mid, lo), np.where(ok, hi, mid)
+    return np.where(top, max_speed_mps, lo)
 
 
-def _grip_left_mps2(v: float, k: float, mu: float, kv: float, car: PointMassCar) -> float:
+def _grip_left_mps2(v: float, k: float, mu: float, kv: float, car: PointMassCar,
+                    cos_b: float = 1.0, sin_b: float = 0.0) -> float:
     """Longitudinal acceleration the friction circle leaves beside the lateral need at speed v."""
-    load = G_MPS2 + v * v * (car.ca_n_per_mps2 / car.mass_kg + kv)
-    total, lateral = mu * max(0.0, load), v * v * abs(k)
+    ak = abs(k)
+    load = max(0.0, G_MPS2 * cos_b + v * v * (ak * sin_b + car.ca_n_per_mps2 / car.mass_kg + kv))
+    total, lateral = mu * car.load_factor_at(load) * load, abs(v * v * ak * cos_b - G_MPS2 * sin_b)
     return math.sqrt(total * total - lateral * lateral) if total > lateral else 0.0
 
 
 def lap_speeds_mps(step_m: np.ndarray, curvature_1pm: np.ndarray, mu: np.ndarray, car: PointMassCar,
-                   vertical_curvature_1pm: np.ndarray | None = None) -> np.ndarray:
+                   vertical_curvature_1pm: np.ndarray | None = None, bank_rad: np.ndarray | None = None,
+                   grade: np.ndarray | None = None) -> np.ndarray:
     """Limit speed (m/s) at each of n samples of a closed line; step_m[i] is the distance (m)
-    from sample i to sample i + 1 (the last one back to the first)."""
+    from sample i to sample i + 1 (the last one back to the first). bank_rad: banking (rad, + left
+    side higher); grade: sine of the slope along the line (+ uphill)."""
     ds = np.asarray(step_m, dtype=float)
     k = np.asarray(curvature_1pm, dtype=float)
     n = len(ds)
     mu_a = np.broadcast_to(np.asarray(mu, dtype=float), (n,))
     kv = np.zeros(n) if vertical_curvature_1pm is None else np.asarray(vertical_curvature_1pm, dtype=float)
-    if n < 3 or len(k) != n or len(kv) != n:
-        raise ValueError("step_m, curvature_1pm and vertical_curvature_1pm need the same length >= 3")
-    if not (np.all(np.isfinite(ds)) and np.all(ds > 0) and np.all(np.isfinite(k)) and np.all(mu_a > 0)):
-        raise ValueError("steps must be finite and > 0, curvature finite, mu > 0")
-    v = corner_speed_mps(k, mu_a, car, kv).tolist()
+    bank = np.zeros(n) if bank_rad is None else np.asarray(bank_rad, dtype=float)
+    slope = np.zeros(n) if grade is None else np.asarray(grade, dtype=float)
+    if n < 3 or len(k) != n or len(kv) != n or len(bank) != n or len(slope) != n:
+        raise ValueError("step_m, curvature_1pm, vertical_curvature_1pm, bank_rad and grade need the same length >= 3")
+    if not (np.all(np.isfinite(ds)) and np.all(ds > 0) and np.all(np.isfinite(k)) and np.all(mu_a > 0)
+            and np.all(np.isfinite(bank)) and np.all(np.abs(bank) < 1.2) and np.all(np.abs(slope) < 1.0)):
+        raise ValueError("steps must be finite and > 0, curvature finite, mu > 0, |bank| < 1.2 rad, |grade| < 1")
+    v = corner_speed_mps(k, mu_a, car, kv, bank_rad=bank).tolist()
+    cos_a, sin_a = (x.tolist() for x in _tilt(k, bank))
     drive = _drive_table(car)
-    ks, ms, kvs, dss = k.tolist(), mu_a.tolist(), kv.tolist(), ds.tolist()
+    ks, ms, kvs, dss, gs = k.tolist(), mu_a.tolist(), kv.tolist(), ds.tolist(), (G_MPS2 * slope).tolist()
     drag = car.cw_n_per_mps2 / car.mass_kg
     for _ in range(2):  # backward: what braking allows before each corner
         for i in range(n - 1, -1, -1):
             j = (i + 1) % n
-            decel = _grip_left_mps2(v[j], ks[j], ms[j], kvs[j], car) + drag * v[j] * v[j]
-            v[i] = min(v[i], math.sqrt(v[j] * v[j] + 2.0 * dss[i] * decel))
+            decel = _grip_left_mps2(v[j], ks[j], ms[j], kvs[j], car, cos_a[j], sin_a[j]) + drag * v[j] * v[j] + gs[i]
+            v[i] = min(v[i], math.sqrt(max(0.0, v[j] * v[j] + 2.0 * dss[i] * decel)))
     for _ in range(2):  # forward: what the engine and the tyres allow out of each corner
         for i in range(n):
             j = (i + 1) % n
-            push = min(drive(v[i]) / car.mass_kg, _grip_left_mps2(v[i], ks[i], ms[i], kvs[i], car))
-            accel = push - drag * v[i] * v[i]
+            push = min(drive(v[i]) / car.mass_kg, _grip_left_mps2(v[i], ks[i], ms[i], kvs[i], car, cos_a[i], sin_a[i]))
+            accel = push - drag * v[i] * v[i] - gs[i]
             v[j] = min(v[j], math.sqrt(max(0.0, v[i] * v[i] + 2.0 * dss[i] * accel)))
     return np.asarray(v)
 

@@ -53,6 +53,20 @@ class Car:
     tyre_elasticity_fl: float = 0.7
     tyre_elasticity_rr: float = 0.7
     tyre_elasticity_rl: float = 0.7
+    # the tyres' load sensitivity (simuv2 wheel.cpp; its defaults): grip = mu x load x (min + (max -
+    # min) exp(ln((1 - min) / (max - min)) load / operating load)); operating load 0 = 1.2 x static
+    tyre_load_factor_max_fr: float = 1.6
+    tyre_load_factor_max_fl: float = 1.6
+    tyre_load_factor_max_rr: float = 1.6
+    tyre_load_factor_max_rl: float = 1.6
+    tyre_load_factor_min_fr: float = 0.8
+    tyre_load_factor_min_fl: float = 0.8
+    tyre_load_factor_min_rr: float = 0.8
+    tyre_load_factor_min_rl: float = 0.8
+    tyre_operating_load_fr_n: float = 0.0
+    tyre_operating_load_fl_n: float = 0.0
+    tyre_operating_load_rr_n: float = 0.0
+    tyre_operating_load_rl_n: float = 0.0
     # the engine's torque curve from the car file: engine speed (rad/s) and torque (N m) per point
     torque_curve_radps: tuple[float, ...] = field(default_factory=tuple)
     torque_curve_nm: tuple[float, ...] = field(default_factory=tuple)

@@ -131,8 +131,9 @@ def _pedal_gear_panels(fig, gs_rows, x, c, jump: float, sharex):
     return axp, axg
 
 
-def fig_lap(c: dict, lap: int, length_m: float, title: str):
-    """Speed and target speed against distance for one lap, with throttle/brake and gear bands."""
+def fig_lap(c: dict, lap: int, length_m: float, title: str, limit: tuple[np.ndarray, np.ndarray] | None = None):
+    """Speed and target speed against distance for one lap, with throttle/brake and gear bands, and
+    `limit` (distance m, speed m/s: the car's limit lap, `boxbox limit`) when given."""
     fig = _figure(11.0, 5.4)
     gs = fig.add_gridspec(3, 1, height_ratios=[3.2, 1.0, 1.0])
     ax = fig.add_subplot(gs[0])
@@ -145,6 +146,8 @@ def fig_lap(c: dict, lap: int, length_m: float, title: str):
                         linewidth=0, label="pit phase")
     if np.isfinite(target).any():
         ax.plot(xs, target, color="#ff7f0e", linewidth=1.0, linestyle="--", label="target speed")
+    if limit is not None:
+        ax.plot(limit[0], limit[1] * KMH, color="#d62728", linewidth=0.9, alpha=0.8, label="limit lap")
     ax.plot(xs, v, color="#1f77b4", linewidth=1.3, label="speed")
     ax.set_ylabel("km/h")
     # the target can be the robot's top speed on straights: the axis follows the car's own speed
@@ -346,8 +349,9 @@ details { margin: 0.4em 0; } summary { cursor: pointer; font-weight: 600; }
 """
 
 
-def build_report(run_dir: Path) -> str:
-    """The HTML page for the race in run_dir (result.json required; telemetry.parquet when recorded)."""
+def build_report(run_dir: Path, limit: tuple[np.ndarray, np.ndarray] | None = None) -> str:
+    """The HTML page for the race in run_dir (result.json required; telemetry.parquet when recorded);
+    `limit`: the limit lap's speed (m/s) against distance (m), drawn in every lap's speed plot."""
     from boxbox.torcs.telemetry import FILE_NAME, load_telemetry
 
     run_dir = Path(run_dir)
@@ -394,7 +398,7 @@ def build_report(run_dir: Path) -> str:
             c = tel.car(int(d["idx"]))
             if not len(c["time_s"]):
                 continue
-            parts.append(_car_section(d, c, track, length, cars_meta.get(int(d["idx"]), {}), r))
+            parts.append(_car_section(d, c, track, length, cars_meta.get(int(d["idx"]), {}), r, limit))
         parts.append(_telemetry_section(tel, tel_file))
     else:
         parts.append(f"<h2>Telemetry</h2><p class='note'>{html.escape(tel_note or 'telemetry file is empty')}</p>")
@@ -404,7 +408,8 @@ def build_report(run_dir: Path) -> str:
             f"<body>{''.join(parts)}</body></html>\n")
 
 
-def _car_section(d: dict, c: dict, track: dict, length: float, car_meta: dict, r: dict) -> str:
+def _car_section(d: dict, c: dict, track: dict, length: float, car_meta: dict, r: dict,
+                 limit: tuple[np.ndarray, np.ndarray] | None = None) -> str:
     name = driver_label(d)
     parts = [f"<h2>{html.escape(name)}</h2>"]
     if car_meta.get("error"):
@@ -442,7 +447,7 @@ def _car_section(d: dict, c: dict, track: dict, length: float, car_meta: dict, r
         lt = lap_times[lap - 1] if lap <= len(lap_times) else None
         partial = "" if lt is not None else " (not completed)"
         title = f"{name}: lap {lap}" + (f", {fmt_time(lt)}" if lt else "") + partial
-        img = _img(fig_lap(sub, lap, length, title), f"Lap {lap}: speed and target speed, throttle/brake, gear")
+        img = _img(fig_lap(sub, lap, length, title, limit), f"Lap {lap}: speed and target speed, throttle/brake, gear")
         parts.append(f"<details{' open' if lap == best or len(laps_present) <= 3 else ''}><summary>Lap {lap}"
                      f"{' · ' + fmt_time(lt) if lt else partial}</summary>{img}</details>")
     return "".join(parts)
@@ -463,9 +468,9 @@ def _telemetry_section(tel, tel_file: Path) -> str:
             + _table(["column", "meaning"], rows))
 
 
-def write_report(run_dir: Path, out: Path | None = None) -> Path:
-    """Write the report page (default RUN_DIR/report.html); returns its path."""
-    page = build_report(run_dir)
+def write_report(run_dir: Path, out: Path | None = None, limit: tuple[np.ndarray, np.ndarray] | None = None) -> Path:
+    """Write the report page (default RUN_DIR/report.html); returns its path. `limit`: as build_report."""
+    page = build_report(run_dir, limit)
     out = Path(out) if out is not None else Path(run_dir) / REPORT_FILE
     out.parent.mkdir(parents=True, exist_ok=True)
     from boxbox.files import write_text_atomic

@@ -41,6 +41,12 @@ TRACK_FIELDS = [
     "pit_width_m", "pit_box_length_m", "pit_speed_limit_mps", "pit_count",
 ]
 
+SIDE_PART_FIELDS = [
+    "border_width_m", "border_style", "border_height_m", "border_friction", "border_roughness",
+    "outer_start_width_m", "outer_end_width_m", "outer_friction", "outer_roll_resistance", "outer_roughness",
+    "barrier_style", "barrier_width_m",
+]
+
 SEGMENT_FIELDS = [
     "id", "type", "length_m", "width_m", "start_width_m", "end_width_m", "start_dist_m",
     "radius_m", "radius_right_m", "radius_left_m", "arc_rad",
@@ -51,6 +57,11 @@ SEGMENT_FIELDS = [
     "friction", "roll_resistance", "roughness", "race_info",
     "left_side_width_m", "right_side_width_m", "left_side_friction", "right_side_friction",
     "banking_start_rad", "banking_end_rad",
+    # The sides as TORCS builds them (track4.cpp, AddSides): outward from the main segment an optional
+    # border (style 0 flat, 1 curb, 2 wall), then an optional side (flat), then the barrier (style 2
+    # wall, 3 fence, 4 pit building). A part that is absent has width 0. (The two `*_side_*` fields
+    # above are of the first part beside the track, which is the border where there is one.)
+    *[f"{side}_{name}" for side in ("left", "right") for name in SIDE_PART_FIELDS],
 ]
 
 # car constants readable from the car's parameter file at NEW_TRACK time
@@ -67,6 +78,11 @@ HANDLE_FIELDS = [
     "tyre_stiffness_fr", "tyre_stiffness_fl", "tyre_stiffness_rr", "tyre_stiffness_rl",
     "tyre_dynamic_friction_fr", "tyre_dynamic_friction_fl", "tyre_dynamic_friction_rr", "tyre_dynamic_friction_rl",
     "tyre_elasticity_fr", "tyre_elasticity_fl", "tyre_elasticity_rr", "tyre_elasticity_rl",
+    # tyres' load sensitivity (simuv2 wheel.cpp): mu x (min + (max - min) exp(k load / operating load)),
+    # per wheel; operating load 0 where the car file is silent (simuv2 then takes 1.2 x the static load)
+    "tyre_load_factor_max_fr", "tyre_load_factor_max_fl", "tyre_load_factor_max_rr", "tyre_load_factor_max_rl",
+    "tyre_load_factor_min_fr", "tyre_load_factor_min_fl", "tyre_load_factor_min_rr", "tyre_load_factor_min_rl",
+    "tyre_operating_load_fr_n", "tyre_operating_load_fl_n", "tyre_operating_load_rr_n", "tyre_operating_load_rl_n",
     # the engine's torque curve (rad/s, N m), torque_points of them
     "torque_points",
     *[f"torque_rpm_{i}" for i in range(MAX_TORQUE_POINTS)],
@@ -139,7 +155,8 @@ def c_header() -> str:
            f"#define BB_MAX_MESSAGE_BYTES {MAX_MESSAGE_BYTES}",
            f"#define BB_MAX_OPPONENTS {MAX_OPPONENTS}",
            f"#define BB_MAX_TORQUE_POINTS {MAX_TORQUE_POINTS}",
-           f"#define BB_FLAG_FAULT {FLAG_FAULT}"]
+           f"#define BB_FLAG_FAULT {FLAG_FAULT}",
+           f"#define BB_SIDE_PART_FIELDS {len(SIDE_PART_FIELDS)}"]
     out += [f"#define BB_{name} {i}" for i, name in enumerate(_KINDS, start=1)]
     out.append("typedef struct { int32_t kind, robot, step, count; } bb_header;")
     for name, fields in RECORDS.items():

@@ -69,3 +69,45 @@ def test_bad_line():
         lap_speeds_mps(np.array([1.0, -1.0, 1.0]), np.zeros(3), np.ones(3), CAR)
     with pytest.raises(ValueError):
         lap_speeds_mps(np.ones(3), np.zeros(4), np.ones(3), CAR)
+
+
+NO_AERO = PointMassCar(mass_kg=1000.0, ca_n_per_mps2=0.0, cw_n_per_mps2=0.0, mu=1.0, wheel_radius_m=0.3,
+                       gear_ratios=(12.0, 8.0), torque_curve_radps=(0.0, 1000.0), torque_curve_nm=(300.0, 300.0),
+                       limiter_radps=950.0)
+
+
+@pytest.mark.parametrize("bank_rad", [-0.3, -0.1, 0.0, 0.1])
+def test_banking_on_a_left_turn_follows_the_textbook_formula(bank_rad):
+    # TORCS's bank is + where the left side is higher: a left turn is helped by a negative bank,
+    # v^2 = g R (mu + tan b) / (1 - mu tan b) with b = -bank the slope down towards the centre
+    radius, b = 100.0, -bank_rad
+    v = corner_speed_mps(np.array([1.0 / radius]), np.array([1.0]), NO_AERO, bank_rad=bank_rad)[0]
+    expected = math.sqrt(G_MPS2 * radius * (1.0 + math.tan(b)) / (1.0 - math.tan(b)))
+    assert v == pytest.approx(expected, rel=1e-6)
+    right = corner_speed_mps(np.array([-1.0 / radius]), np.array([1.0]), NO_AERO, bank_rad=-bank_rad)[0]
+    assert right == pytest.approx(v, rel=1e-9)  # a right turn, mirrored
+
+
+def test_load_sensitivity_costs_grip_under_downforce():
+    sensitive = PointMassCar(**{**CAR.__dict__, "load_factor_max": 1.6, "load_factor_min": 0.8})
+    # at 1.2 x the static load the factor is exactly 1 (simuv2's operating load)
+    assert sensitive.load_factor_at(1.2 * G_MPS2) == pytest.approx(1.0)
+    assert sensitive.load_factor_at(0.0) == pytest.approx(1.6)
+    assert sensitive.load_factor_at(100 * G_MPS2) == pytest.approx(0.8, abs=1e-6)
+    slow, fast = np.array([1.0 / 30.0]), np.array([1.0 / 2000.0])
+    assert corner_speed_mps(slow, np.array([1.5]), sensitive)[0] > corner_speed_mps(slow, np.array([1.5]), CAR)[0]
+    with pytest.raises(ValueError):
+        PointMassCar(**{**CAR.__dict__, "load_factor_max": 0.9, "load_factor_min": 0.8})
+    assert np.isfinite(corner_speed_mps(fast, np.array([1.5]), sensitive)[0])
+
+
+def test_uphill_is_slower_and_downhill_faster():
+    n = 1000
+    ds, k, mu = np.full(n, 2.0), np.full(n, 1e-6), np.full(n, 1.0)
+    k[0:20] = 1.0 / 30.0  # one slow corner so the lap has an exit to accelerate from
+    flat = lap_time_s(ds, lap_speeds_mps(ds, k, mu, CAR))
+    up = lap_time_s(ds, lap_speeds_mps(ds, k, mu, CAR, grade=np.full(n, 0.05)))
+    down = lap_time_s(ds, lap_speeds_mps(ds, k, mu, CAR, grade=np.full(n, -0.05)))
+    assert down < flat < up
+    with pytest.raises(ValueError):
+        lap_speeds_mps(ds, k, mu, CAR, bank_rad=np.full(n, 2.0))

@@ -142,6 +142,28 @@ static double side_width(tTrackSeg *side) { return side ? side->startWidth : 0.0
 static double side_friction(tTrackSeg *side) { return (side && side->surface) ? side->surface->kFriction : 0.0; }
 static double seg_id(tTrackSeg *seg) { return seg ? seg->id : -1.0; }
 
+// One side's parts, outward from the main segment (track4.cpp builds main -> border -> side, each
+// optional, and a barrier per side): the doubles of wire.py's SIDE_PART_FIELDS, in that order.
+static_assert(BB_SIDE_PART_FIELDS == 12, "fill_side_parts writes 12 fields");
+static void fill_side_parts(double *out, tTrackSeg *s, int side) {
+    for (int i = 0; i < BB_SIDE_PART_FIELDS; i++) out[i] = 0.0;
+    tTrackSeg *part = s->side[side];
+    if (part && (part->type2 == TR_LBORDER || part->type2 == TR_RBORDER)) {
+        out[0] = part->startWidth; out[1] = part->style; out[2] = part->height;
+        out[3] = part->surface ? part->surface->kFriction : 0.0;
+        out[4] = part->surface ? part->surface->kRoughness : 0.0;
+        part = part->side[side];
+    }
+    if (part) {
+        out[5] = part->startWidth; out[6] = part->endWidth;
+        out[7] = part->surface ? part->surface->kFriction : 0.0;
+        out[8] = part->surface ? part->surface->kRollRes : 0.0;
+        out[9] = part->surface ? part->surface->kRoughness : 0.0;
+    }
+    tTrackBarrier *barrier = s->barrier[side];
+    if (barrier) { out[10] = barrier->style; out[11] = barrier->width; }
+}
+
 static void fill_segment(bb_segment *r, tTrackSeg *s) {
     r->id = s->id; r->type = s->type; r->length_m = s->length; r->width_m = s->width;
     r->start_width_m = s->startWidth; r->end_width_m = s->endWidth; r->start_dist_m = s->lgfromstart;
@@ -161,6 +183,8 @@ static void fill_segment(bb_segment *r, tTrackSeg *s) {
     r->left_side_width_m = side_width(s->lside); r->right_side_width_m = side_width(s->rside);
     r->left_side_friction = side_friction(s->lside); r->right_side_friction = side_friction(s->rside);
     r->banking_start_rad = s->angle[TR_XS]; r->banking_end_rad = s->angle[TR_XE];
+    fill_side_parts(&r->left_border_width_m, s, TR_SIDE_LFT);
+    fill_side_parts(&r->right_border_width_m, s, TR_SIDE_RGT);
 }
 
 // The engine's torque curve as the car file lists it: "Engine/data points/1".."n", rpm (read in
@@ -204,6 +228,15 @@ static void fill_handle(bb_handle *r, void *h) {
         stiffness[i] = GfParmGetNum(h, wheels[i], PRM_CA, NULL, 30.0);
         dyn_friction[i] = GfParmGetNum(h, wheels[i], PRM_RFACTOR, NULL, 0.8);
         elasticity[i] = GfParmGetNum(h, wheels[i], PRM_EFACTOR, NULL, 0.7);
+    }
+    double *lf_max = &r->tyre_load_factor_max_fr, *lf_min = &r->tyre_load_factor_min_fr;
+    double *op_load = &r->tyre_operating_load_fr_n;
+    for (int i = 0; i < 4; i++) {  // simuv2 keeps max >= 1.6 and min <= 0.8 whatever the file says
+        lf_max[i] = GfParmGetNum(h, wheels[i], PRM_LOADFMAX, NULL, 1.6);
+        if (lf_max[i] < 1.6) lf_max[i] = 1.6;
+        lf_min[i] = GfParmGetNum(h, wheels[i], PRM_LOADFMIN, NULL, 0.8);
+        if (lf_min[i] > 0.8) lf_min[i] = 0.8;
+        op_load[i] = GfParmGetNum(h, wheels[i], PRM_OPLOAD, NULL, 0.0);
     }
     fill_torque_curve(r, h);
     const char *train = GfParmGetStr(h, SECT_DRIVETRAIN, PRM_TYPE, VAL_TRANS_RWD);
