@@ -69,6 +69,10 @@ PREFIXES = (
     ("spin_", "wheel spin per wheel"), ("brake_pressure_max", "brake system's highest pressure"),
     ("brake_front_rear", "brake balance, share to the front"), ("max_torque_nm", "most engine torque"),
     ("front_weight_share", "share of the weight on the front axle"),
+    ("tyre_load_factor_max_", "tyre load sensitivity per wheel: grip factor at no load (simuv2)"),
+    ("tyre_load_factor_min_", "tyre load sensitivity per wheel: grip factor at high load (simuv2)"),
+    ("tyre_operating_load_", "tyre load sensitivity per wheel: operating load (0: 1.2 x static)"),
+    ("roll_rad", "the car's roll"), ("pitch_rad", "the car's pitch"),
     ("max_power_w", "most engine power"), ("height_m", "height"), ("skill_level", "TORCS's skill level, 0 rookie .. "
     "3 pro (model.skill.SkillLevel; docs/rules.md)"), ("gear_count", "TORCS's _gearNb: the top gear + 1"),
 )
