@@ -26,7 +26,7 @@ from boxbox.cache import cache_dir
 from boxbox.control.carmodel import CarModel, wing_drag_coefficient
 from boxbox.control.lapsim import PointMassCar, lap_speeds_mps, lap_time_s
 from boxbox.control.minline import closed_curvature, min_curvature_offsets
-from boxbox.control.trackwidth import BORDER_WALL, SideParts, drivable_width, surface_friction
+from boxbox.control.trackwidth import drivable_width, grippy_sides, pit_exempt, side_parts, surface_friction
 from boxbox.errors import BoxboxError
 from boxbox.files import atomic_path
 from boxbox.model import Car, Track
@@ -108,30 +108,9 @@ def point_mass_car(car: Car, skill_level: SkillLevel, fuel_l: float = 0.0) -> Po
                         operating_load_n=sum(op_loads) if all(op_loads) else 0.0)
 
 
-def _side(seg: dict[str, np.ndarray], ids: np.ndarray, frac: np.ndarray, side: str) -> SideParts:
-    outer0, outer1 = seg[f"{side}_outer_start_width_m"][ids], seg[f"{side}_outer_end_width_m"][ids]
-    return SideParts(border_width_m=seg[f"{side}_border_width_m"][ids].astype(float),
-                     border_wall=seg[f"{side}_border_style"][ids] == BORDER_WALL,
-                     border_friction=seg[f"{side}_border_friction"][ids].astype(float),
-                     outer_width_m=(outer0 + frac * (outer1 - outer0)).astype(float),
-                     outer_friction=seg[f"{side}_outer_friction"][ids].astype(float))
-
-
-def _grippy(side: SideParts, main_friction: np.ndarray) -> SideParts:
-    """The side with its parts that grip less than the track cut off (a wall from there out)."""
-    border_ok = (side.border_width_m <= 0) | (side.border_friction >= main_friction)
-    outer_ok = border_ok & (side.outer_friction >= main_friction)
-    return dataclasses.replace(side, border_wall=side.border_wall | ~border_ok,
-                               outer_width_m=np.where(outer_ok, side.outer_width_m, 0.0))
-
-
 def _pit_exempt(track: Track, ids: np.ndarray, side: int) -> np.ndarray:
-    """Samples on main segments from the pit entry to the pit exit on that side (ReRaceRules)."""
     pit = track.pit
-    if pit is None or pit.side != side:
-        return np.zeros(len(ids), bool)
-    a, b = pit.entry_seg, pit.exit_seg
-    return (ids >= a) & (ids <= b) if a <= b else (ids >= a) | (ids <= b)
+    return pit_exempt(pit.side if pit else None, pit.entry_seg if pit else 0, pit.exit_seg if pit else 0, ids, side)
 
 
 def limit_lap(track: Track, car: Car, skill_level: SkillLevel, track_limits: str = "torcs",
@@ -144,7 +123,7 @@ def limit_lap(track: Track, car: Car, skill_level: SkillLevel, track_limits: str
     starts, lengths = seg["start_dist_m"].astype(float)[ids], seg["length_m"].astype(float)[ids]
     frac = np.clip((mid.dist_m[:-1] - starts) / np.where(lengths > 0, lengths, 1.0), 0.0, 1.0)
     half = mid.half_left_m[:-1]
-    left, right = _side(seg, ids, frac, "left"), _side(seg, ids, frac, "right")
+    left, right = side_parts(seg, ids, frac, "left"), side_parts(seg, ids, frac, "right")
     typ = seg["type"][ids]
     turn = np.where(typ == LEFT, 1.0, np.where(typ == RIGHT, -1.0, 0.0))
     turn[typ == STRAIGHT] = 0.0
@@ -161,8 +140,8 @@ def limit_lap(track: Track, car: Car, skill_level: SkillLevel, track_limits: str
         exempt = _pit_exempt(track, ids, LEFT), _pit_exempt(track, ids, RIGHT)
         widths["torcs"] = drivable_width("torcs", half, turn, left, right, car.width_m, *exempt)
         main_mu = mid.friction[:-1]  # the sides only where they grip as well as the track
-        widths["torcs-grip"] = drivable_width("torcs", half, turn, _grippy(left, main_mu), _grippy(right, main_mu),
-                                              car.width_m, *exempt)
+        grip_l, grip_r = grippy_sides(left, main_mu), grippy_sides(right, main_mu)
+        widths["torcs-grip"] = drivable_width("torcs", half, turn, grip_l, grip_r, car.width_m, *exempt)
     best: LimitLap | None = None
     for name, (room_l, room_r) in widths.items():
         off = min_curvature_offsets(x, y, nx, ny, room_l, room_r)

@@ -11,6 +11,7 @@ All lengths in metres. An offset is + to the left of the middle, as TORCS's `toM
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from typing import Literal
 
@@ -108,3 +109,35 @@ def surface_friction(offset_m: np.ndarray, half_width_m: np.ndarray, main_fricti
     border_mu = np.where(off >= 0, lp.border_friction, rp.border_friction)
     outer_mu = np.where(off >= 0, lp.outer_friction, rp.outer_friction)
     return np.where(beyond <= 0, main, np.where(beyond <= border_w, border_mu, outer_mu))
+
+
+def side_parts(seg: dict[str, np.ndarray], ids: np.ndarray, frac: np.ndarray, side: str) -> SideParts:
+    """One side ("left" or "right") of the track at samples on segments `ids`, `frac` of the way
+    along each, from the bridge's segment arrays (Track.seg); no sides where the arrays lack them
+    (tracks recorded before the bridge sent them)."""
+    if f"{side}_border_width_m" not in seg:
+        zero = np.zeros(len(ids))
+        return SideParts(zero, np.zeros(len(ids), bool), zero, zero, zero)
+    outer0, outer1 = seg[f"{side}_outer_start_width_m"][ids], seg[f"{side}_outer_end_width_m"][ids]
+    return SideParts(border_width_m=seg[f"{side}_border_width_m"][ids].astype(float),
+                     border_wall=seg[f"{side}_border_style"][ids] == BORDER_WALL,
+                     border_friction=seg[f"{side}_border_friction"][ids].astype(float),
+                     outer_width_m=(outer0 + frac * (outer1 - outer0)).astype(float),
+                     outer_friction=seg[f"{side}_outer_friction"][ids].astype(float))
+
+
+def grippy_sides(side: SideParts, main_friction: np.ndarray) -> SideParts:
+    """The side with its parts that grip less than the track cut off (a wall from there out)."""
+    border_ok = (side.border_width_m <= 0) | (side.border_friction >= main_friction)
+    outer_ok = border_ok & (side.outer_friction >= main_friction)
+    return dataclasses.replace(side, border_wall=side.border_wall | ~border_ok,
+                               outer_width_m=np.where(outer_ok, side.outer_width_m, 0.0))
+
+
+def pit_exempt(pit_side: int | None, entry_seg: int, exit_seg: int, ids: np.ndarray, side: int) -> np.ndarray:
+    """Samples on main segments from the pit entry to the pit exit on that side (ReRaceRules): there
+    the pit side's edge is not checked for cutting. pit_side None: the track has no pit lane."""
+    if pit_side is None or pit_side != side:
+        return np.zeros(len(ids), bool)
+    a, b = entry_seg, exit_seg
+    return (ids >= a) & (ids <= b) if a <= b else (ids >= a) | (ids <= b)
