@@ -40,6 +40,9 @@ class TutorialParams:
     line_understeer_rad_per_mps2: float = 0.002  # "line": extra steer per m/s^2 of lateral acceleration
     racing_line: float = 1.0  # 0 = the tutorial's middle line, 1 = the optimised line
     line_margin_m: float = 1.2  # racing line's distance from the track edge (car centre)
+    # the width the line may use: "torcs" (what TORCS allows without penalty, grippy sides
+    # included) or "strict" (the track's edges); see robot/drivable.py
+    track_limits: str = "torcs"
     # speed
     # cornering grip relative to the model's (surface x tyre friction with the skill level's skid
     # bonus, the weaker axle's downforce, banking): 1.05 measured best over all 38 installed tracks
@@ -128,7 +131,7 @@ def bound_of(name: str) -> Bound:
     return BOUNDS.get(name, Bound())
 
 
-CHOICES = {"steering": ("line", "lookahead"), "brake_method": ("exact", "approx"),
+CHOICES = {"steering": ("line", "lookahead"), "brake_method": ("exact", "approx"), "track_limits": ("torcs", "strict"),
            "pit_mu_source": ("surface", "constant"), "pit_entry_braking": ("computed", "ahead")}
 
 

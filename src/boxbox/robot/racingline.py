@@ -15,6 +15,7 @@ bound constraints, and the linearisation is refreshed a few times (sequential QP
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -309,12 +310,17 @@ class RacingLine:
 
     blend: 0 = the middle line, 1 = the optimised line, in between a linear mix of the offsets.
     margin_m: kept from each track edge (car half width ~0.95 m + safety).
+    bounds_m: (left, right) room for the line per sample instead (robot/drivable.py).
     """
 
     def __init__(self, track: Track, step_m: float = 2.0, margin_m: float = 1.2, blend: float = 1.0,
                  iterations: int = 12, smooth_m: float = 6.0, peak_cap: float = 0.97,
-                 cap_window_m: float = 60.0, cache: bool = True) -> None:
+                 cap_window_m: float = 60.0, cache: bool = True,
+                 bounds_m: tuple[np.ndarray, np.ndarray] | None = None) -> None:
         mid = middle_line(track, step_m, margin_m)
+        if bounds_m is not None:  # the room left and right per sample (n), instead of width / 2 - margin
+            mid = dataclasses.replace(mid, half_left_m=np.append(bounds_m[0], bounds_m[0][0]),
+                                      half_right_m=np.append(bounds_m[1], bounds_m[1][0]))
         self.middle = mid
         self.blend = float(blend)
         self.margin_m = float(margin_m)

@@ -30,11 +30,12 @@ from boxbox.control.traction import SlipParams, abs_filter, tcl_filter
 from boxbox.model import Car, Controls, PitOrder, State, Track
 from boxbox.model.constants import DRIVE_STEP_S
 from boxbox.robot.base import FUEL_L_PER_M_ESTIMATE, RaceOptions, Robot
+from boxbox.robot.drivable import centre_room
 from boxbox.robot.learning import TurnLearner
 from boxbox.robot.opponents import Nearby, OpponentParams, collision_brake, nearby, overtake_offset, side_steer
 from boxbox.robot.params import TutorialParams, load_params
 from boxbox.robot.pit import PitParams, PitStops
-from boxbox.robot.racingline import RacingLine
+from boxbox.robot.racingline import RacingLine, middle_line
 from boxbox.robot.strategy import plan_stops
 
 TWO_PI = 2.0 * math.pi
@@ -72,7 +73,8 @@ class TutorialRobot(Robot):
         super().on_track(track, car)
         p, _ = load_params(car.name, track.name, self.options.robot_args.get("set"))
         self.params = p
-        self.line = RacingLine(track, step_m=2.0, margin_m=p.line_margin_m, blend=p.racing_line)
+        self.line = RacingLine(track, step_m=2.0, margin_m=p.line_margin_m, blend=p.racing_line,
+                               bounds_m=self._line_bounds(track, car, p))
         mid = self.line.middle
         self.step_m = self.line.step_m
         self.n = mid.n
@@ -116,6 +118,17 @@ class TutorialRobot(Robot):
         self._inv_lock = 1.0 / car.steer_lock_rad
         self.wheelbase_m = 0.6 * car.length_m  # not in the car's constants; 0.6 x length fits TORCS's cars
         self._stuck_angle = math.radians(p.stuck_angle_deg)
+
+    def _line_bounds(self, track: Track, car: Car, p: TutorialParams) -> tuple[np.ndarray, np.ndarray]:
+        """Room for the racing line left and right per sample (robot/drivable.py), and the room for
+        the car's centre the learner measures margins against."""
+        mid = middle_line(track, 2.0)
+        n = mid.n
+        room_l, room_r = centre_room(track, mid.seg_id[:n], mid.dist_m[:n], mid.half_left_m[:n], car.width_m,
+                                     p.track_limits)
+        self._room_left, self._room_right = room_l.tolist(), room_r.tolist()
+        safety_m = p.line_margin_m - 0.5 * car.width_m
+        return np.maximum(room_l - safety_m, 0.0), np.maximum(room_r - safety_m, 0.0)
 
     def _setup_pit(self, track: Track, car: Car, p: TutorialParams) -> None:
         """The pit part (robot/pit.py), joining the racing line at the pit entry and exit."""
@@ -223,14 +236,16 @@ class TutorialRobot(Robot):
         dist = s.dist_from_start_m
         i = int(dist / self.step_m) % self.n
         error = None
-        margin = min(s.to_left_m, s.to_right_m)
+        # room left to the limit of the drivable width (robot/drivable.py), at the car's side
+        left_m, right_m = self._room_left[i] - s.to_middle_m, self._room_right[i] + s.to_middle_m
+        margin = min(left_m, right_m)
         if self.params.steering == "line":
             sign = self._apex_sign[i]
             error = max(0.0, (self.line.offset_at(dist) + self.offset_m - s.to_middle_m) * sign) if sign else 0.0
             side = self._turn_sign[i]
             if side:
-                margin = s.to_right_m if side > 0.0 else s.to_left_m
-        self.learner.observe(i, margin - 0.5 * self.car.width_m, max(0.0, s.damage - self.last_damage), error)
+                margin = right_m if side > 0.0 else left_m
+        self.learner.observe(i, margin, max(0.0, s.damage - self.last_damage), error)
         self.last_damage = s.damage
 
     def _traffic(self, s: State, v: float) -> list[Nearby]:

@@ -1,0 +1,42 @@
+"""The width the tutorial robot's racing line may use, per sample of the middle line.
+
+With `track_limits = "strict"` the line keeps `line_margin_m` from the track's edges (the car's
+centre), as a racing series would enforce.  With `"torcs"` (the default) it may also use what TORCS
+allows without a penalty (docs/track-limits.md: the outside of every turn and both sides of every
+straight up to the barrier, the inside of a turn up to 0.7 car widths beyond its edge), but only
+sides that grip at least as well as the track (grass and sand would cost more than the width gives)
+and never the pit lane's side between the pit entry and exit.  The same safety as on the track is
+kept from every limit: `line_margin_m` less half the car's width.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from boxbox.control.trackwidth import drivable_width, grippy_sides, pit_exempt, side_parts
+from boxbox.model import Track
+from boxbox.model.track import LEFT, RIGHT
+
+
+def centre_room(track: Track, seg_id: np.ndarray, dist_m: np.ndarray, half_width_m: np.ndarray,
+                car_width_m: float, track_limits: str) -> tuple[np.ndarray, np.ndarray]:
+    """Room (m) for the car's centre left and right of the middle at samples on segments `seg_id`
+    at `dist_m` from the start line, where the track is 2 x half_width_m wide."""
+    seg = track.seg
+    ids = np.asarray(seg_id, dtype=int)
+    starts, lengths = seg["start_dist_m"].astype(float)[ids], seg["length_m"].astype(float)[ids]
+    frac = np.clip((np.asarray(dist_m) - starts) / np.where(lengths > 0, lengths, 1.0), 0.0, 1.0)
+    main_mu = seg["friction"].astype(float)[ids]
+    left = grippy_sides(side_parts(seg, ids, frac, "left"), main_mu)
+    right = grippy_sides(side_parts(seg, ids, frac, "right"), main_mu)
+    typ = seg["type"][ids]
+    turn = np.where(typ == LEFT, 1.0, np.where(typ == RIGHT, -1.0, 0.0))
+    pit = track.pit
+    side, entry, exit_ = (pit.side, pit.entry_seg, pit.exit_seg) if pit else (None, 0, 0)
+    exempt_l, exempt_r = pit_exempt(side, entry, exit_, ids, LEFT), pit_exempt(side, entry, exit_, ids, RIGHT)
+    room_l, room_r = drivable_width(track_limits, half_width_m, turn, left, right, car_width_m, exempt_l, exempt_r)
+    # the pit lane's side stays the track's edge between the pit entry and exit: the lane is there
+    on_track = np.maximum(np.asarray(half_width_m) - 0.5 * car_width_m, 0.0)
+    room_l = np.where(exempt_l, np.minimum(room_l, on_track), room_l)
+    room_r = np.where(exempt_r, np.minimum(room_r, on_track), room_r)
+    return room_l, room_r
