@@ -126,10 +126,23 @@ def side_parts(seg: dict[str, np.ndarray], ids: np.ndarray, frac: np.ndarray, si
                      outer_friction=seg[f"{side}_outer_friction"][ids].astype(float))
 
 
-def grippy_sides(side: SideParts, main_friction: np.ndarray) -> SideParts:
-    """The side with its parts that grip less than the track cut off (a wall from there out)."""
+def grippy_sides(side: SideParts, main_friction: np.ndarray,
+                 roughness: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+                 roll_resistance: tuple[np.ndarray, np.ndarray] | None = None) -> SideParts:
+    """The side with its parts that grip less than the track cut off (a wall from there out).
+    roughness: (the track's, the border's, the side's) surface roughness per sample; parts rougher
+    than the track count as gripping less too (simuv2 shakes the wheels' load on rough surfaces).
+    roll_resistance: (the track's, the side's) rolling resistance; a side that brakes the car more
+    than the track is left out as well."""
     border_ok = (side.border_width_m <= 0) | (side.border_friction >= main_friction)
-    outer_ok = border_ok & (side.outer_friction >= main_friction)
+    outer_ok = side.outer_friction >= main_friction
+    if roughness is not None:
+        main_rough, border_rough, outer_rough = roughness
+        border_ok &= (side.border_width_m <= 0) | (border_rough <= main_rough)
+        outer_ok &= outer_rough <= main_rough
+    if roll_resistance is not None:
+        outer_ok &= roll_resistance[1] <= roll_resistance[0]
+    outer_ok &= border_ok
     return dataclasses.replace(side, border_wall=side.border_wall | ~border_ok,
                                outer_width_m=np.where(outer_ok, side.outer_width_m, 0.0))
 

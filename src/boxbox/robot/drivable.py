@@ -1,12 +1,13 @@
 """The width the tutorial robot's racing line may use, per sample of the middle line.
 
-With `track_limits = "strict"` the line keeps `line_margin_m` from the track's edges (the car's
-centre), as a racing series would enforce.  With `"torcs"` (the default) it may also use what TORCS
+With `track_limits = "strict"` (the default) the line keeps `line_margin_m` from the track's edges
+(the car's centre), as a racing series would enforce.  With `"torcs"` it may also use what TORCS
 allows without a penalty (docs/track-limits.md: the outside of every turn and both sides of every
 straight up to the barrier, the inside of a turn up to 0.7 car widths beyond its edge), but only
 sides that grip at least as well as the track (grass and sand would cost more than the width gives)
 and never the pit lane's side between the pit entry and exit.  The same safety as on the track is
-kept from every limit: `line_margin_m` less half the car's width.
+kept from every limit, `line_margin_m` less half the car's width, and `side_catch_m` more where the
+usable sides end (beyond them grass, gravel or a wall: a car running wide there spins).
 """
 
 from __future__ import annotations
@@ -27,8 +28,10 @@ def centre_room(track: Track, seg_id: np.ndarray, dist_m: np.ndarray, half_width
     starts, lengths = seg["start_dist_m"].astype(float)[ids], seg["length_m"].astype(float)[ids]
     frac = np.clip((np.asarray(dist_m) - starts) / np.where(lengths > 0, lengths, 1.0), 0.0, 1.0)
     main_mu = seg["friction"].astype(float)[ids]
-    left = grippy_sides(side_parts(seg, ids, frac, "left"), main_mu)
-    right = grippy_sides(side_parts(seg, ids, frac, "right"), main_mu)
+    left = grippy_sides(side_parts(seg, ids, frac, "left"), main_mu, _roughness(seg, ids, "left"),
+                        _roll_resistance(seg, ids, "left"))
+    right = grippy_sides(side_parts(seg, ids, frac, "right"), main_mu, _roughness(seg, ids, "right"),
+                         _roll_resistance(seg, ids, "right"))
     typ = seg["type"][ids]
     turn = np.where(typ == LEFT, 1.0, np.where(typ == RIGHT, -1.0, 0.0))
     pit = track.pit
@@ -40,3 +43,19 @@ def centre_room(track: Track, seg_id: np.ndarray, dist_m: np.ndarray, half_width
     room_l = np.where(exempt_l, np.minimum(room_l, on_track), room_l)
     room_r = np.where(exempt_r, np.minimum(room_r, on_track), room_r)
     return room_l, room_r
+
+
+def _roughness(seg: dict[str, np.ndarray], ids: np.ndarray,
+               side: str) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """(the track's, the border's, the side's) roughness per sample, None where the bridge sent none."""
+    if f"{side}_border_roughness" not in seg:
+        return None
+    return (seg["roughness"].astype(float)[ids], seg[f"{side}_border_roughness"].astype(float)[ids],
+            seg[f"{side}_outer_roughness"].astype(float)[ids])
+
+
+def _roll_resistance(seg: dict[str, np.ndarray], ids: np.ndarray, side: str) -> tuple[np.ndarray, np.ndarray] | None:
+    """(the track's, the side's) rolling resistance per sample, None where the bridge sent none."""
+    if f"{side}_outer_roll_resistance" not in seg:
+        return None
+    return seg["roll_resistance"].astype(float)[ids], seg[f"{side}_outer_roll_resistance"].astype(float)[ids]

@@ -128,7 +128,13 @@ class TutorialRobot(Robot):
                                      p.track_limits)
         self._room_left, self._room_right = room_l.tolist(), room_r.tolist()
         safety_m = p.line_margin_m - 0.5 * car.width_m
-        return np.maximum(room_l - safety_m, 0.0), np.maximum(room_r - safety_m, 0.0)
+        # beyond the track's edge a car that runs wide still finds grip (the sides' part it may use);
+        # beyond the sides' there is grass, gravel or a wall: keep side_catch_m more from it
+        half = mid.half_left_m[:n]
+        strict = np.maximum(half - p.line_margin_m, 0.0)
+        bound_l = np.where(room_l > half - 0.5 * car.width_m, room_l - safety_m - p.side_catch_m, room_l - safety_m)
+        bound_r = np.where(room_r > half - 0.5 * car.width_m, room_r - safety_m - p.side_catch_m, room_r - safety_m)
+        return np.maximum(bound_l, np.minimum(strict, room_l)), np.maximum(bound_r, np.minimum(strict, room_r))
 
     def _setup_pit(self, track: Track, car: Car, p: TutorialParams) -> None:
         """The pit part (robot/pit.py), joining the racing line at the pit entry and exit."""
