@@ -10,9 +10,8 @@ from functools import cache
 import numpy as np
 import pytest
 
-from boxbox.model import Track
 from boxbox.robot.racingline import RacingLine, middle_line, road_roughness, turn_regions, vertical_curvature
-from trackdata import TRACKS, load
+from trackdata import TRACKS, build_track, load
 
 # PIQP solves e-track-2's line in well under a second; the bound leaves room for a busy machine
 MAX_SECONDS = 20.0
@@ -25,50 +24,6 @@ def built(name: str) -> tuple[RacingLine, float]:
     t0 = time.perf_counter()
     line = RacingLine(track)
     return line, time.perf_counter() - t0
-
-
-def build_track(pieces: list[tuple], width_m: float = 12.0, seg_len_m: float = 5.0) -> Track:
-    """A closed track from ("S", length_m) / ("L" | "R", radius_m, angle_deg) pieces, cut into
-    ~5 m segments with the same fields the bridge sends (start at (0, 0), heading +x)."""
-    names = ("type", "length_m", "width_m", "start_width_m", "end_width_m", "start_dist_m", "radius_m",
-             "arc_rad", "center_x", "center_y", "start_left_x", "start_left_y", "start_right_x",
-             "start_right_y", "end_left_x", "end_left_y", "end_right_x", "end_right_y", "start_angle_rad",
-             "friction", "start_z_m", "end_z_m")
-    cols: dict[str, list[float]] = {k: [] for k in names}
-    x = y = h = dist = 0.0
-    hw = width_m / 2
-    for piece in pieces:
-        if piece[0] == "S":
-            k = max(1, math.ceil(piece[1] / seg_len_m))
-            seg_len = piece[1] / k
-        else:
-            radius, arc = piece[1], math.radians(piece[2])
-            k = max(1, math.ceil(radius * arc / seg_len_m))
-            seg_len = radius * arc / k
-        for _ in range(k):
-            lx, ly = -math.sin(h), math.cos(h)
-            row = dict(length_m=seg_len, width_m=width_m, start_width_m=width_m, end_width_m=width_m,
-                       start_dist_m=dist, start_left_x=x + hw * lx, start_left_y=y + hw * ly,
-                       start_right_x=x - hw * lx, start_right_y=y - hw * ly, start_angle_rad=h,
-                       friction=1.2)
-            if piece[0] == "S":
-                row.update(type=3, radius_m=0.0, arc_rad=0.0, center_x=0.0, center_y=0.0)
-                x, y = x + seg_len * math.cos(h), y + seg_len * math.sin(h)
-            else:
-                sign = 1.0 if piece[0] == "L" else -1.0
-                cx, cy = x + sign * radius * lx, y + sign * radius * ly
-                row.update(type=2 if sign > 0 else 1, radius_m=radius, arc_rad=seg_len / radius,
-                           center_x=cx, center_y=cy)
-                h += sign * seg_len / radius
-                x, y = cx + sign * radius * math.sin(h), cy - sign * radius * math.cos(h)
-            lx, ly = -math.sin(h), math.cos(h)
-            row.update(end_left_x=x + hw * lx, end_left_y=y + hw * ly, end_right_x=x - hw * lx,
-                       end_right_y=y - hw * ly, start_z_m=0.0, end_z_m=0.0)  # flat
-            for key, value in row.items():
-                cols[key].append(value)
-            dist += seg_len
-    seg = {k: np.asarray(v, dtype=float) for k, v in cols.items()}
-    return Track(name="synthetic", category="road", length_m=dist, width_m=width_m, seg=seg, pit=None)
 
 
 # ---- the middle line --------------------------------------------------------------------------
