@@ -65,3 +65,15 @@ def test_fuel_laps_sets_the_starting_fuel(tmp_path, overlay):
     expected = 2.0 * FUEL_L_PER_M_ESTIMATE * car.fuel_cons_factor * track.length_m
     assert abs(result.drivers[0].start_fuel_l - expected) < 0.1, (result.drivers[0].start_fuel_l, expected)
     assert expected < car.initial_fuel_l  # so the default would have failed this test
+
+
+def test_track_limits_torcs_uses_the_sides_without_a_penalty(tmp_path, overlay):
+    """aalborg has asphalt beside its track: with track_limits=torcs the line goes there (the car's
+    centre beyond the track's edge) and TORCS gives no cutting penalty."""
+    out = tmp_path / "r.json"
+    proc = run_boxbox("race", "--track", "aalborg", "--laps", "2", "--set", "track_limits=torcs", "--json", str(out),
+                      timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    d = read_json(out)["drivers"][0]
+    assert d["laps"] == 2 and d["penalty_time"] == 0.0
+    assert d["off_track_s"] > 1.0  # the centre beyond an edge: on the sides, where the strict line never goes
