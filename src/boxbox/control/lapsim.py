@@ -149,10 +149,11 @@ def _grip_left_mps2(v: float, k: float, mu: float, kv: float, car: PointMassCar,
 
 def lap_speeds_mps(step_m: np.ndarray, curvature_1pm: np.ndarray, mu: np.ndarray, car: PointMassCar,
                    vertical_curvature_1pm: np.ndarray | None = None, bank_rad: np.ndarray | None = None,
-                   grade: np.ndarray | None = None) -> np.ndarray:
+                   grade: np.ndarray | None = None, corner_limit_mps: np.ndarray | None = None) -> np.ndarray:
     """Limit speed (m/s) at each of n samples of a closed line; step_m[i] is the distance (m)
     from sample i to sample i + 1 (the last one back to the first). bank_rad: banking (rad, + left
-    side higher); grade: sine of the slope along the line (+ uphill)."""
+    side higher); grade: sine of the slope along the line (+ uphill); corner_limit_mps: a robot's
+    own cornering limit per sample, taken where it is lower than the point mass's."""
     ds = np.asarray(step_m, dtype=float)
     k = np.asarray(curvature_1pm, dtype=float)
     n = len(ds)
@@ -165,7 +166,12 @@ def lap_speeds_mps(step_m: np.ndarray, curvature_1pm: np.ndarray, mu: np.ndarray
     if not (np.all(np.isfinite(ds)) and np.all(ds > 0) and np.all(np.isfinite(k)) and np.all(mu_a > 0)
             and np.all(np.isfinite(bank)) and np.all(np.abs(bank) < 1.2) and np.all(np.abs(slope) < 1.0)):
         raise ValueError("steps must be finite and > 0, curvature finite, mu > 0, |bank| < 1.2 rad, |grade| < 1")
-    v = corner_speed_mps(k, mu_a, car, kv, bank_rad=bank).tolist()
+    v_corner = corner_speed_mps(k, mu_a, car, kv, bank_rad=bank)
+    if corner_limit_mps is not None:
+        if np.shape(corner_limit_mps) != (n,) or not np.all(np.asarray(corner_limit_mps) > 0):
+            raise ValueError("corner_limit_mps needs one speed > 0 per sample")
+        v_corner = np.minimum(v_corner, corner_limit_mps)
+    v = v_corner.tolist()
     cos_a, sin_a = (x.tolist() for x in _tilt(k, bank))
     drive = _drive_table(car)
     ks, ms, kvs, dss, gs = k.tolist(), mu_a.tolist(), kv.tolist(), ds.tolist(), (G_MPS2 * slope).tolist()

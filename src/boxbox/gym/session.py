@@ -17,6 +17,7 @@ env's process was killed outright).
 from __future__ import annotations
 
 import contextlib
+import math
 import os
 import shutil
 import signal
@@ -170,7 +171,7 @@ class Session:
                 if step + 1 == count:
                     self._new_track(b"".join(chunks))
                     fuel = -1.0 if self.initial_fuel_l is None else float(self.initial_fuel_l)
-                    self._reply(wire.FUEL, robot, step, wire.FUEL_REC, (fuel,))
+                    self._reply(wire.FUEL, robot, step, wire.FUEL_REC, (fuel, math.nan, math.nan))
             elif kind == wire.NEW_RACE:
                 assert self._track is not None
                 complete_car(self._track[1], bytes(self._buf[HSIZE:n]))

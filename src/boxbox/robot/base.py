@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from boxbox.model import Car, Controls, PitOrder, State, Track
+from boxbox.model import Car, CarSetup, Controls, PitOrder, State, Track
 
 # Fuel use before anything is measured: litres per metre for a car with fuel cons factor 1
 # (car1-trb1 at racing speed uses about this much; robots refine it lap by lap).
@@ -48,6 +48,12 @@ class Robot:
             return None
         per_lap = FUEL_L_PER_M_ESTIMATE * car.fuel_cons_factor * track.length_m
         return min(car.tank_l, self.options.fuel_laps * per_lap)
+
+    def car_setup(self, track: Track, car: Car) -> CarSetup | None:
+        """Car parameters to set before the car is built (after `initial_fuel_l`): wing angles.
+        TORCS merges them over the car's file within its limits; `on_track` then sees the car with
+        them.  Default: None, the car as its file has it."""
+        return None
 
     def on_track(self, track: Track, car: Car) -> None:
         """Called once before the race with the whole track and the car's constants."""

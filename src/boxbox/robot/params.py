@@ -45,6 +45,10 @@ class TutorialParams:
     # over all 38 tracks torcs was no faster (mean gap to the best Debian robot -2.85 % against
     # -2.93 %: aalborg -1.4 s, mixed-1 +1.6 s, ole-road-1 +10 s with more damage)
     track_limits: str = "strict"
+    # car setup: the rear wing angle per track from the lap simulation (robot/carsetup.py), never
+    # below the angle that keeps the rear's downforce per weight rear_balance x the front's
+    wing_setup: bool = True
+    rear_balance: float = 1.2
     side_catch_m: float = 1.5  # "torcs": room kept from where the usable sides end (grass, gravel, wall)
     # speed
     # cornering grip relative to the model's (surface x tyre friction with the skill level's skid
@@ -116,6 +120,7 @@ class Bound:
 
 # declared bounds; every other number parameter is finite and >= 0
 BOUNDS = {
+    "rear_balance": Bound(0.5, 3.0), "side_catch_m": Bound(0.0, 10.0),
     "mu_scale": Bound(0.3, 1.5), "brake_mu_scale": Bound(0.3, 1.5), "racing_line": Bound(0.0, 1.0),
     "line_margin_m": Bound(0.0, 5.0), "lookahead_m": Bound(1.0, 60.0), "lookahead_s": Bound(0.0, 2.0),
     "line_lateral_gain": Bound(0.1, 10.0, log=True), "line_yaw_damping_s": Bound(0.0, 1.0),

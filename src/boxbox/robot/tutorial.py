@@ -27,9 +27,10 @@ from boxbox.control.pit_brake import ENTRY, EXIT, FREE, GAVE_UP, HOLD, LANE, LIM
 from boxbox.control.speed import SpeedProfile, allowed_speed, bump_speed, crest_speed
 from boxbox.control.steering import steer_to_line, steer_to_point
 from boxbox.control.traction import SlipParams, abs_filter, tcl_filter
-from boxbox.model import Car, Controls, PitOrder, State, Track
+from boxbox.model import Car, CarSetup, Controls, PitOrder, State, Track
 from boxbox.model.constants import DRIVE_STEP_S
 from boxbox.robot.base import FUEL_L_PER_M_ESTIMATE, RaceOptions, Robot
+from boxbox.robot.carsetup import best_rear_wing_rad
 from boxbox.robot.drivable import centre_room
 from boxbox.robot.learning import TurnLearner
 from boxbox.robot.opponents import Nearby, OpponentParams, collision_brake, nearby, overtake_offset, side_steer
@@ -69,12 +70,28 @@ class TutorialRobot(Robot):
         plan = plan_stops(self.options.laps, per_lap, car.tank_l)
         return min(car.tank_l, plan.fuel_per_stint_l[0])
 
+    def car_setup(self, track: Track, car: Car) -> CarSetup | None:
+        """The rear wing angle that laps fastest on this track (robot/carsetup.py), with `wing_setup`."""
+        p, _ = load_params(car.name, track.name, self.options.robot_args.get("set"))
+        if not p.wing_setup:
+            return None
+        self.params = p
+        self._prepare_line(track, car, p)
+        fuel_l = self.initial_fuel_l(track, car)
+        base = CarModel.from_car(car, fuel_l=car.initial_fuel_l if fuel_l is None else fuel_l)
+        step_m = [self.step_m * f for f in self.line.length_factor[: self.n].tolist()]
+        # the cornering grip: the simulation's own point-mass corner limit must not undercut the robot's
+        corner_mu = [base.mu * f * p.mu_scale for f in self._friction]
+        angle, times = best_rear_wing_rad(car, base.mass_kg - car.mass_kg, step_m, self._curv, corner_mu,
+                                          lambda model: self._limits([1.0] * self.n, model), p.rear_balance)
+        self.wing_laps_s = {round(math.degrees(a), 1): round(t, 3) for a, t in times.items()}
+        return CarSetup(rear_wing_angle_rad=angle) if angle != car.rear_wing_angle_rad else None
+
     def on_track(self, track: Track, car: Car) -> None:
         super().on_track(track, car)
         p, _ = load_params(car.name, track.name, self.options.robot_args.get("set"))
         self.params = p
-        self.line = RacingLine(track, step_m=2.0, margin_m=p.line_margin_m, blend=p.racing_line,
-                               bounds_m=self._line_bounds(track, car, p))
+        self._prepare_line(track, car, p)
         mid = self.line.middle
         self.step_m = self.line.step_m
         self.n = mid.n
@@ -82,13 +99,6 @@ class TutorialRobot(Robot):
         self._half_left = mid.half_left_m.tolist()
         self._half_right = mid.half_right_m.tolist()
         self.tyre_model = CarModel.from_car(car, fuel_l=car.initial_fuel_l)
-        self._friction = [float(f) for f in mid.friction[: self.n]]
-        self._curv = [abs(k) for k in self.line.curvature_1pm[: self.n].tolist()]
-        self._vcurv = self.line.vertical_curvature_1pm[: self.n].tolist() if p.elevation else [0.0] * self.n
-        self._rough = self.line.roughness_1pm[: self.n].tolist() if p.elevation else [0.0] * self.n
-        # banking into the turn the line takes (TORCS's angle is + with the left edge higher)
-        turn_sign = np.sign(self.line.curvature_1pm[: self.n])
-        self._bank = (-turn_sign * mid.bank_rad[: self.n]).tolist() if p.banking else [0.0] * self.n
         self.learner = TurnLearner.from_limits(self._limits([1.0] * self.n, self.tyre_model), self.step_m,
                                                self.line.length_m, p.max_speed_mps, gain=p.learn_gain,
                                                target_margin_m=p.learn_margin_m,
@@ -118,6 +128,21 @@ class TutorialRobot(Robot):
         self._inv_lock = 1.0 / car.steer_lock_rad
         self.wheelbase_m = 0.6 * car.length_m  # not in the car's constants; 0.6 x length fits TORCS's cars
         self._stuck_angle = math.radians(p.stuck_angle_deg)
+
+    def _prepare_line(self, track: Track, car: Car, p: TutorialParams) -> None:
+        """The racing line and what the speed limits need of it per sample."""
+        self.line = RacingLine(track, step_m=2.0, margin_m=p.line_margin_m, blend=p.racing_line,
+                               bounds_m=self._line_bounds(track, car, p))
+        mid = self.line.middle
+        self.step_m = self.line.step_m
+        self.n = mid.n
+        self._friction = [float(f) for f in mid.friction[: self.n]]
+        self._curv = [abs(k) for k in self.line.curvature_1pm[: self.n].tolist()]
+        self._vcurv = self.line.vertical_curvature_1pm[: self.n].tolist() if p.elevation else [0.0] * self.n
+        self._rough = self.line.roughness_1pm[: self.n].tolist() if p.elevation else [0.0] * self.n
+        # banking into the turn the line takes (TORCS's angle is + with the left edge higher)
+        turn_sign = np.sign(self.line.curvature_1pm[: self.n])
+        self._bank = (-turn_sign * mid.bank_rad[: self.n]).tolist() if p.banking else [0.0] * self.n
 
     def _line_bounds(self, track: Track, car: Car, p: TutorialParams) -> tuple[np.ndarray, np.ndarray]:
         """Room for the racing line left and right per sample (robot/drivable.py), and the room for
@@ -386,7 +411,11 @@ class TutorialRobot(Robot):
         return self.pits.pit_stop(state)
 
     def race_report(self) -> dict:
-        return self.pits.report()
+        report = self.pits.report()
+        if getattr(self, "wing_laps_s", None):
+            report["rear_wing_deg"] = round(math.degrees(self.car.rear_wing_angle_rad), 1)
+            report["rear_wing_laps_s"] = self.wing_laps_s  # the simulated lap per angle tried
+        return report
 
     def signals(self) -> dict[str, float]:
         return {"offset_m": self.offset_m}

@@ -24,7 +24,7 @@ from time import perf_counter_ns
 
 import numpy as np
 
-from boxbox.model import Car, Controls, Opponent, PitLane, PitOrder, State, Track
+from boxbox.model import Car, CarSetup, Controls, Opponent, PitLane, PitOrder, State, Track
 from boxbox.model.state import CAR_STATE_OUT, CAR_STATE_PIT
 from boxbox.model.track import LEFT
 from boxbox.robot.base import RaceOptions, Robot
@@ -115,6 +115,20 @@ def decode_track(blob: bytes, name: str, category: str) -> tuple[Track, Car]:
     torque = [handle.pop(f"torque_nm_{i}") for i in range(wire.MAX_TORQUE_POINTS)]
     handle["torque_curve_radps"], handle["torque_curve_nm"] = tuple(rpm[:points]), tuple(torque[:points])
     return track, Car(**handle)
+
+
+def setup_values(setup: CarSetup) -> tuple[float, float]:
+    """The setup as the FUEL record carries it: NaN for the car's own value."""
+    return tuple(math.nan if v is None else float(v)  # type: ignore[return-value]
+                 for v in (setup.front_wing_angle_rad, setup.rear_wing_angle_rad))
+
+
+def apply_setup(car: Car, setup: CarSetup) -> None:
+    """The car as the robot set it up (what on_track and drive then see)."""
+    if setup.front_wing_angle_rad is not None:
+        car.front_wing_angle_rad = float(setup.front_wing_angle_rad)
+    if setup.rear_wing_angle_rad is not None:
+        car.rear_wing_angle_rad = float(setup.rear_wing_angle_rad)
 
 
 def complete_car(car: Car, payload: bytes) -> None:
@@ -352,10 +366,17 @@ class Host:
             fuel = self._call("initial_fuel_l", slot.robot.initial_fuel_l, slot.track, slot.car)
             if fuel is not None and not (isinstance(fuel, (int, float)) and 0 <= fuel < math.inf):
                 raise RobotFault("invalid-value", f"initial_fuel_l() returned {fuel!r}; expected litres >= 0 or None")
+            setup = self._call("car_setup", slot.robot.car_setup, slot.track, slot.car) or CarSetup()
+            problem = setup.problem() if isinstance(setup, CarSetup) else \
+                f"returned {type(setup).__name__}, not CarSetup or None"
+            if problem:
+                raise RobotFault("invalid-value", f"car_setup(): {problem}")
         except RobotFault as fault:
             self._fail(conn, robot, step, "initial_fuel_l", fault, wire.FUEL)
             return
-        self._reply(conn, wire.FUEL, robot, step, wire.FUEL_REC, (-1.0 if fuel is None else float(fuel),))
+        apply_setup(slot.car, setup)
+        self._reply(conn, wire.FUEL, robot, step, wire.FUEL_REC, (-1.0 if fuel is None else float(fuel),
+                                                                   *setup_values(setup)))
 
     def _track_known(self, track: Track) -> None:
         if math.isinf(self.sim_limit_s):

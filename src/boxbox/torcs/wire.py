@@ -120,7 +120,8 @@ OPPONENT_FIELDS = [
 
 CONTROLS_FIELDS = ["steer", "accel", "brake", "clutch", "gear", "pit_request"]
 PIT_ORDER_FIELDS = ["fuel_l", "repair"]
-FUEL_FIELDS = ["initial_fuel_l"]
+# the answer to NEW_TRACK: fuel (< 0: the car's own) and the car setup (NaN: the car's own)
+FUEL_FIELDS = ["initial_fuel_l", "front_wing_angle_rad", "rear_wing_angle_rad"]
 
 RECORDS = {
     "HELLO": HELLO_FIELDS, "TRACK": TRACK_FIELDS, "SEGMENT": SEGMENT_FIELDS, "HANDLE": HANDLE_FIELDS,

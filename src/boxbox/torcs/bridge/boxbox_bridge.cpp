@@ -4,6 +4,7 @@
 // Copyright (C) 2026 the boxbox authors.  GPL-2.0-or-later.
 // The message layouts come from the generated bb_wire.h (see boxbox/torcs/wire.py).
 
+#include <cmath>
 #include <errno.h>
 #include <math.h>
 #include <signal.h>
@@ -280,11 +281,17 @@ static void newTrack(int index, tTrack *track, void *carHandle, void **carParmHa
     if (bb_recv(BB_FUEL, index, nchunks - 1, g_setup_budget_ms, &flags) < 0) return;
     bb_fuel fuel;
     memcpy(&fuel, g_in + sizeof(bb_header), sizeof fuel);
-    if (fuel.initial_fuel_l >= 0) {
+    bool wings = !std::isnan(fuel.front_wing_angle_rad) || !std::isnan(fuel.rear_wing_angle_rad);
+    if (fuel.initial_fuel_l >= 0 || wings) {
+        // the robot's setup, merged by TORCS over the car's file (within its min and max)
         char path[1024];
         snprintf(path, sizeof path, "%sdrivers/boxbox/setup-%d.xml", GetLocalDir(), index);
         void *h = GfParmReadFile(path, GFPARM_RMODE_STD | GFPARM_RMODE_CREAT);
-        GfParmSetNum(h, SECT_CAR, PRM_FUEL, NULL, (tdble)fuel.initial_fuel_l);
+        if (fuel.initial_fuel_l >= 0) GfParmSetNum(h, SECT_CAR, PRM_FUEL, NULL, (tdble)fuel.initial_fuel_l);
+        if (!std::isnan(fuel.front_wing_angle_rad))
+            GfParmSetNum(h, SECT_FRNTWING, PRM_WINGANGLE, NULL, (tdble)fuel.front_wing_angle_rad);
+        if (!std::isnan(fuel.rear_wing_angle_rad))
+            GfParmSetNum(h, SECT_REARWING, PRM_WINGANGLE, NULL, (tdble)fuel.rear_wing_angle_rad);
         *carParmHandle = h;
     }
 }
