@@ -48,7 +48,7 @@ class TutorialParams:
     # car setup: the rear wing angle per track from the lap simulation (robot/carsetup.py), never
     # below the angle that keeps the rear's downforce per weight rear_balance x the front's
     wing_setup: bool = True
-    rear_balance: float = 1.2
+    rear_balance: float = 1.5
     side_catch_m: float = 1.5  # "torcs": room kept from where the usable sides end (grass, gravel, wall)
     # speed
     # cornering grip relative to the model's (surface x tyre friction with the skill level's skid
