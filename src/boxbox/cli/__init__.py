@@ -18,6 +18,7 @@ from boxbox.cli.info import cars, doctor, robots, setup, tracks
 from boxbox.cli.race import drill, params, race
 from boxbox.cli.reliability import soak, sweep
 from boxbox.cli.report import report
+from boxbox.cli.tune import bench_tune, tune
 from boxbox.errors import BoxboxError
 
 
@@ -34,7 +35,7 @@ def main_group() -> None:
 
 
 for _command in (race, params, drill, setup, doctor, tracks, cars, robots, bench, bench_speed, bench_pits,
-                 bench_telemetry, report, sweep, soak, scr_server, bench_gym):
+                 bench_telemetry, report, sweep, soak, scr_server, bench_gym, tune, bench_tune):
     main_group.add_command(_command)
 
 

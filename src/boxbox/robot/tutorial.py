@@ -30,7 +30,7 @@ from boxbox.model.constants import DRIVE_STEP_S
 from boxbox.robot.base import FUEL_L_PER_M_ESTIMATE, RaceOptions, Robot
 from boxbox.robot.learning import TurnLearner
 from boxbox.robot.opponents import Nearby, OpponentParams, collision_brake, nearby, overtake_offset, side_steer
-from boxbox.robot.params import TutorialParams, load_params
+from boxbox.robot.params import BOUNDS, CHOICES, TutorialParams, load_params
 from boxbox.robot.pit import PitParams, PitStops
 from boxbox.robot.racingline import RacingLine
 from boxbox.robot.strategy import plan_stops
@@ -46,6 +46,9 @@ LOCK_MIN_SPEED_MPS = 10.0  # below this (leaving the grid onto the line) full lo
 
 class TutorialRobot(Robot):
     name = "boxbox"
+    param_class = TutorialParams  # what `boxbox tune` may search (robot/tunable.py)
+    param_bounds = BOUNDS
+    param_choices = CHOICES
 
     def __init__(self, options: RaceOptions | None = None) -> None:
         super().__init__(options)
