@@ -61,6 +61,8 @@ class StorageURL(click.ParamType):
                    "in the cache, ~/.cache/boxbox/tune/NAME.log).")
 @click.option("--workers", type=click.IntRange(1, 64), default=1, show_default=True,
               help="Local worker processes (each races on its own core).")
+@click.option("--grace-s", type=click.IntRange(2, 86_400), default=15, show_default=True,
+              help="PostgreSQL: a trial whose worker sent no heartbeat for this long is failed and run again.")
 @click.option("--damage-limit", type=FiniteFloatRange(0, 100_000), default=500, show_default=True,
               help="A race that ends with more damage counts as a penalty.")
 @click.option("--seed", type=click.IntRange(0, 2**31 - 1), default=None, help="Sampler seed (one worker: repeatable).")
@@ -73,8 +75,8 @@ class StorageURL(click.ParamType):
 @click.option("--no-compare", is_flag=True, help="Do not race the robot's own values at the end.")
 @skill_level_option
 @click.option("--quiet", is_flag=True, help="No progress bar.")
-def tune(robot, tracks, param_names, trials, laps, car, study_name, storage, workers, damage_limit, seed, no_prune,
-         setup_out, report_dir, no_compare, skill_level, quiet) -> None:
+def tune(robot, tracks, param_names, trials, laps, car, study_name, storage, workers, grace_s, damage_limit, seed,
+         no_prune, setup_out, report_dir, no_compare, skill_level, quiet) -> None:
     """Tune a robot's parameters with Optuna: each trial races the tracks; the value is the total time.
 
     \b
@@ -99,7 +101,7 @@ def tune(robot, tracks, param_names, trials, laps, car, study_name, storage, wor
     name = study_name or _default_name(cls.name, tracks, param_names, laps)
     cfg = TuneConfig(study=name, robot=robot, tracks=tracks, params=param_names, laps=laps, car=car, trials=trials,
                      damage_limit=damage_limit, skill_level=skill_level.torcs_name, storage=storage, seed=seed,
-                     prune=not no_prune)
+                     prune=not no_prune, heartbeat_s=max(1, grace_s // 3), grace_s=grace_s)
     Storage(storage, name)  # a storage that cannot be reached: exit 2 before TORCS is set up
     ready()
     cfg.categories = [checks.check_race(t, car, 1, (), (), laps)[0] for t in tracks]

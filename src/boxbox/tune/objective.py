@@ -9,12 +9,15 @@ is reported after every lap and every track, and the pruner is asked after each 
 from __future__ import annotations
 
 import json
+import socket
 import tempfile
 import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
+
+from boxbox.tune.storage import worker_alive, worker_tag
 
 # a lap that does not count: well beyond any lap of TORCS's tracks by the boxbox robot (spring, 22 km,
 # takes about 450 s), so a penalised trial always ranks below one that finishes
@@ -87,6 +90,27 @@ def _first_line(text: str | None) -> str:
     return (text or "no result").partition("\n")[0][:200]
 
 
+def runs_root() -> Path:
+    """Where trials race (CACHE/tune/runs, a folder per race named after its worker process)."""
+    from boxbox.cache import cache_dir
+
+    root = cache_dir() / "tune" / "runs"
+    root.mkdir(parents=True, exist_ok=True)
+    return root
+
+
+def sweep_dead_runs() -> None:
+    """Remove the race folders of workers that died (SIGKILL leaves them): pid:start of the folder's
+    worker no longer running."""
+    import shutil
+
+    for folder in runs_root().iterdir():
+        pid, _, rest = folder.name.partition(":")
+        start = rest.partition(":")[0]
+        if not worker_alive(f"{socket.gethostname()}:{pid}:{start}"):
+            shutil.rmtree(folder, ignore_errors=True)
+
+
 def run_race(cfg: TuneConfig, index: int, settings: dict, cpu: int | None,
              on_lap: Callable[[int, float], None] | None = None) -> RaceScore:
     """Race the robot on cfg.tracks[index] with settings, in a temporary run dir (removed after)."""
@@ -98,7 +122,7 @@ def run_race(cfg: TuneConfig, index: int, settings: dict, cpu: int | None,
 
     options = RaceOptions(robot_args={"set": dict(settings)} if settings else {})
     name = f"{load_robot_class(cfg.robot).name} 1"
-    with tempfile.TemporaryDirectory(prefix="boxbox-tune-") as tmp:
+    with tempfile.TemporaryDirectory(dir=runs_root(), prefix=f"{worker_tag().split(':', 1)[1]}:") as tmp:
         race_cfg = launch.RaceConfig(track=cfg.tracks[index], category=cfg.categories[index], car=cfg.car,
                                      laps=cfg.laps, robots=[cfg.robot], robot_names=[name], options=options,
                                      step_budget_ms=cfg.step_budget_ms, cpu=cpu, run_dir=Path(tmp) / "race",

@@ -53,6 +53,16 @@ def sqlalchemy_url(url: str) -> str:
                      "postgresql://USER@HOST/DB (or sqlite:///FILE), or leave it out for the journal file")
 
 
+def quiet_optuna() -> None:
+    """No log lines per trial, no warnings that heartbeats and retries are experimental features."""
+    import warnings
+
+    import optuna
+
+    optuna.logging.set_verbosity(optuna.logging.WARNING)
+    warnings.filterwarnings("ignore", category=optuna.exceptions.ExperimentalWarning)
+
+
 class Storage:
     """An Optuna storage for one study, with its stale-trial rule and its claim lock."""
 
@@ -61,6 +71,7 @@ class Storage:
         import optuna
         from optuna.storages.journal import JournalFileBackend
 
+        quiet_optuna()
         self.url, self.study_name, self.max_retry = url, study, max_retry
         self._lock_conn: Any = None
         if url is None:

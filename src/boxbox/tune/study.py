@@ -7,6 +7,7 @@ and queued again (a resumed study runs it), so the study never holds a half-writ
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import signal
 import subprocess
@@ -17,28 +18,17 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
-from boxbox.tune.objective import TrialInterrupted, TuneConfig, make_objective
+from boxbox.tune.objective import TrialInterrupted, TuneConfig, make_objective, sweep_dead_runs
 from boxbox.tune.storage import WORKER_ATTR, Storage, worker_tag
 
 FINISHED = ("COMPLETE", "PRUNED")
 WAIT_S = 1.0  # a worker with nothing to take looks again after this
 
 
-def _quiet_optuna() -> None:
-    import warnings
-
-    import optuna
-
-    optuna.logging.set_verbosity(optuna.logging.WARNING)
-    warnings.filterwarnings("ignore", category=optuna.exceptions.ExperimentalWarning)
-    warnings.filterwarnings("ignore", message=".*(heartbeat|RetryFailedTrialCallback|experimental).*")
-
-
 def open_study(cfg: TuneConfig, storage: Storage | None = None, create: bool = False) -> tuple[Any, Storage]:
     """The study (created when asked and missing), with cfg's sampler and pruner."""
     import optuna
 
-    _quiet_optuna()
     storage = storage or Storage(cfg.storage, cfg.study, cfg.heartbeat_s, cfg.grace_s, cfg.max_retry)
     sampler = optuna.samplers.TPESampler(seed=cfg.seed, n_startup_trials=min(10, max(2, cfg.trials // 5)))
     # the first tracks decide little: prune only once a few trials have finished all of them
@@ -115,6 +105,7 @@ def run_worker(cfg: TuneConfig, cpu: int | None = None, stop: StopFlag | None = 
     from boxbox.tune.space import distributions
 
     stop = stop or StopFlag()
+    sweep_dead_runs()
     study, storage = open_study(cfg)
     objective = make_objective(cfg, distributions(param_space(load_robot_class(cfg.robot)), cfg.params), cpu)
     done_here = 0
@@ -165,7 +156,9 @@ def spawn_workers(cfg: TuneConfig, n: int) -> list[subprocess.Popen]:
     procs = []
     for i in range(n):
         cpu = cpus[i % len(cpus)] if cpus else -1
-        procs.append(subprocess.Popen([sys.executable, "-m", "boxbox.tune.worker", cfg.to_json(), str(cpu)],
+        # each worker its own seed: with one seed they would sample the same points side by side
+        seeded = cfg if cfg.seed is None else dataclasses.replace(cfg, seed=cfg.seed + i)
+        procs.append(subprocess.Popen([sys.executable, "-m", "boxbox.tune.worker", seeded.to_json(), str(cpu)],
                                       stdin=subprocess.DEVNULL, preexec_fn=_die_with_parent))
     return procs
 
