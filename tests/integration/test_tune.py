@@ -43,8 +43,9 @@ def load(storage_url: str | None, study: str):
     return study_obj
 
 
-def kill_mid_trial(proc: subprocess.Popen, storage_url: str | None, study: str, timeout_s: float = 60) -> int:
-    """SIGKILL proc while a trial of its own is RUNNING; the trial's number."""
+def kill_mid_trial(proc: subprocess.Popen, storage_url: str | None, study: str, timeout_s: float = 60,
+                   sig: int = signal.SIGKILL) -> int:
+    """Signal proc (SIGKILL) while a trial of its own is RUNNING; the trial's number."""
     import optuna
 
     deadline = time.monotonic() + timeout_s
@@ -57,8 +58,8 @@ def kill_mid_trial(proc: subprocess.Popen, storage_url: str | None, study: str, 
         mine = [t for t in running if t.user_attrs.get("worker", "").split(":")[1:2] == [str(proc.pid)]]
         if mine:
             time.sleep(0.3)  # inside its races
-            proc.send_signal(signal.SIGKILL)
-            proc.wait(10)
+            proc.send_signal(sig)
+            proc.wait(30)
             return mine[0].number
         time.sleep(0.05)
     raise AssertionError("no trial of the worker seen running")
@@ -113,6 +114,31 @@ def test_journal_resumes_after_kill(overlay):
         setup = path.with_suffix(".toml")
         assert setup.read_text().count("mu_scale = ") == 1
     finally:
+        for p in (path, path.with_suffix(".lock"), path.with_suffix(".toml")):
+            p.unlink(missing_ok=True)
+
+
+def test_ctrl_c_leaves_no_half_written_trial(overlay):
+    import optuna
+
+    from boxbox.tune.storage import journal_path
+
+    study = f"int-{uuid.uuid4().hex[:8]}"
+    try:
+        proc = subprocess.Popen(tune_cmd("--study", study, "--trials", "30"), stdout=subprocess.DEVNULL,
+                                stderr=subprocess.PIPE)
+        try:
+            stopped = kill_mid_trial(proc, None, study, sig=signal.SIGINT)
+        finally:
+            if proc.poll() is None:
+                proc.kill()
+        assert proc.returncode == 130 and "resume with --study" in proc.stderr.read().decode()
+        trials = load(None, study).trials
+        assert optuna.trial.TrialState.RUNNING not in [t.state for t in trials]
+        assert trials[stopped].state == optuna.trial.TrialState.FAIL
+        assert trials[-1].state == optuna.trial.TrialState.WAITING and trials[-1].params == trials[stopped].params
+    finally:
+        path = journal_path(study)
         for p in (path, path.with_suffix(".lock"), path.with_suffix(".toml")):
             p.unlink(missing_ok=True)
 

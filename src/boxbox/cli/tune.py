@@ -196,6 +196,90 @@ def _flag(problem: str | None) -> str:
     return f" ({problem})" if problem else ""
 
 
+GENERAL_A = "g-track-1,e-track-2,aalborg"  # the tuning set of the issue's example
+GENERAL_B = "e-track-4,g-track-2,ruudskogen"  # road tracks of similar kind the study never sees
+
+
 @click.command("bench-tune")
-def bench_tune() -> None:
-    """Measure boxbox tune (placeholder)."""
+@click.option("--robot", default="boxbox", show_default=True, metavar="SPEC", help="The robot to tune.")
+@click.option("--tracks", type=CommaList("TRACK,..."), default="g-track-1", show_default=True,
+              help="Tracks of each trial in the worker and storage measures.")
+@click.option("--params", "param_names", type=CommaList("NAME,..."), default="mu_scale,brake_mu_scale",
+              show_default=True, help="Parameters searched.")
+@click.option("--laps", type=LAPS, default=2, show_default=True, help="Laps of each race.")
+@click.option("--trials", type=click.IntRange(2, 10_000), default=16, show_default=True,
+              help="Trials of the 1- and 2-worker runs.")
+@click.option("--storage-trials", type=click.IntRange(1, 10_000), default=30, show_default=True,
+              help="Trials whose storage calls are timed, per storage.")
+@click.option("--storage", type=StorageURL(), default=None,
+              help="PostgreSQL to time (default: a server started for the bench in a temporary folder).")
+@click.option("--no-postgres", is_flag=True, help="Time the journal file only.")
+@click.option("--general-trials", type=click.IntRange(0, 10_000), default=0, show_default=True,
+              help="Trials of each generalisation study (0: none; the issue asks 50).")
+@click.option("--general-tracks", nargs=2, type=CommaList("TRACK,..."), default=(GENERAL_A, GENERAL_B),
+              show_default=True, help="The two sets of tracks: tune on each, race the best on both.")
+@click.option("--json", "json_file", type=OutputFile(), help="Write the figures as JSON.")
+def bench_tune(robot, tracks, param_names, laps, trials, storage_trials, storage, no_postgres, general_trials,
+               general_tracks, json_file) -> None:
+    """Measure boxbox tune: trials per hour with 1 and 2 workers, the storage's cost per trial
+    (journal file against PostgreSQL) and, with --general-trials, tuned parameters on unseen tracks.
+
+    \b
+    Examples:
+      boxbox bench-tune
+      boxbox bench-tune --general-trials 50 --json bench-tune.json
+    """
+    import contextlib
+    import dataclasses
+
+    from rich.table import Table
+
+    from boxbox.files import write_json_atomic
+    from boxbox.robot.loader import load_robot_class
+    from boxbox.robot.tunable import param_space
+    from boxbox.torcs import checks
+    from boxbox.tune.bench import run_bench, summary_rows
+    from boxbox.tune.objective import TuneConfig
+    from boxbox.tune.postgres import TempServer
+    from boxbox.tune.space import distributions
+
+    distributions(param_space(load_robot_class(robot)), param_names)
+    ready()
+    for t in [*tracks, *general_tracks[0], *general_tracks[1]]:
+        checks.check_race(t, "car1-trb1", 1, (), (), laps)
+    base = TuneConfig(study="bench", robot=robot, tracks=tracks, params=param_names, laps=laps, trials=trials,
+                      seed=7, categories=[checks.check_race(t, "car1-trb1", 1, (), (), laps)[0] for t in tracks])
+    with contextlib.ExitStack() as stack, err.status("bench-tune") as status:
+        def report(msg: str) -> None:
+            status.update(msg)
+            err.print(f"[dim]bench-tune:[/] {msg}")
+
+        url = storage
+        if url is None and not no_postgres:
+            url = stack.enter_context(TempServer(report)).url
+        result = run_bench(base, storage_trials, url, general_trials, tuple(general_tracks), report)
+    table = Table("measure", "value", title=f"bench-tune: {robot}, {', '.join(tracks)}, {laps} lap(s), "
+                                             f"{', '.join(param_names)}")
+    for row in summary_rows(result):
+        table.add_row(*row)
+    out.print(table)
+    if result.general:
+        _general_table(result.general, laps)
+    if json_file:
+        write_json_atomic(json_file, dataclasses.asdict(result), indent=1)
+
+
+def _general_table(rows: list[dict], laps: int) -> None:
+    from rich.table import Table
+
+    from boxbox.report.tables import fmt_time
+
+    table = Table("tuned on", "track", "", "robot's own values (s)", "tuned (s)", "gain (s)",
+                  title=f"generalisation: {laps} lap(s) a race, best parameters of each study")
+    for r in rows:
+        table.add_row(r["train"], r["track"], r["set"], fmt_time(r["defaults"]) + _flag(r["defaults_problem"]),
+                      fmt_time(r["best"]) + _flag(r["best_problem"]), f"{r['defaults'] - r['best']:+.3f}")
+    out.print(table)
+    for train in dict.fromkeys(r["train"] for r in rows):
+        best = next(r["best_params"] for r in rows if r["train"] == train)
+        out.print(f"best of {train}: " + ", ".join(f"{k}={_fmt(v)}" for k, v in best.items()))

@@ -17,6 +17,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
+from boxbox.errors import Interrupted
 from boxbox.tune.storage import worker_alive, worker_tag
 
 # a lap that does not count: well beyond any lap of TORCS's tracks by the boxbox robot (spring, 22 km,
@@ -24,7 +25,7 @@ from boxbox.tune.storage import worker_alive, worker_tag
 PENALTY_S_PER_LAP = 1000.0
 
 
-class TrialInterrupted(Exception):
+class TrialInterrupted(Interrupted):
     """Ctrl-C, SIGTERM or SIGHUP stopped a race of the trial: the trial fails, the worker stops."""
 
 

@@ -61,6 +61,7 @@ def quiet_optuna() -> None:
 
     optuna.logging.set_verbosity(optuna.logging.WARNING)
     warnings.filterwarnings("ignore", category=optuna.exceptions.ExperimentalWarning)
+    warnings.filterwarnings("ignore", message="Heartbeat of storage is supposed to be used")
 
 
 class Storage:
@@ -126,14 +127,14 @@ class Storage:
             self.optuna.record_heartbeat(trial_id)
 
     def fail_stale(self, study: Any) -> list[int]:
-        """Fail (and queue again) the RUNNING trials whose worker is gone; their numbers."""
+        """Fail (and queue again) the RUNNING trials whose worker is gone; their ids."""
         import optuna
 
         if self.has_heartbeat:
-            before = {t.number for t in study.get_trials(deepcopy=False, states=(optuna.trial.TrialState.RUNNING,))}
-            optuna.storages.fail_stale_trials(study)
-            after = {t.number for t in study.get_trials(deepcopy=False, states=(optuna.trial.TrialState.RUNNING,))}
-            return sorted(before - after)
+            stale = self.optuna._get_stale_trial_ids(study._study_id)  # one query; usually none
+            if stale:
+                optuna.storages.fail_stale_trials(study)
+            return stale
         return self._fail_dead_local(study)
 
     def _fail_dead_local(self, study: Any) -> list[int]:
@@ -153,7 +154,7 @@ class Storage:
             elif worker_alive(worker):
                 continue
             if self.optuna.set_trial_state_values(trial._trial_id, optuna.trial.TrialState.FAIL):
-                failed.append(trial.number)
+                failed.append(trial._trial_id)
                 retry(study, self.optuna.get_trial(trial._trial_id))
         return failed
 

@@ -126,7 +126,8 @@ def run_worker(cfg: TuneConfig, cpu: int | None = None, stop: StopFlag | None = 
             continue
         except TrialInterrupted:
             beating.set()
-            _fail_and_requeue(study, storage, trial, "interrupted")
+            stop.event.set()
+            _fail_and_requeue(study, trial, "interrupted")
             break
         except Exception as exc:  # a bug in a robot's code path we did not foresee: this trial only
             beating.set()
@@ -139,13 +140,17 @@ def run_worker(cfg: TuneConfig, cpu: int | None = None, stop: StopFlag | None = 
     return done_here
 
 
-def _fail_and_requeue(study: Any, storage: Storage, trial: Any, why: str) -> None:
+def _fail_and_requeue(study: Any, trial: Any, why: str) -> None:
+    """The trial failed, its parameters queued again (the next worker, or a resumed study, runs them)."""
     import optuna
-    from optuna.storages import RetryHeartbeatStaleTrialCallback
 
     trial.set_user_attr("stopped", why)
     study.tell(trial, state=optuna.trial.TrialState.FAIL)
-    RetryHeartbeatStaleTrialCallback(storage.max_retry)(study, storage.optuna.get_trial(trial._trial_id))
+    frozen = study._storage.get_trial(trial._trial_id)
+    study.add_trial(optuna.trial.create_trial(state=optuna.trial.TrialState.WAITING, params=frozen.params,
+                                              distributions=frozen.distributions,
+                                              system_attrs={"failed_trial": frozen.number,
+                                                            "retry_history": [frozen.number]}))
 
 
 # --- several local workers ------------------------------------------------------------------------

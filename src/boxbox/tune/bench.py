@@ -1,0 +1,149 @@
+"""`boxbox bench-tune`: what tuning costs and what it finds.
+
+1. Trials per hour with 1 and with 2 local workers (the same study size, pruning off so that each
+   trial races every track; each worker a process of its own, started the same way).
+2. What the storage costs a trial: the storage calls of one trial (claim under the lock, stale
+   check, the worker's note, suggestions, a report per lap, the races' notes, the result) made
+   without racing, against the journal file and against a real PostgreSQL on a unix socket; as a
+   share of the mean wall time of a trial from 1.
+3. Optionally, generalisation: a study on three tracks, its best parameters raced on three tracks
+   it never saw against the robot's own values, and the same the other way round.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+import uuid
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+from boxbox.tune.objective import TuneConfig
+from boxbox.tune.storage import Storage, journal_path
+
+Report = Callable[[str], None]
+
+
+@dataclass
+class BenchTuneResult:
+    trial_wall_s: dict[int, float] = field(default_factory=dict)  # workers -> wall time of the run
+    trials: int = 0
+    storage_ms: dict[str, float] = field(default_factory=dict)  # storage -> ms per trial
+    general: list[dict] = field(default_factory=list)
+
+    def per_hour(self, workers: int) -> float:
+        return 3600.0 * self.trials / self.trial_wall_s[workers]
+
+    @property
+    def mean_trial_s(self) -> float:
+        return self.trial_wall_s[1] / self.trials
+
+
+def _cleanup(study: str) -> None:
+    path = journal_path(study)
+    for p in (path, path.with_suffix(".lock"), path.with_suffix(".toml")):
+        p.unlink(missing_ok=True)
+
+
+def time_workers(base: TuneConfig, workers: int) -> float:
+    """Wall time of a fresh study of base.trials trials run by `workers` worker processes."""
+    from boxbox.tune import study as studies
+
+    cfg = dataclasses.replace(base, study=f"bench-{workers}w-{uuid.uuid4().hex[:8]}", prune=False)
+    try:
+        studies.prepare(cfg)
+        started = time.monotonic()
+        studies.wait_workers(studies.spawn_workers(cfg, workers), lambda: None, studies.StopFlag())
+        wall = time.monotonic() - started
+        study, _ = studies.open_study(cfg)
+        done = studies.counts(study).get("COMPLETE", 0)
+        if done != cfg.trials:
+            raise RuntimeError(f"bench study {cfg.study} ended with {done} of {cfg.trials} complete trials")
+        return wall
+    finally:
+        _cleanup(cfg.study)
+
+
+def time_storage(base: TuneConfig, url: str | None, trials: int) -> float:
+    """Mean wall time (ms) of the storage calls of one trial, without its races."""
+    from boxbox.robot.loader import load_robot_class
+    from boxbox.robot.tunable import param_space
+    from boxbox.tune import study as studies
+    from boxbox.tune.space import distributions, suggest
+
+    cfg = dataclasses.replace(base, study=f"bench-storage-{uuid.uuid4().hex[:8]}", storage=url, trials=trials)
+    dists = distributions(param_space(load_robot_class(cfg.robot)), cfg.params)
+    try:
+        studies.prepare(cfg)
+        study, storage = studies.open_study(cfg, Storage(url, cfg.study, cfg.heartbeat_s, cfg.grace_s))
+        started = time.perf_counter()
+        for _ in range(trials):
+            trial, _ = studies._claim(study, storage, trials)
+            suggest(trial, dists)
+            total = 0.0
+            for i, track in enumerate(cfg.tracks):
+                for lap in range(1, cfg.laps + 1):
+                    total += 40.0
+                    trial.report(total, i * cfg.laps + lap)
+                trial.set_user_attr(f"race_{i}", {"track": track, "score_s": 40.0 * cfg.laps, "wall_s": 0.5})
+            trial.set_user_attr("wall_s", 1.0)
+            study.tell(trial, total)
+        return 1000.0 * (time.perf_counter() - started) / trials
+    finally:
+        _cleanup(cfg.study)
+
+
+def generalisation(base: TuneConfig, train: list[str], test: list[str], trials: int, workers: int,
+                   report: Report) -> list[dict]:
+    """Tune on `train`, then race the best and the robot's own values on train and test tracks."""
+    from boxbox.torcs import checks
+    from boxbox.tune import study as studies
+
+    cats = [checks.check_race(t, base.car, 1, (), (), base.laps)[0] for t in train]
+    cfg = dataclasses.replace(base, study=f"bench-general-{uuid.uuid4().hex[:8]}", tracks=train, categories=cats,
+                              trials=trials, prune=True)
+    try:
+        report(f"generalisation: {trials} trials on {', '.join(train)}")
+        study = studies.run(cfg, workers, lambda s: None, studies.StopFlag())
+        best = study.best_trial.params
+        rows = []
+        for label, tracks in (("tuned on", train), ("unseen", test)):
+            for row in studies.compare(cfg, best, tracks):
+                rows.append({"train": "+".join(train), "set": label, "best_params": best, **row})
+        return rows
+    finally:
+        _cleanup(cfg.study)
+
+
+def run_bench(base: TuneConfig, storage_trials: int, postgres_url: str | None, general_trials: int,
+              general_tracks: tuple[list[str], list[str]] | None, report: Report) -> BenchTuneResult:
+    result = BenchTuneResult(trials=base.trials)
+    for workers in (1, 2):
+        report(f"{base.trials} trials with {workers} worker(s)")
+        result.trial_wall_s[workers] = time_workers(base, workers)
+    report("storage calls of a trial: journal")
+    result.storage_ms["journal file"] = time_storage(base, None, storage_trials)
+    if postgres_url is not None:
+        report("storage calls of a trial: PostgreSQL")
+        result.storage_ms["PostgreSQL"] = time_storage(base, postgres_url, storage_trials)
+    if general_trials and general_tracks:
+        a, b = general_tracks
+        result.general = (generalisation(base, a, b, general_trials, 2, report)
+                          + generalisation(base, b, a, general_trials, 2, report))
+    return result
+
+
+def summary_rows(result: BenchTuneResult) -> list[tuple[str, str]]:
+    rows = [(f"trials per hour, {w} worker(s)", f"{result.per_hour(w):.0f} ({result.trial_wall_s[w]:.1f} s for "
+             f"{result.trials})") for w in (1, 2)]
+    rows.append(("speed-up with 2 workers", f"{result.per_hour(2) / result.per_hour(1):.2f}x"))
+    rows.append(("mean trial (1 worker)", f"{result.mean_trial_s:.2f} s"))
+    for name, ms in result.storage_ms.items():
+        rows.append((f"storage per trial, {name}", f"{ms:.1f} ms ({100 * ms / 1000 / result.mean_trial_s:.2f} % "
+                                                   "of a trial)"))
+    return rows
+
+
+def general_rows(result: BenchTuneResult) -> list[Any]:
+    return result.general
