@@ -3,7 +3,8 @@
 The value is the total race time over the tracks.  A race that faults, does not finish or ends
 with more damage than the limit counts as a penalty time instead (PENALTY_S_PER_LAP a lap), so a
 bad corner of the search space is a poor value, never a crash of the worker.  The running total
-is reported after every lap and every track, and the pruner is asked after each track.
+is reported after every track, and the pruner is asked then (races are what a trial is made of:
+it stops between them).
 """
 
 from __future__ import annotations
@@ -23,6 +24,9 @@ from boxbox.tune.storage import worker_alive, worker_tag
 # a lap that does not count: well beyond any lap of TORCS's tracks by the boxbox robot (spring, 22 km,
 # takes about 450 s), so a penalised trial always ranks below one that finishes
 PENALTY_S_PER_LAP = 1000.0
+
+
+RESULT_ATTR = "result"  # a trial's races (RaceScore each), races skipped by pruning, wall time
 
 
 class TrialInterrupted(Interrupted):
@@ -68,6 +72,7 @@ class RaceScore:
     damage: int
     wall_s: float
     problem: str | None = None  # why it was penalised
+    lap_times: list[float] = field(default_factory=list)
 
 
 def score_race(result: Any, laps: int, damage_limit: float) -> RaceScore:
@@ -77,7 +82,7 @@ def score_race(result: Any, laps: int, damage_limit: float) -> RaceScore:
     base = dict(track=result.track, wall_s=round(result.wall_s, 3))
     if driver is None:
         return RaceScore(score_s=penalty, time_s=0.0, laps=0, damage=0, problem=_first_line(result.error), **base)
-    base.update(time_s=driver.time, laps=driver.laps, damage=driver.damage)
+    base.update(time_s=driver.time, laps=driver.laps, damage=driver.damage, lap_times=list(driver.lap_times))
     if result.error:
         return RaceScore(score_s=penalty, problem=f"fault: {_first_line(result.error)}", **base)
     if driver.laps < laps:
@@ -112,8 +117,7 @@ def sweep_dead_runs() -> None:
             shutil.rmtree(folder, ignore_errors=True)
 
 
-def run_race(cfg: TuneConfig, index: int, settings: dict, cpu: int | None,
-             on_lap: Callable[[int, float], None] | None = None) -> RaceScore:
+def run_race(cfg: TuneConfig, index: int, settings: dict, cpu: int | None) -> RaceScore:
     """Race the robot on cfg.tracks[index] with settings, in a temporary run dir (removed after)."""
     from boxbox.model.skill import SkillLevel
     from boxbox.robot.base import RaceOptions
@@ -129,14 +133,16 @@ def run_race(cfg: TuneConfig, index: int, settings: dict, cpu: int | None,
                                      step_budget_ms=cfg.step_budget_ms, cpu=cpu, run_dir=Path(tmp) / "race",
                                      telemetry=False, skill_level=SkillLevel.parse(cfg.skill_level),
                                      learning="fresh")
-        result = launch.run_race(race_cfg, setup.ensure_ready(), on_lap)
+        result = launch.run_race(race_cfg, setup.ensure_ready())
     if result.error and result.error.startswith(INTERRUPTED):
         raise TrialInterrupted(result.error)
     return score_race(result, cfg.laps, cfg.damage_limit)
 
 
 def make_objective(cfg: TuneConfig, dists: dict[str, Any], cpu: int | None) -> Callable[[Any], float]:
-    """The Optuna objective: race every track, report the running total, prune between tracks."""
+    """The Optuna objective: race every track, report the running total after each, prune between
+    tracks.  Each race's figures (lap times included) go into one trial attribute, "races", written
+    once at the end: every storage write costs a round trip (docs/tuning.md)."""
     import optuna
 
     from boxbox.tune.space import suggest
@@ -145,22 +151,20 @@ def make_objective(cfg: TuneConfig, dists: dict[str, Any], cpu: int | None) -> C
         settings = suggest(trial, dists)
         started = time.monotonic()
         total = 0.0
+        races: list[dict] = []
         for i, track in enumerate(cfg.tracks):
-            base_step = i * cfg.laps
-
-            def on_lap(lap: int, sim_s: float, total_before: float = total, step0: int = base_step) -> None:
-                if 0 < lap < cfg.laps:  # the last lap's value is the race's score, reported below
-                    trial.report(total_before + sim_s, step0 + lap)
-
-            score = run_race(cfg, i, settings, cpu, on_lap)
+            score = run_race(cfg, i, settings, cpu)
             total += score.score_s
-            trial.report(total, base_step + cfg.laps)
-            trial.set_user_attr(f"race_{i}", asdict(score))
-            if cfg.prune and i < len(cfg.tracks) - 1 and trial.should_prune():
-                trial.set_user_attr("races_skipped", len(cfg.tracks) - 1 - i)
-                trial.set_user_attr("wall_s", round(time.monotonic() - started, 3))
+            races.append(asdict(score))
+            if i == len(cfg.tracks) - 1:
+                break  # the last total is the trial's value: no report (a database round trip) needed
+            trial.report(total, i)
+            if cfg.prune and trial.should_prune():
+                trial.set_user_attr(RESULT_ATTR, {"races": races, "races_skipped": len(cfg.tracks) - 1 - i,
+                                                  "wall_s": round(time.monotonic() - started, 3)})
                 raise optuna.TrialPruned(f"after {track}: {total:.3f} s")
-        trial.set_user_attr("wall_s", round(time.monotonic() - started, 3))
+        trial.set_user_attr(RESULT_ATTR, {"races": races, "races_skipped": 0,
+                                          "wall_s": round(time.monotonic() - started, 3)})
         return total
 
     return objective

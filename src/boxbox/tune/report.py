@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from boxbox.report.race_report import CSS, _figure, _img, _num, _table
-from boxbox.tune.objective import PENALTY_S_PER_LAP, TuneConfig
+from boxbox.tune.objective import PENALTY_S_PER_LAP, RESULT_ATTR, TuneConfig
 
 
 def _finished(study: Any) -> list:
@@ -140,11 +140,11 @@ def build_report(study: Any, cfg: TuneConfig) -> str:
 def _trials_table(study: Any, cfg: TuneConfig) -> str:
     rows = []
     for t in study.get_trials(deepcopy=False):
-        races = [t.user_attrs.get(f"race_{i}") for i in range(len(cfg.tracks))]
-        notes = "; ".join(f"{r['track']}: {r['problem']}" for r in races if r and r.get("problem"))
+        result = t.user_attrs.get(RESULT_ATTR, {})
+        notes = "; ".join(f"{r['track']}: {r['problem']}" for r in result.get("races", []) if r.get("problem"))
         rows.append([str(t.number), t.state.name.lower(), _num(t.value, "{:.3f}"),
                      html.escape(", ".join(f"{k}={_short(v)}" for k, v in t.params.items())),
-                     _num(t.user_attrs.get("wall_s"), "{:.1f}"), html.escape(notes)])
+                     _num(result.get("wall_s"), "{:.1f}"), html.escape(notes)])
     return _table(["#", "state", "total s", "parameters", "wall s", "penalties"], rows, "num")
 
 

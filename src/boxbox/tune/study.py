@@ -18,7 +18,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
-from boxbox.tune.objective import TrialInterrupted, TuneConfig, make_objective, sweep_dead_runs
+from boxbox.tune.objective import RESULT_ATTR, TrialInterrupted, TuneConfig, make_objective, sweep_dead_runs
 from boxbox.tune.storage import WORKER_ATTR, Storage, worker_tag
 
 FINISHED = ("COMPLETE", "PRUNED")
@@ -30,7 +30,10 @@ def open_study(cfg: TuneConfig, storage: Storage | None = None, create: bool = F
     import optuna
 
     storage = storage or Storage(cfg.storage, cfg.study, cfg.heartbeat_s, cfg.grace_s, cfg.max_retry)
-    sampler = optuna.samplers.TPESampler(seed=cfg.seed, n_startup_trials=min(10, max(2, cfg.trials // 5)))
+    # multivariate: the parameters sampled together (grip in turns and under braking go together),
+    # and the trials read once per trial instead of once per parameter
+    sampler = optuna.samplers.TPESampler(seed=cfg.seed, n_startup_trials=min(10, max(2, cfg.trials // 5)),
+                                         multivariate=True)
     # the first tracks decide little: prune only once a few trials have finished all of them
     pruner = optuna.pruners.MedianPruner(n_startup_trials=5, n_warmup_steps=0) if cfg.prune \
         else optuna.pruners.NopPruner()
@@ -68,7 +71,7 @@ def _claim(study: Any, storage: Storage, target: int) -> tuple[Any, bool]:
     queued (retried) trial first, a new one only while finished + running + queued < target."""
     with storage.claim_lock():
         storage.fail_stale(study)
-        c = counts(study)
+        c = storage.counts(study)
         finished = sum(c.get(s, 0) for s in FINISHED)
         if finished >= target:
             return None, True
@@ -209,10 +212,11 @@ def pruning_savings(study: Any, n_tracks: int) -> tuple[int, int, float]:
     walls = []
     for t in study.get_trials(deepcopy=False, states=(optuna.trial.TrialState.COMPLETE,
                                                       optuna.trial.TrialState.PRUNED)):
-        races = [v for k, v in t.user_attrs.items() if k.startswith("race_")]
+        result = t.user_attrs.get(RESULT_ATTR, {})
+        races = result.get("races", [])
         run += len(races)
         walls += [r.get("wall_s", 0.0) for r in races]
-        skipped += int(t.user_attrs.get("races_skipped", 0))
+        skipped += int(result.get("races_skipped", 0))
     mean = sum(walls) / len(walls) if walls else 0.0
     return skipped, run, skipped * mean
 
