@@ -196,5 +196,33 @@ def test_race_setup_file(overlay, tmp_path):
     assert proc.returncode == 2 and "mu_scal" in proc.stderr
 
 
+def test_a_users_robot_declares_its_own_parameters(overlay, tmp_path):
+    """The example of docs/tuning.md, tuned and raced with the setup it gets."""
+    import re
+
+    doc = (Path(__file__).resolve().parents[2] / "docs" / "tuning.md").read_text()
+    code = re.search(r"<!-- example: tunable -->\s*```python\n(.*?)```", doc, re.S)
+    assert code, "docs/tuning.md has no tunable example"
+    (tmp_path / "follower.py").write_text(code.group(1))
+    robot = f"{tmp_path / 'follower.py'}:TunedFollower"
+    setup = tmp_path / "best.toml"
+    done = subprocess.run([sys.executable, "-m", "boxbox.cli", "tune", "--robot", robot, "--tracks", TRACK, "--laps",
+                           "1", "--params", "accel,steer_gain_per_m,mode", "--trials", "3", "--quiet", "--no-compare",
+                           "--study", f"user-{uuid.uuid4().hex[:8]}", "--setup-out", str(setup)],
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    from boxbox.robot.tunable import read_setup
+
+    best = read_setup(setup)
+    assert set(best) == {"accel", "steer_gain_per_m", "mode"} and 0.2 <= best["accel"] <= 1.0
+    race = subprocess.run([sys.executable, "-m", "boxbox.cli", "race", "--robot", robot, "--track", TRACK, "--laps",
+                           "1", "--setup", str(setup), "--quiet", "--no-telemetry"], capture_output=True, text=True,
+                          timeout=300)
+    assert race.returncode == 0, race.stderr
+    bad = subprocess.run([sys.executable, "-m", "boxbox.cli", "tune", "--robot", robot, "--params", "gear"],
+                         capture_output=True, text=True, timeout=60)
+    assert bad.returncode == 2 and "searchable: accel, steer_gain_per_m, wide, mode" in bad.stderr
+
+
 def test_no_server_left(postgres):
     assert Path(postgres.folder, "data", "postmaster.pid").exists()

@@ -159,7 +159,7 @@ def _summary(cfg, study, setup_out: Path | None, report_dir: Path | None, compar
         return
     best = study.best_trial
     space = param_space(load_robot_class(cfg.robot))
-    params = Table("parameter", "robot's default", "best", title=f"study {cfg.study}: best trial #{best.number}")
+    params = Table("parameter", "declared default", "best", title=f"study {cfg.study}: best trial #{best.number}")
     for key, value in best.params.items():
         params.add_row(key, _fmt(space.defaults[key]), _fmt(value))
     out.print(params)

@@ -44,12 +44,11 @@ def ensure_installed(report: Callable[[str], None] = lambda msg: None) -> Path:
     log = cache_dir() / "logs" / "apt.log"
     report(f"installing Debian's postgresql (log: {log})")
     env = ["env", "DEBIAN_FRONTEND=noninteractive"]
-    install = [*env, "apt-get", "install", "-y", "--no-install-recommends", "postgresql"]
-    try:
-        _run(_privileged(install), log, "apt-get install")
-    except SetupError:  # a fresh machine's package lists do not know it yet
+    known = subprocess.run(["apt-cache", "show", "postgresql"], capture_output=True).returncode == 0
+    if not known:  # a fresh machine's package lists (or a container's empty ones) do not know it yet
         _run(_privileged([*env, "apt-get", "update"]), log, "apt-get update")
-        _run(_privileged(install), log, "apt-get install")
+    _run(_privileged([*env, "apt-get", "install", "-y", "--no-install-recommends", "postgresql"]), log,
+         "apt-get install")
     found = bin_dir()
     if found is None:
         raise SetupError(f"apt-get installed postgresql but no initdb is under /usr/lib/postgresql; see {log}")

@@ -244,7 +244,8 @@ def compare(cfg: TuneConfig, best: dict, tracks: list[str] | None = None,
 
 
 def wait_workers(procs: list[subprocess.Popen], tick: Callable[[], None], stop: StopFlag) -> None:
-    """Until every worker has ended: tick() every second; on a stop signal, pass it on once."""
+    """Until every worker has ended: tick() every second; on a stop signal, pass it on once.  A
+    worker that failed (its error is on stderr already) is an error once all have ended."""
     passed = False
     while any(p.poll() is None for p in procs):
         if stop.set and not passed:
@@ -255,6 +256,11 @@ def wait_workers(procs: list[subprocess.Popen], tick: Callable[[], None], stop: 
         tick()
         time.sleep(0.5)
     tick()
+    failed = [p.returncode for p in procs if p.returncode not in (0, 130, -signal.SIGINT)]
+    if failed:
+        from boxbox.errors import BoxboxError
+
+        raise BoxboxError(f"{len(failed)} of {len(procs)} workers failed (exit status {failed[0]}); see above")
 
 
 # --- a whole run: the study made, its workers run, watched -------------------------------------------
@@ -269,15 +275,16 @@ def prepare(cfg: TuneConfig) -> Any:
     from boxbox.robot.tunable import param_space
     from boxbox.tune.space import defaults_in_space, distributions
 
-    study, _ = open_study(cfg, create=True)
+    study, storage = open_study(cfg, create=True)
     mine = {k: getattr(cfg, k) for k in STUDY_KEYS}
-    theirs = study.user_attrs.get("boxbox")
-    if theirs is None:
-        study.set_user_attr("boxbox", mine)
-        space = param_space(load_robot_class(cfg.robot))
-        if not study.get_trials(deepcopy=False):
-            study.enqueue_trial(defaults_in_space(space, distributions(space, cfg.params)))
-    elif {k: theirs.get(k) for k in STUDY_KEYS} != mine:
+    with storage.claim_lock():  # processes started together: one of them enqueues the defaults
+        theirs = study.user_attrs.get("boxbox")
+        if theirs is None:
+            study.set_user_attr("boxbox", mine)
+            space = param_space(load_robot_class(cfg.robot))
+            if not study.get_trials(deepcopy=False):
+                study.enqueue_trial(defaults_in_space(space, distributions(space, cfg.params)))
+    if theirs is not None and {k: theirs.get(k) for k in STUDY_KEYS} != mine:
         diff = ", ".join(f"{k} {theirs.get(k)!r}" for k in STUDY_KEYS if theirs.get(k) != mine[k])
         raise UsageError(f"study '{cfg.study}' was made with {diff}; resume it with those, or give another --study")
     return study
