@@ -31,6 +31,8 @@ class BenchTuneResult:
     run_wall_s: dict[int, float] = field(default_factory=dict)  # workers -> the run with the workers' start-up
     trials: int = 0
     storage_ms: dict[str, float] = field(default_factory=dict)  # storage -> ms per trial
+    statements: dict[str, int] = field(default_factory=dict)  # storage -> SQL statements per trial
+    round_trip_ms: float | None = None  # PostgreSQL: one `SELECT 1`, the machine's floor per statement
     general: list[dict] = field(default_factory=list)
 
     def per_hour(self, workers: int) -> float:
@@ -69,8 +71,27 @@ def time_workers(base: TuneConfig, workers: int) -> tuple[float, float]:
         _cleanup(cfg.study)
 
 
-def time_storage(base: TuneConfig, url: str | None, trials: int) -> float:
-    """Mean wall time (ms) of the storage calls of one trial, without its races."""
+def round_trip_ms(url: str, n: int = 200) -> float:
+    """Mean wall time of `SELECT 1` on one open connection."""
+    from sqlalchemy import create_engine, text
+
+    from boxbox.tune.storage import sqlalchemy_url
+
+    engine = create_engine(sqlalchemy_url(url))
+    try:
+        with engine.connect() as conn:
+            conn.execute(text("SELECT 1"))
+            started = time.perf_counter()
+            for _ in range(n):
+                conn.execute(text("SELECT 1"))
+            return 1000.0 * (time.perf_counter() - started) / n
+    finally:
+        engine.dispose()
+
+
+def time_storage(base: TuneConfig, url: str | None, trials: int) -> tuple[float, int]:
+    """Mean wall time (ms) of the storage calls of one trial, without its races, and (databases)
+    the SQL statements a trial makes."""
     from boxbox.robot.loader import load_robot_class
     from boxbox.robot.tunable import param_space
     from boxbox.tune import study as studies
@@ -81,6 +102,12 @@ def time_storage(base: TuneConfig, url: str | None, trials: int) -> float:
     try:
         studies.prepare(cfg)
         study, storage = studies.open_study(cfg, Storage(url, cfg.study, cfg.heartbeat_s, cfg.grace_s))
+        statements = [0]
+        if url is not None:
+            from sqlalchemy import event
+
+            event.listen(storage.optuna.engine, "before_cursor_execute",
+                         lambda *args: statements.__setitem__(0, statements[0] + 1))
         started = time.perf_counter()
         for _ in range(trials):
             trial, _ = studies._claim(study, storage, trials)
@@ -93,7 +120,7 @@ def time_storage(base: TuneConfig, url: str | None, trials: int) -> float:
                     trial.report(total, i)
             trial.set_user_attr(RESULT_ATTR, {"races": races, "races_skipped": 0, "wall_s": 1.0})
             study.tell(trial, total)
-        return 1000.0 * (time.perf_counter() - started) / trials
+        return 1000.0 * (time.perf_counter() - started) / trials, round(statements[0] / trials)
     finally:
         _cleanup(cfg.study)
 
@@ -132,10 +159,12 @@ def run_bench(base: TuneConfig, storage_trials: int, postgres_url: str | None, g
         report(f"{base.trials} trials with {workers} worker(s)")
         result.trial_wall_s[workers], result.run_wall_s[workers] = time_workers(base, workers)
     report("storage calls of a trial: journal")
-    result.storage_ms["journal file"] = time_storage(base, None, storage_trials)
+    result.storage_ms["journal file"], _ = time_storage(base, None, storage_trials)
     if postgres_url is not None:
         report("storage calls of a trial: PostgreSQL")
-        result.storage_ms["PostgreSQL"] = time_storage(base, postgres_url, storage_trials)
+        result.storage_ms["PostgreSQL"], result.statements["PostgreSQL"] = time_storage(base, postgres_url,
+                                                                                        storage_trials)
+        result.round_trip_ms = round_trip_ms(postgres_url)
     if general_trials and general_tracks:
         a, b = general_tracks
         result.general = (generalisation(base, a, b, general_trials, 2, report)
@@ -149,8 +178,11 @@ def summary_rows(result: BenchTuneResult) -> list[tuple[str, str]]:
     rows.append(("speed-up with 2 workers", f"{result.per_hour(2) / result.per_hour(1):.2f}x"))
     rows.append(("mean trial (1 worker)", f"{result.mean_trial_s:.2f} s"))
     for name, ms in result.storage_ms.items():
+        extra = f", {result.statements[name]} SQL statements" if name in result.statements else ""
         rows.append((f"storage per trial, {name}", f"{ms:.1f} ms ({100 * ms / 1000 / result.mean_trial_s:.2f} % "
-                                                   "of a trial)"))
+                                                   f"of a trial{extra})"))
+    if result.round_trip_ms is not None:
+        rows.append(("PostgreSQL round trip (SELECT 1)", f"{result.round_trip_ms:.2f} ms"))
     return rows
 
 
