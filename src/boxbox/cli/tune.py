@@ -202,12 +202,12 @@ GENERAL_B = "e-track-4,g-track-2,ruudskogen"  # road tracks of similar kind the 
 
 @click.command("bench-tune")
 @click.option("--robot", default="boxbox", show_default=True, metavar="SPEC", help="The robot to tune.")
-@click.option("--tracks", type=CommaList("TRACK,..."), default="g-track-1", show_default=True,
+@click.option("--tracks", type=CommaList("TRACK,..."), default=GENERAL_A, show_default=True,
               help="Tracks of each trial in the worker and storage measures.")
 @click.option("--params", "param_names", type=CommaList("NAME,..."), default="mu_scale,brake_mu_scale",
               show_default=True, help="Parameters searched.")
-@click.option("--laps", type=LAPS, default=2, show_default=True, help="Laps of each race.")
-@click.option("--trials", type=click.IntRange(2, 10_000), default=16, show_default=True,
+@click.option("--laps", type=LAPS, default=3, show_default=True, help="Laps of each race.")
+@click.option("--trials", type=click.IntRange(2, 10_000), default=8, show_default=True,
               help="Trials of the 1- and 2-worker runs.")
 @click.option("--storage-trials", type=click.IntRange(1, 10_000), default=30, show_default=True,
               help="Trials whose storage calls are timed, per storage.")
@@ -218,9 +218,11 @@ GENERAL_B = "e-track-4,g-track-2,ruudskogen"  # road tracks of similar kind the 
               help="Trials of each generalisation study (0: none; the issue asks 50).")
 @click.option("--general-tracks", nargs=2, type=CommaList("TRACK,..."), default=(GENERAL_A, GENERAL_B),
               show_default=True, help="The two sets of tracks: tune on each, race the best on both.")
+@click.option("--rounds", type=click.IntRange(1, 100), default=3, show_default=True,
+              help="Times each measure is taken, in turn; the median is shown (the machine's load moves).")
 @click.option("--json", "json_file", type=OutputFile(), help="Write the figures as JSON.")
 def bench_tune(robot, tracks, param_names, laps, trials, storage_trials, storage, no_postgres, general_trials,
-               general_tracks, json_file) -> None:
+               general_tracks, rounds, json_file) -> None:
     """Measure boxbox tune: trials per hour with 1 and 2 workers, the storage's cost per trial
     (journal file against PostgreSQL) and, with --general-trials, tuned parameters on unseen tracks.
 
@@ -257,7 +259,7 @@ def bench_tune(robot, tracks, param_names, laps, trials, storage_trials, storage
         url = storage
         if url is None and not no_postgres:
             url = stack.enter_context(TempServer(report)).url
-        result = run_bench(base, storage_trials, url, general_trials, tuple(general_tracks), report)
+        result = run_bench(base, storage_trials, url, general_trials, tuple(general_tracks), report, rounds)
     table = Table("measure", "value", title=f"bench-tune: {robot}, {', '.join(tracks)}, {laps} lap(s), "
                                              f"{', '.join(param_names)}")
     for row in summary_rows(result):

@@ -29,6 +29,8 @@ Report = Callable[[str], None]
 class BenchTuneResult:
     trial_wall_s: dict[int, float] = field(default_factory=dict)  # workers -> first trial's start to last's end
     run_wall_s: dict[int, float] = field(default_factory=dict)  # workers -> the run with the workers' start-up
+    all_trial_wall_s: dict[int, list[float]] = field(default_factory=dict)  # every round's, the median above
+    rounds: int = 1
     trials: int = 0
     storage_ms: dict[str, float] = field(default_factory=dict)  # storage -> ms per trial
     statements: dict[str, int] = field(default_factory=dict)  # storage -> SQL statements per trial
@@ -148,22 +150,34 @@ def generalisation(base: TuneConfig, train: list[str], test: list[str], trials: 
 
 
 def run_bench(base: TuneConfig, storage_trials: int, postgres_url: str | None, general_trials: int,
-              general_tracks: tuple[list[str], list[str]] | None, report: Report) -> BenchTuneResult:
+              general_tracks: tuple[list[str], list[str]] | None, report: Report, rounds: int = 3) -> BenchTuneResult:
+    """The measures, each taken `rounds` times in turn (1 worker, 2 workers, journal, PostgreSQL,
+    again...) and the median kept: on a shared machine the load moves within minutes."""
+    import statistics
+
     from boxbox.tune.objective import run_race
 
-    result = BenchTuneResult(trials=base.trials)
+    result = BenchTuneResult(trials=base.trials, rounds=rounds)
     report("a race on each track first (racing lines computed once and cached)")
     for i in range(len(base.tracks)):
         run_race(base, i, {}, None)
-    for workers in (1, 2):
-        report(f"{base.trials} trials with {workers} worker(s)")
-        result.trial_wall_s[workers], result.run_wall_s[workers] = time_workers(base, workers)
-    report("storage calls of a trial: journal")
-    result.storage_ms["journal file"], _ = time_storage(base, None, storage_trials)
+    walls: dict[int, list[tuple[float, float]]] = {1: [], 2: []}
+    stores: dict[str, list[float]] = {"journal file": [], "PostgreSQL": []}
+    for r in range(rounds):
+        for workers in (1, 2):
+            report(f"round {r + 1} of {rounds}: {base.trials} trials with {workers} worker(s)")
+            walls[workers].append(time_workers(base, workers))
+        report(f"round {r + 1} of {rounds}: storage calls of a trial")
+        stores["journal file"].append(time_storage(base, None, storage_trials)[0])
+        if postgres_url is not None:
+            ms, result.statements["PostgreSQL"] = time_storage(base, postgres_url, storage_trials)
+            stores["PostgreSQL"].append(ms)
+    for workers, pairs in walls.items():
+        result.trial_wall_s[workers] = statistics.median(p[0] for p in pairs)
+        result.run_wall_s[workers] = statistics.median(p[1] for p in pairs)
+        result.all_trial_wall_s[workers] = [round(p[0], 2) for p in pairs]
+    result.storage_ms = {name: statistics.median(v) for name, v in stores.items() if v}
     if postgres_url is not None:
-        report("storage calls of a trial: PostgreSQL")
-        result.storage_ms["PostgreSQL"], result.statements["PostgreSQL"] = time_storage(base, postgres_url,
-                                                                                        storage_trials)
         result.round_trip_ms = round_trip_ms(postgres_url)
     if general_trials and general_tracks:
         a, b = general_tracks
@@ -174,7 +188,8 @@ def run_bench(base: TuneConfig, storage_trials: int, postgres_url: str | None, g
 
 def summary_rows(result: BenchTuneResult) -> list[tuple[str, str]]:
     rows = [(f"trials per hour, {w} worker(s)", f"{result.per_hour(w):.0f} ({result.trials} trials in "
-             f"{result.trial_wall_s[w]:.1f} s; {result.run_wall_s[w]:.1f} s with start-up)") for w in (1, 2)]
+             f"{result.trial_wall_s[w]:.1f} s, median of {', '.join(f'{x:.1f}' for x in result.all_trial_wall_s[w])}; "
+             f"{result.run_wall_s[w]:.1f} s with start-up)") for w in (1, 2)]
     rows.append(("speed-up with 2 workers", f"{result.per_hour(2) / result.per_hour(1):.2f}x"))
     rows.append(("mean trial (1 worker)", f"{result.mean_trial_s:.2f} s"))
     for name, ms in result.storage_ms.items():
