@@ -111,6 +111,9 @@ def test_journal_resumes_after_kill(overlay):
                               timeout=180)
         assert done.returncode == 0, done.stderr
         assert_retried(load(None, study), killed, 5)
+        from boxbox.tune.objective import runs_root
+
+        assert not [p for p in runs_root().iterdir() if p.name.startswith(f"{a.pid}:")]  # its race folder swept
         setup = path.with_suffix(".toml")
         assert setup.read_text().count("mu_scale = ") == 1
     finally:
