@@ -101,16 +101,20 @@ class Storage:
 
     @contextlib.contextmanager
     def claim_lock(self) -> Iterator[None]:
-        """Held while a worker counts the trials and takes one."""
-        if self.path is not None:
-            with open(self.path.with_suffix(".lock"), "a") as f:
+        """Held while a worker counts the trials and takes one: a file lock beside the journal or
+        the SQLite file, a PostgreSQL advisory lock."""
+        lock_file = self.path.with_suffix(".lock") if self.path is not None else \
+            Path(self.url.removeprefix("sqlite:///") + ".lock") if self.url and self.url.startswith("sqlite:///") \
+            else None
+        if lock_file is not None:
+            with open(lock_file, "a") as f:
                 fcntl.flock(f, fcntl.LOCK_EX)
                 try:
                     yield
                 finally:
                     fcntl.flock(f, fcntl.LOCK_UN)
             return
-        if self.url is not None and "postgres" in self.url:
+        if self.url is not None and self.url.startswith("postgres"):
             from sqlalchemy import text
 
             with self.optuna.engine.connect() as conn:
@@ -120,7 +124,7 @@ class Storage:
                 finally:
                     conn.execute(text("SELECT pg_advisory_unlock(:k)"), {"k": ADVISORY_LOCK_KEY})
             return
-        yield  # sqlite: the file's own locking
+        yield
 
     def counts(self, study: Any) -> dict[str, int]:
         """Trials per state name: one COUNT query on a database (reading every trial costs more
