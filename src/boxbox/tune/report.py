@@ -1,6 +1,6 @@
 """`boxbox tune --report DIR`: one self-contained HTML page for a study (DIR/report.html), in the
 style of the race report: the optimisation history, the parameters' importances (Optuna's fANOVA
-evaluator) and a slice plot per parameter (value against each trial's total time), drawn with
+evaluator) and a slice plot per parameter (value against each complete trial's total time), drawn with
 matplotlib and embedded as PNG, then the trials as a table.
 """
 
@@ -38,14 +38,16 @@ def fig_history(study: Any, penalty_s: float):
     fig = _figure(9, 3.6)
     ax = fig.add_subplot()
     trials = _finished(study)
-    lim = _ylim([t.value for t in trials], penalty_s)
-    top = lim[1] if lim else 1.0
-    for state, marker, color, label in ((optuna.trial.TrialState.COMPLETE, "o", "#1f77b4", "complete"),
-                                        (optuna.trial.TrialState.PRUNED, "x", "#7f7f7f", "pruned (last total)")):
-        pts = [(t.number, min(t.value, top)) for t in trials if t.state == state]
-        if pts:
-            ax.scatter(*zip(*pts, strict=True), marker=marker, color=color, s=18, label=label)
-    bad = [t.number for t in trials if t.value >= penalty_s]
+    done = [t for t in trials if t.state == optuna.trial.TrialState.COMPLETE]
+    lim = _ylim([t.value for t in done], penalty_s)
+    top = lim[1] - 0.04 * (lim[1] - lim[0]) if lim else 1.0  # the row of off-scale markers, inside the axes
+    good = [(t.number, t.value) for t in done if t.value < penalty_s]
+    if good:
+        ax.scatter(*zip(*good, strict=True), marker="o", color="#1f77b4", s=18, label="complete")
+    pruned = [t.number for t in trials if t.state == optuna.trial.TrialState.PRUNED]
+    if pruned:  # their totals cover fewer tracks: not on the scale of the others
+        ax.scatter(pruned, [top] * len(pruned), marker="x", color="#7f7f7f", s=24, label="pruned (at the top)")
+    bad = [t.number for t in done if t.value >= penalty_s]
     if bad:
         ax.scatter(bad, [top] * len(bad), marker="^", color="#d62728", s=24, label="penalised (off the scale)")
     complete = sorted((t.number, t.value) for t in trials if t.state == optuna.trial.TrialState.COMPLETE)
@@ -86,9 +88,11 @@ def fig_importances(study: Any):
 def fig_slice(study: Any, name: str, penalty_s: float):
     fig = _figure(4.2, 3.2)
     ax = fig.add_subplot()
-    trials = [t for t in _finished(study) if name in t.params]
+    import optuna
+
+    trials = [t for t in _finished(study) if name in t.params and t.state == optuna.trial.TrialState.COMPLETE]
     lim = _ylim([t.value for t in trials], penalty_s)
-    top = lim[1] if lim else 1.0
+    top = lim[1] - 0.04 * (lim[1] - lim[0]) if lim else 1.0
     xs = [t.params[name] for t in trials]
     if xs and isinstance(xs[0], bool | str):
         cats = sorted({str(x) for x in xs})
@@ -101,7 +105,7 @@ def fig_slice(study: Any, name: str, penalty_s: float):
     if lim:
         ax.set_ylim(*lim)
     ax.set_xlabel(name)
-    ax.set_ylabel("total race time (s)")
+    ax.set_ylabel("total race time (s), complete trials")
     ax.grid(alpha=0.3)
     return fig
 
