@@ -77,9 +77,10 @@ def assert_retried(study, killed: int, trials: int) -> None:
     assert retried[0].params == study.trials[killed].params
 
 
-def test_two_workers_on_postgres_one_killed(overlay, postgres):
+def test_two_workers_on_postgres_one_killed(overlay, postgres, tmp_path):
     study = f"kill-{uuid.uuid4().hex[:8]}"
-    common = ("--storage", postgres.url, "--study", study, "--trials", "6", "--grace-s", "3")
+    common = ("--storage", postgres.url, "--study", study, "--trials", "6", "--grace-s", "3", "--setup-out",
+              str(tmp_path / "best.toml"))
     a = subprocess.Popen(tune_cmd(*common, "--seed", "1"), stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     time.sleep(1.0)  # a first: it makes the study
     b = subprocess.Popen(tune_cmd(*common, "--seed", "2"), stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
@@ -179,6 +180,9 @@ def test_bad_input_exits_2(overlay, args, message):
                           timeout=60)
     assert proc.returncode == 2, proc.stderr
     assert message in proc.stderr and len(proc.stderr.strip().splitlines()) == 1
+    from boxbox.tune.storage import journal_path
+
+    assert not journal_path(base[-1]).exists()  # nothing left behind
 
 
 def test_race_setup_file(overlay, tmp_path):
@@ -209,9 +213,10 @@ def test_a_users_robot_declares_its_own_parameters(overlay, tmp_path):
     (tmp_path / "follower.py").write_text(code.group(1))
     robot = f"{tmp_path / 'follower.py'}:TunedFollower"
     setup = tmp_path / "best.toml"
+    study = f"user-{uuid.uuid4().hex[:8]}"
     done = subprocess.run([sys.executable, "-m", "boxbox.cli", "tune", "--robot", robot, "--tracks", TRACK, "--laps",
                            "1", "--params", "accel,steer_gain_per_m,mode", "--trials", "3", "--quiet", "--no-compare",
-                           "--study", f"user-{uuid.uuid4().hex[:8]}", "--setup-out", str(setup)],
+                           "--study", study, "--setup-out", str(setup)],
                           capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
     from boxbox.robot.tunable import read_setup
@@ -225,6 +230,10 @@ def test_a_users_robot_declares_its_own_parameters(overlay, tmp_path):
     bad = subprocess.run([sys.executable, "-m", "boxbox.cli", "tune", "--robot", robot, "--params", "gear"],
                          capture_output=True, text=True, timeout=60)
     assert bad.returncode == 2 and "searchable: accel, steer_gain_per_m, wide, mode" in bad.stderr
+    from boxbox.tune.storage import journal_path
+
+    for p in (journal_path(study), journal_path(study).with_suffix(".lock")):
+        p.unlink()
 
 
 def test_no_server_left(postgres):

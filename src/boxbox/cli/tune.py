@@ -102,7 +102,8 @@ def tune(robot, tracks, param_names, trials, laps, car, study_name, storage, wor
     cfg = TuneConfig(study=name, robot=robot, tracks=tracks, params=param_names, laps=laps, car=car, trials=trials,
                      damage_limit=damage_limit, skill_level=skill_level.torcs_name, storage=storage, seed=seed,
                      prune=not no_prune, heartbeat_s=max(1, grace_s // 3), grace_s=grace_s)
-    Storage(storage, name)  # a storage that cannot be reached: exit 2 before TORCS is set up
+    if storage is not None:
+        Storage(storage, name)  # a database that cannot be reached: exit 2 before TORCS is set up
     ready()
     cfg.categories = [checks.check_race(t, car, 1, (), (), laps)[0] for t in tracks]
     err.print(f"[dim]study {name} in {describe(storage, name)}: {trials} trials x {len(tracks)} tracks x "
