@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import sys
 
 from boxbox.errors import BoxboxError
@@ -12,6 +13,8 @@ from boxbox.tune.study import StopFlag, run_worker
 def main(argv: list[str]) -> int:
     cfg = TuneConfig.from_json(argv[0])
     cpu = int(argv[1]) if len(argv) > 1 and int(argv[1]) >= 0 else None
+    if cpu is not None:  # the worker's own sampling runs between its races, on their core
+        os.sched_setaffinity(0, {cpu})
     stop = StopFlag()
     stop.install()
     try:
