@@ -101,7 +101,6 @@ def _beating(storage: Storage, trial_id: int, interval_s: float) -> threading.Ev
 def run_worker(cfg: TuneConfig, cpu: int | None = None, stop: StopFlag | None = None) -> int:
     """Take and run trials until the study has cfg.trials finished ones (or a stop signal); the
     number of trials this worker finished."""
-    import optuna
 
     from boxbox.robot.loader import load_robot_class
     from boxbox.robot.tunable import param_space
@@ -111,6 +110,26 @@ def run_worker(cfg: TuneConfig, cpu: int | None = None, stop: StopFlag | None = 
     sweep_dead_runs()
     study, storage = open_study(cfg)
     objective = make_objective(cfg, distributions(param_space(load_robot_class(cfg.robot)), cfg.params), cpu)
+    try:
+        return _work(cfg, study, storage, objective, stop)
+    except Exception as exc:
+        import optuna
+        import sqlalchemy.exc
+
+        if not isinstance(exc, sqlalchemy.exc.SQLAlchemyError | optuna.exceptions.StorageInternalError | OSError):
+            raise
+        from boxbox.errors import BoxboxError
+        from boxbox.tune.storage import describe
+
+        cause = exc.__cause__ if isinstance(exc, optuna.exceptions.StorageInternalError) and exc.__cause__ else exc
+        first = (str(cause).strip().splitlines() or [type(cause).__name__])[0]
+        raise BoxboxError(f"the study's storage ({describe(cfg.storage, cfg.study)}) failed: {first}; "
+                          f"its finished trials are kept: resume with --study {cfg.study}") from None
+
+
+def _work(cfg: TuneConfig, study: Any, storage: Storage, objective: Callable[[Any], float], stop: StopFlag) -> int:
+    import optuna
+
     done_here = 0
     while not stop.set:
         trial, complete = _claim(study, storage, cfg.trials)
@@ -121,26 +140,35 @@ def run_worker(cfg: TuneConfig, cpu: int | None = None, stop: StopFlag | None = 
             continue
         beating = _beating(storage, trial._trial_id, cfg.heartbeat_s)
         try:
-            value = objective(trial)
-        except optuna.TrialPruned:
+            done_here += _run_trial(study, trial, objective, stop)
+        except optuna.exceptions.UpdateFinishedTrialError:
+            pass  # another worker found this one stale (no heartbeat for the grace period) and retried it
+        finally:
             beating.set()
-            study.tell(trial, state=optuna.trial.TrialState.PRUNED)
-            done_here += 1
-            continue
-        except TrialInterrupted:
-            beating.set()
-            stop.event.set()
-            _fail_and_requeue(study, trial, "interrupted")
-            break
-        except Exception as exc:  # a bug in a robot's code path we did not foresee: this trial only
-            beating.set()
-            trial.set_user_attr("error", f"{type(exc).__name__}: {exc}"[:300])
-            study.tell(trial, state=optuna.trial.TrialState.FAIL)
-            continue
-        beating.set()
-        study.tell(trial, value)
-        done_here += 1
     return done_here
+
+
+def _run_trial(study: Any, trial: Any, objective: Callable[[Any], float], stop: StopFlag) -> int:
+    """Run one trial and tell the study how it ended; 1 if it finished (complete or pruned)."""
+    import optuna
+
+    try:
+        value = objective(trial)
+    except optuna.TrialPruned:
+        study.tell(trial, state=optuna.trial.TrialState.PRUNED)
+        return 1
+    except TrialInterrupted:
+        stop.event.set()
+        _fail_and_requeue(study, trial, "interrupted")
+        return 0
+    except optuna.exceptions.UpdateFinishedTrialError:
+        raise
+    except Exception as exc:  # a bug in a robot's code path we did not foresee: this trial only
+        trial.set_user_attr("error", f"{type(exc).__name__}: {exc}"[:300])
+        study.tell(trial, state=optuna.trial.TrialState.FAIL)
+        return 0
+    study.tell(trial, value)
+    return 1
 
 
 def _fail_and_requeue(study: Any, trial: Any, why: str) -> None:
