@@ -55,30 +55,39 @@ def race(track: str = "e-track-2", *, laps: int = 3, robots: Sequence[str | type
          grid_position: int | str | None = None, learning: LearningMode = "fresh", pit_laps: Sequence[int] = (),
          fuel_laps: float | None = None, pit_mode: PitMode = "constant-decel", settings: dict | None = None,
          run_dir: str | Path | None = None, telemetry: bool = True, step_budget_ms: int = 200,
-         report: bool | str | Path = False) -> RaceResult:
+         report: bool | str | Path = False, setup: str | Path | None = None) -> RaceResult:
     """Race the Python `robots` (classes or specs: 'boxbox', 'path/file.py:Class', 'module:Class')
     against TORCS's `opponents` ('module:idx') on `track`, and return the result.
 
     skill_level: one level for every car (docs/rules.md). grid_position: the Python cars' first
     slot, 1 (pole, the default) or 'last'. learning: 'fresh' (default: nothing learned before
-    counts), 'on' (the shared store) or 'off'. settings: robot parameters, as `--set`.
+    counts), 'on' (the shared store) or 'off'. settings: robot parameters, as `--set`; setup: a
+    TOML setup file of them, as `--setup` (settings win over it).
     report: True writes RUN_DIR/report.html, a folder writes it there.
     """
     from boxbox.robot.loader import load_robot_class, spec_for_class
-    from boxbox.torcs import checks, launch, setup
+    from boxbox.torcs import checks, launch
+    from boxbox.torcs import setup as torcs_setup
     from boxbox.torcs.signals import restore_handlers
 
     level = skill_level if isinstance(skill_level, SkillLevel) else _parse_level(skill_level)
     _check_choices(laps, learning, pit_mode)
     specs = [r if isinstance(r, str) else spec_for_class(r) for r in robots]
+    values = dict(settings or {})
+    if setup is not None:
+        from boxbox.robot.tunable import check_setup_for, read_setup
+
+        from_file = read_setup(setup)
+        check_setup_for([load_robot_class(s) for s in specs], from_file, str(setup))
+        values = {**from_file, **values}
     options = RaceOptions(fuel_laps=fuel_laps, pit_laps=tuple(sorted(pit_laps)), pit_mode=pit_mode,
-                          robot_args={"set": dict(settings)} if settings else {})
+                          robot_args={"set": values} if values else {})
     names = []
     for i, spec in enumerate(specs):
         cls = load_robot_class(spec)
         cls.check_setup(options, track, car)
         names.append(f"{cls.name} {i + 1}")
-    overlay = setup.ensure_ready()
+    overlay = torcs_setup.ensure_ready()
     category, opp = checks.check_race(track, car, len(specs), list(opponents), list(pit_laps), laps)
     cfg = launch.RaceConfig(track=track, category=category, car=car, laps=laps, robots=specs, robot_names=names,
                             opponents=opp, options=options, step_budget_ms=step_budget_ms, telemetry=telemetry,

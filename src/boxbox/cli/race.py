@@ -42,6 +42,9 @@ SET_HELP = "Override a parameter of the boxbox robot (see `boxbox params`), e.g.
 @click.option("--setup-budget-s", type=FiniteFloatRange(0.1, 3600), default=120, show_default=True,
               help="Wall time a robot may take in initial_fuel_l, on_track, pit_stop or on_race_end.")
 @click.option("--set", "settings", multiple=True, metavar="KEY=VALUE", help=SET_HELP)
+@click.option("--setup", "setup_file", type=click.Path(exists=True, dir_okay=False, path_type=Path),
+              help="Robot parameters from a TOML setup file (`name = value` lines, as `boxbox tune` writes); "
+                   "--set wins over it.")
 @click.option("--learning", type=click.Choice(LEARNING_MODES), default="on", show_default=True,
               help="Robots' learned data: keep and use it, ignore it, or start from nothing (and keep that).")
 @click.option("--run-dir", type=OutputDir(), help="Keep this race's files here, e.g. out/r1 "
@@ -58,7 +61,7 @@ SET_HELP = "Override a parameter of the boxbox robot (see `boxbox params`), e.g.
 @click.option("--verbose", is_flag=True,
               help="Show what the robots print as the race runs (it is always kept in RUN_DIR/host.log).")
 def race(track, car, laps, robots, opponents, fuel_laps, pit_laps, pit_mode, json_file, step_budget_ms, settings,
-         setup_budget_s, learning, run_dir, no_telemetry, report_dir, grid_position, skill_level, quiet,
+         setup_file, setup_budget_s, learning, run_dir, no_telemetry, report_dir, grid_position, skill_level, quiet,
          verbose) -> None:
     """Run one race in TORCS (console mode) and print the results.
 
@@ -74,9 +77,10 @@ def race(track, car, laps, robots, opponents, fuel_laps, pit_laps, pit_mode, jso
     from boxbox.robot.params import parse_set
     from boxbox.torcs import checks, launch
 
-    options = RaceOptions(fuel_laps=fuel_laps, pit_laps=tuple(sorted(pit_laps)), pit_mode=pit_mode,
-                          robot_args={"set": parse_set(settings)} if settings else {})
     specs = list(robots) or [DEFAULT_ROBOT]
+    values = {**_setup_values(setup_file, specs), **parse_set(settings)}
+    options = RaceOptions(fuel_laps=fuel_laps, pit_laps=tuple(sorted(pit_laps)), pit_mode=pit_mode,
+                          robot_args={"set": values} if values else {})
     names = _robot_names(specs, options, track, car)
     overlay = ready()  # first: on a fresh machine the names below can only be checked once TORCS is there
     category, opp = checks.check_race(track, car, len(specs), opponents, pit_laps, laps)
@@ -87,6 +91,18 @@ def race(track, car, laps, robots, opponents, fuel_laps, pit_laps, pit_mode, jso
                             skill_level=skill_level, grid_position=grid_slot, learning=learning,
                             json_file=json_file, verbose=verbose)  # the race writes RUN_DIR/result.json, then this
     _finish(run_with_progress(cfg, overlay, quiet or verbose), laps, report_dir)
+
+
+def _setup_values(setup_file: Path | None, specs: list[str]) -> dict:
+    """--setup FILE's values, checked against the robots that declare parameters."""
+    if setup_file is None:
+        return {}
+    from boxbox.robot.loader import load_robot_class
+    from boxbox.robot.tunable import check_setup_for, read_setup
+
+    values = read_setup(setup_file)
+    check_setup_for([load_robot_class(s) for s in specs], values, str(setup_file))
+    return values
 
 
 def _robot_names(specs: list[str], options, track: str, car: str) -> list[str]:

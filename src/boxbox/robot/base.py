@@ -31,6 +31,11 @@ class Robot:
     """
 
     name = "robot"
+    # tunable parameters (robot/tunable.py, `boxbox tune`): a dataclass of defaults, search ranges
+    # (name -> robot.params.Bound) and the values of str parameters
+    param_class: type | None = None
+    param_bounds: dict = {}
+    param_choices: dict = {}
 
     def __init__(self, options: RaceOptions | None = None) -> None:
         self.options = options or RaceOptions()
@@ -40,7 +45,12 @@ class Robot:
 
     @classmethod
     def check_setup(cls, options: RaceOptions, track_name: str, car_name: str) -> None:
-        """Raise boxbox.errors.UsageError for bad robot settings, before TORCS starts."""
+        """Raise boxbox.errors.UsageError for bad robot settings, before TORCS starts.  Default: the
+        settings checked against the declared `param_class`, if any."""
+        from boxbox.robot.tunable import declares_params, param_space
+
+        if declares_params(cls) and options.robot_args.get("set"):
+            param_space(cls).check(options.robot_args["set"], "--set")
 
     def initial_fuel_l(self, track: Track, car: Car) -> float | None:
         """Litres to start with, or None for the car's default.  Default: honour --fuel-laps."""

@@ -34,7 +34,7 @@ from boxbox.robot.carsetup import best_rear_wing_rad
 from boxbox.robot.drivable import centre_room
 from boxbox.robot.learning import TurnLearner
 from boxbox.robot.opponents import Nearby, OpponentParams, collision_brake, nearby, overtake_offset, side_steer
-from boxbox.robot.params import TutorialParams, load_params
+from boxbox.robot.params import BOUNDS, CHOICES, TutorialParams, load_params
 from boxbox.robot.pit import PitParams, PitStops
 from boxbox.robot.racingline import RacingLine, middle_line
 from boxbox.robot.strategy import plan_stops
@@ -50,6 +50,9 @@ LOCK_MIN_SPEED_MPS = 10.0  # below this (leaving the grid onto the line) full lo
 
 class TutorialRobot(Robot):
     name = "boxbox"
+    param_class = TutorialParams  # what `boxbox tune` may search (robot/tunable.py)
+    param_bounds = BOUNDS
+    param_choices = CHOICES
 
     def __init__(self, options: RaceOptions | None = None) -> None:
         super().__init__(options)

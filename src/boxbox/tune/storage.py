@@ -1,0 +1,205 @@
+"""Where a study lives, and what happens to the trial of a worker that died.
+
+- Default: an Optuna journal file in the cache (CACHE/tune/NAME.log), for the workers of one
+  machine.  Optuna's journal has no heartbeat, so each trial notes its worker (host, pid and the
+  process's start time); a RUNNING trial whose worker process is gone is failed and queued again
+  (the same retry as Optuna's RetryHeartbeatStaleTrialCallback) by the next worker that looks.
+- `postgresql://USER@HOST/DB` (or `sqlite:///FILE`): Optuna's RDBStorage through SQLAlchemy and
+  psycopg, with Optuna's heartbeat: a trial whose worker has not beaten for the grace period (any
+  machine) is failed and retried by RetryHeartbeatStaleTrialCallback.
+
+Workers take trials under a lock (a file lock, a PostgreSQL advisory lock), so that a study ends
+with exactly the asked number of finished trials however many workers join it.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import fcntl
+import os
+import re
+import socket
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+from boxbox.errors import UsageError
+
+STUDY_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]{0,99}$")
+WORKER_ATTR = "worker"  # "host:pid:start" of the process running the trial
+ADVISORY_LOCK_KEY = 0x626F78  # PostgreSQL advisory lock taken while a worker claims a trial
+NO_WORKER_GRACE_S = 60.0  # a RUNNING journal trial that never noted its worker is stale after this
+
+
+def journal_path(study: str) -> Path:
+    from boxbox.cache import cache_dir
+
+    return cache_dir() / "tune" / f"{study}.log"
+
+
+def describe(url: str | None, study: str) -> str:
+    if url is None:
+        return f"journal {journal_path(study)}"
+    return re.sub(r"://([^:@/]*):[^@/]*@", r"://\1:***@", url)  # no password on the screen
+
+
+def sqlalchemy_url(url: str) -> str:
+    """psycopg (version 3) for postgresql:// URLs; a URL that is not PostgreSQL or SQLite is refused."""
+    if url.startswith(("postgresql://", "postgres://")):
+        return "postgresql+psycopg://" + url.split("://", 1)[1]
+    if url.startswith(("postgresql+psycopg://", "sqlite:///")):
+        return url
+    raise UsageError(f"--storage: '{describe(url, '')}' is not a storage boxbox knows; give "
+                     "postgresql://USER@HOST/DB (or sqlite:///FILE), or leave it out for the journal file")
+
+
+def quiet_optuna() -> None:
+    """No log lines per trial, no warnings that heartbeats and retries are experimental features."""
+    import warnings
+
+    import optuna
+
+    optuna.logging.set_verbosity(optuna.logging.WARNING)
+    warnings.filterwarnings("ignore", category=optuna.exceptions.ExperimentalWarning)
+    warnings.filterwarnings("ignore", message="Heartbeat of storage is supposed to be used")
+
+
+class Storage:
+    """An Optuna storage for one study, with its stale-trial rule and its claim lock."""
+
+    def __init__(self, url: str | None, study: str, heartbeat_s: int = 5, grace_s: int = 15,
+                 max_retry: int = 3) -> None:
+        import optuna
+        from optuna.storages.journal import JournalFileBackend
+
+        quiet_optuna()
+        self.url, self.study_name, self.max_retry = url, study, max_retry
+        self._lock_conn: Any = None
+        if url is None:
+            path = journal_path(study)
+            path.parent.mkdir(parents=True, exist_ok=True)
+            self.path: Path | None = path
+            self.optuna: Any = optuna.storages.JournalStorage(JournalFileBackend(str(path)))
+            return
+        self.path = None
+        from optuna.storages import RetryHeartbeatStaleTrialCallback
+
+        try:
+            self.optuna = optuna.storages.RDBStorage(
+                sqlalchemy_url(url), heartbeat_interval=heartbeat_s,
+                grace_period=grace_s, heartbeat_stale_trial_callback=RetryHeartbeatStaleTrialCallback(max_retry))
+        except UsageError:
+            raise
+        except Exception as exc:  # sqlalchemy's ArgumentError, OperationalError...
+            first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+            raise UsageError(f"--storage {describe(url, study)}: cannot open it ({first}); "
+                             "check the URL, that the server runs and the user may connect") from None
+
+    @property
+    def has_heartbeat(self) -> bool:
+        return self.url is not None
+
+    @contextlib.contextmanager
+    def claim_lock(self) -> Iterator[None]:
+        """Held while a worker counts the trials and takes one: a file lock beside the journal or
+        the SQLite file, a PostgreSQL advisory lock."""
+        lock_file = self.path.with_suffix(".lock") if self.path is not None else \
+            Path(self.url.removeprefix("sqlite:///") + ".lock") if self.url and self.url.startswith("sqlite:///") \
+            else None
+        if lock_file is not None:
+            with open(lock_file, "a") as f:
+                fcntl.flock(f, fcntl.LOCK_EX)
+                try:
+                    yield
+                finally:
+                    fcntl.flock(f, fcntl.LOCK_UN)
+            return
+        if self.url is not None and self.url.startswith("postgres"):
+            from sqlalchemy import text
+
+            with self.optuna.engine.connect() as conn:
+                conn.execute(text("SELECT pg_advisory_lock(:k)"), {"k": ADVISORY_LOCK_KEY})
+                try:
+                    yield
+                finally:
+                    conn.execute(text("SELECT pg_advisory_unlock(:k)"), {"k": ADVISORY_LOCK_KEY})
+            return
+        yield
+
+    def counts(self, study: Any) -> dict[str, int]:
+        """Trials per state name: one COUNT query on a database (reading every trial costs more
+        as the study grows), from memory for the journal."""
+        if self.url is None:
+            out: dict[str, int] = {}
+            for t in study.get_trials(deepcopy=False):
+                out[t.state.name] = out.get(t.state.name, 0) + 1
+            return out
+        from sqlalchemy import text
+
+        with self.optuna.engine.connect() as conn:
+            rows = conn.execute(text("SELECT state, count(*) FROM trials WHERE study_id = :s GROUP BY state"),
+                                {"s": study._study_id})
+            return {str(state).rpartition(".")[2]: int(n) for state, n in rows}
+
+    def beat(self, trial_id: int) -> None:
+        if self.has_heartbeat:
+            self.optuna.record_heartbeat(trial_id)
+
+    def fail_stale(self, study: Any) -> list[int]:
+        """Fail (and queue again) the RUNNING trials whose worker is gone; their ids."""
+        import optuna
+
+        if self.has_heartbeat:
+            stale = self.optuna._get_stale_trial_ids(study._study_id)  # one query; usually none
+            if stale:
+                optuna.storages.fail_stale_trials(study)
+            return stale
+        return self._fail_dead_local(study)
+
+    def _fail_dead_local(self, study: Any) -> list[int]:
+        import datetime
+
+        import optuna
+        from optuna.storages import RetryHeartbeatStaleTrialCallback
+
+        failed = []
+        retry = RetryHeartbeatStaleTrialCallback(self.max_retry)
+        for trial in study.get_trials(deepcopy=False, states=(optuna.trial.TrialState.RUNNING,)):
+            worker = trial.user_attrs.get(WORKER_ATTR)
+            if worker is None:
+                started = trial.datetime_start or datetime.datetime.now()
+                if (datetime.datetime.now() - started).total_seconds() < NO_WORKER_GRACE_S:
+                    continue
+            elif worker_alive(worker):
+                continue
+            if self.optuna.set_trial_state_values(trial._trial_id, optuna.trial.TrialState.FAIL):
+                failed.append(trial._trial_id)
+                retry(study, self.optuna.get_trial(trial._trial_id))
+        return failed
+
+
+def worker_tag() -> str:
+    """host:pid:start time of this process (the start time tells a reused pid apart)."""
+    return f"{socket.gethostname()}:{os.getpid()}:{_start_ticks(os.getpid())}"
+
+
+def _start_ticks(pid: int) -> str:
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text()
+    except OSError:
+        return "?"
+    return stat.rpartition(")")[2].split()[19]  # field 22, starttime, counted after the ")"
+
+
+def worker_alive(tag: str) -> bool:
+    """Whether the worker named by tag still runs (a worker of another host counts as alive: the
+    journal file is for one machine)."""
+    host, _, rest = tag.partition(":")
+    pid_text, _, start = rest.partition(":")
+    if host != socket.gethostname():
+        return True
+    try:
+        pid = int(pid_text)
+    except ValueError:
+        return False
+    return _start_ticks(pid) == start

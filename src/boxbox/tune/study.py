@@ -1,0 +1,346 @@
+"""A study: its creation, the worker loop that takes trials until the study has enough, and the
+figures of a finished study (best against the defaults, time saved by pruning).
+
+Workers stop on Ctrl-C, SIGTERM or SIGHUP after the race that runs: its trial is marked failed
+and queued again (a resumed study runs it), so the study never holds a half-written trial.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+from boxbox.tune.objective import RESULT_ATTR, TrialInterrupted, TuneConfig, make_objective, sweep_dead_runs
+from boxbox.tune.storage import WORKER_ATTR, Storage, worker_tag
+
+FINISHED = ("COMPLETE", "PRUNED")
+WAIT_S = 1.0  # a worker with nothing to take looks again after this
+
+
+def open_study(cfg: TuneConfig, storage: Storage | None = None, create: bool = False) -> tuple[Any, Storage]:
+    """The study (created when asked and missing), with cfg's sampler and pruner."""
+    import optuna
+
+    storage = storage or Storage(cfg.storage, cfg.study, cfg.heartbeat_s, cfg.grace_s, cfg.max_retry)
+    # multivariate: the parameters sampled together (grip in turns and under braking go together),
+    # and the trials read once per trial instead of once per parameter
+    sampler = optuna.samplers.TPESampler(seed=cfg.seed, n_startup_trials=min(10, max(2, cfg.trials // 5)),
+                                         multivariate=True)
+    # the first tracks decide little: prune only once a few trials have finished all of them
+    pruner = optuna.pruners.MedianPruner(n_startup_trials=5, n_warmup_steps=0) if cfg.prune \
+        else optuna.pruners.NopPruner()
+    study = optuna.create_study(study_name=cfg.study, storage=storage.optuna, sampler=sampler, pruner=pruner,
+                                direction="minimize", load_if_exists=True) if create else \
+        optuna.load_study(study_name=cfg.study, storage=storage.optuna, sampler=sampler, pruner=pruner)
+    return study, storage
+
+
+def counts(study: Any) -> dict[str, int]:
+    out: dict[str, int] = {}
+    for t in study.get_trials(deepcopy=False):
+        out[t.state.name] = out.get(t.state.name, 0) + 1
+    return out
+
+
+class StopFlag:
+    """Ctrl-C, SIGTERM, SIGHUP noted (a race that runs notes them too, and stops)."""
+
+    def __init__(self) -> None:
+        self.event = threading.Event()
+
+    def install(self) -> None:
+        if threading.current_thread() is threading.main_thread():
+            for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+                signal.signal(sig, lambda *_: self.event.set())
+
+    @property
+    def set(self) -> bool:
+        return self.event.is_set()
+
+
+def _claim(study: Any, storage: Storage, target: int) -> tuple[Any, bool]:
+    """(a trial to run or None, whether the study has all its trials), taken under the lock: a
+    queued (retried) trial first, a new one only while finished + running + queued < target."""
+    with storage.claim_lock():
+        storage.fail_stale(study)
+        c = storage.counts(study)
+        finished = sum(c.get(s, 0) for s in FINISHED)
+        if finished >= target:
+            return None, True
+        if c.get("WAITING", 0) == 0 and finished + c.get("RUNNING", 0) >= target:
+            return None, False  # others run the last trials: wait, one of them may die
+        trial = study.ask()
+        trial.set_user_attr(WORKER_ATTR, worker_tag())
+        storage.beat(trial._trial_id)
+        return trial, False
+
+
+def _beating(storage: Storage, trial_id: int, interval_s: float) -> threading.Event:
+    done = threading.Event()
+
+    def beat() -> None:
+        while not done.wait(interval_s):
+            try:
+                storage.beat(trial_id)
+            except Exception:  # a database hiccup: the next beat tries again
+                pass
+
+    if storage.has_heartbeat:
+        threading.Thread(target=beat, daemon=True, name="boxbox-heartbeat").start()
+    return done
+
+
+def run_worker(cfg: TuneConfig, cpu: int | None = None, stop: StopFlag | None = None) -> int:
+    """Take and run trials until the study has cfg.trials finished ones (or a stop signal); the
+    number of trials this worker finished."""
+
+    from boxbox.robot.loader import load_robot_class
+    from boxbox.robot.tunable import param_space
+    from boxbox.tune.space import distributions
+
+    stop = stop or StopFlag()
+    sweep_dead_runs()
+    study, storage = open_study(cfg)
+    objective = make_objective(cfg, distributions(param_space(load_robot_class(cfg.robot)), cfg.params), cpu)
+    try:
+        return _work(cfg, study, storage, objective, stop)
+    except Exception as exc:
+        import optuna
+        import sqlalchemy.exc
+
+        if not isinstance(exc, sqlalchemy.exc.SQLAlchemyError | optuna.exceptions.StorageInternalError | OSError):
+            raise
+        from boxbox.errors import BoxboxError
+        from boxbox.tune.storage import describe
+
+        cause = exc.__cause__ if isinstance(exc, optuna.exceptions.StorageInternalError) and exc.__cause__ else exc
+        first = (str(cause).strip().splitlines() or [type(cause).__name__])[0]
+        raise BoxboxError(f"the study's storage ({describe(cfg.storage, cfg.study)}) failed: {first}; "
+                          f"its finished trials are kept: resume with --study {cfg.study}") from None
+
+
+def _work(cfg: TuneConfig, study: Any, storage: Storage, objective: Callable[[Any], float], stop: StopFlag) -> int:
+    import optuna
+
+    done_here = 0
+    while not stop.set:
+        trial, complete = _claim(study, storage, cfg.trials)
+        if complete:
+            break
+        if trial is None:
+            stop.event.wait(WAIT_S)
+            continue
+        beating = _beating(storage, trial._trial_id, cfg.heartbeat_s)
+        try:
+            done_here += _run_trial(study, trial, objective, stop)
+        except optuna.exceptions.UpdateFinishedTrialError:
+            pass  # another worker found this one stale (no heartbeat for the grace period) and retried it
+        finally:
+            beating.set()
+    return done_here
+
+
+def _run_trial(study: Any, trial: Any, objective: Callable[[Any], float], stop: StopFlag) -> int:
+    """Run one trial and tell the study how it ended; 1 if it finished (complete or pruned)."""
+    import optuna
+
+    try:
+        value = objective(trial)
+    except optuna.TrialPruned:
+        study.tell(trial, state=optuna.trial.TrialState.PRUNED)
+        return 1
+    except TrialInterrupted:
+        stop.event.set()
+        _fail_and_requeue(study, trial, "interrupted")
+        return 0
+    except optuna.exceptions.UpdateFinishedTrialError:
+        raise
+    except Exception as exc:  # a bug in a robot's code path we did not foresee: this trial only
+        trial.set_user_attr("error", f"{type(exc).__name__}: {exc}"[:300])
+        study.tell(trial, state=optuna.trial.TrialState.FAIL)
+        return 0
+    study.tell(trial, value)
+    return 1
+
+
+def _fail_and_requeue(study: Any, trial: Any, why: str) -> None:
+    """The trial failed, its parameters queued again (the next worker, or a resumed study, runs them)."""
+    import optuna
+
+    trial.set_user_attr("stopped", why)
+    study.tell(trial, state=optuna.trial.TrialState.FAIL)
+    frozen = study._storage.get_trial(trial._trial_id)
+    study.add_trial(optuna.trial.create_trial(state=optuna.trial.TrialState.WAITING, params=frozen.params,
+                                              distributions=frozen.distributions,
+                                              system_attrs={"failed_trial": frozen.number,
+                                                            "retry_history": [frozen.number]}))
+
+
+# --- several local workers ------------------------------------------------------------------------
+def spawn_workers(cfg: TuneConfig, n: int) -> list[subprocess.Popen]:
+    """n worker processes (python -m boxbox.tune.worker), worker i racing on core i (mod the cores);
+    each dies with this process."""
+    cpus = sorted(os.sched_getaffinity(0))
+    procs = []
+    for i in range(n):
+        cpu = cpus[i % len(cpus)] if cpus else -1
+        # each worker its own seed: with one seed they would sample the same points side by side
+        seeded = cfg if cfg.seed is None else dataclasses.replace(cfg, seed=cfg.seed + i)
+        procs.append(subprocess.Popen([sys.executable, "-m", "boxbox.tune.worker", seeded.to_json(), str(cpu)],
+                                      stdin=subprocess.DEVNULL, preexec_fn=_die_with_parent))
+    return procs
+
+
+def _die_with_parent() -> None:
+    from boxbox.torcs.processes import PR_SET_PDEATHSIG, _libc
+
+    _libc.prctl(PR_SET_PDEATHSIG, signal.SIGKILL)
+
+
+# --- the figures of a study -----------------------------------------------------------------------
+@dataclass
+class Progress:
+    finished: int
+    complete: int
+    pruned: int
+    failed: int
+    running: int
+    best_value: float | None
+    best_params: dict
+
+
+def progress(study: Any) -> Progress:
+    import optuna
+
+    c = counts(study)
+    try:
+        best = study.best_trial
+        value, params = best.value, best.params
+    except (ValueError, optuna.exceptions.OptunaError):
+        value, params = None, {}
+    return Progress(finished=c.get("COMPLETE", 0) + c.get("PRUNED", 0), complete=c.get("COMPLETE", 0),
+                    pruned=c.get("PRUNED", 0), failed=c.get("FAIL", 0), running=c.get("RUNNING", 0),
+                    best_value=value, best_params=params)
+
+
+def pruning_savings(study: Any, n_tracks: int) -> tuple[int, int, float]:
+    """(races skipped by pruning, races run, an estimate of the wall time saved: the skipped races
+    at the mean wall time of a race)."""
+    import optuna
+
+    skipped = run = 0
+    walls = []
+    for t in study.get_trials(deepcopy=False, states=(optuna.trial.TrialState.COMPLETE,
+                                                      optuna.trial.TrialState.PRUNED)):
+        result = t.user_attrs.get(RESULT_ATTR, {})
+        races = result.get("races", [])
+        run += len(races)
+        walls += [r.get("wall_s", 0.0) for r in races]
+        skipped += int(result.get("races_skipped", 0))
+    mean = sum(walls) / len(walls) if walls else 0.0
+    return skipped, run, skipped * mean
+
+
+def compare(cfg: TuneConfig, best: dict, tracks: list[str] | None = None,
+            on_race: Callable[[str, str], None] | None = None) -> list[dict]:
+    """Per track, the race time with the robot's own values (no settings) and with `best`."""
+    from boxbox.torcs import checks
+    from boxbox.tune.objective import run_race
+
+    tracks = tracks or cfg.tracks
+    cats = [checks.check_race(t, cfg.car, 1, (), (), cfg.laps)[0] for t in tracks]
+    local = TuneConfig(**{**cfg.__dict__, "tracks": tracks, "categories": cats})
+    rows = []
+    for i, track in enumerate(tracks):
+        row: dict = {"track": track}
+        for label, settings in (("defaults", {}), ("best", best)):
+            if on_race:
+                on_race(track, label)
+            s = run_race(local, i, settings, None)
+            row[label] = s.score_s
+            row[f"{label}_problem"] = s.problem
+        rows.append(row)
+    return rows
+
+
+def wait_workers(procs: list[subprocess.Popen], tick: Callable[[], None], stop: StopFlag) -> None:
+    """Until every worker has ended: tick() every second; on a stop signal, pass it on once.  A
+    worker that failed (its error is on stderr already) is an error once all have ended."""
+    passed = False
+    while any(p.poll() is None for p in procs):
+        if stop.set and not passed:
+            for p in procs:
+                if p.poll() is None:
+                    p.send_signal(signal.SIGINT)
+            passed = True
+        tick()
+        time.sleep(0.5)
+    tick()
+    failed = [p.returncode for p in procs if p.returncode not in (0, 130, -signal.SIGINT)]
+    if failed:
+        from boxbox.errors import BoxboxError
+
+        raise BoxboxError(f"{len(failed)} of {len(procs)} workers failed (exit status {failed[0]}); see above")
+
+
+# --- a whole run: the study made, its workers run, watched -------------------------------------------
+STUDY_KEYS = ("robot", "tracks", "params", "laps", "car", "skill_level", "damage_limit")
+
+
+def prepare(cfg: TuneConfig) -> Any:
+    """The study, created or resumed (its settings must match cfg's); a new study's first trial is
+    the robot's declared defaults."""
+    from boxbox.errors import UsageError
+    from boxbox.robot.loader import load_robot_class
+    from boxbox.robot.tunable import param_space
+    from boxbox.tune.space import defaults_in_space, distributions
+
+    study, storage = open_study(cfg, create=True)
+    mine = {k: getattr(cfg, k) for k in STUDY_KEYS}
+    with storage.claim_lock():  # processes started together: one of them enqueues the defaults
+        theirs = study.user_attrs.get("boxbox")
+        if theirs is None:
+            study.set_user_attr("boxbox", mine)
+            space = param_space(load_robot_class(cfg.robot))
+            if not study.get_trials(deepcopy=False):
+                study.enqueue_trial(defaults_in_space(space, distributions(space, cfg.params)))
+    if theirs is not None and {k: theirs.get(k) for k in STUDY_KEYS} != mine:
+        diff = ", ".join(f"{k} {theirs.get(k)!r}" for k in STUDY_KEYS if theirs.get(k) != mine[k])
+        raise UsageError(f"study '{cfg.study}' was made with {diff}; resume it with those, or give another --study")
+    return study
+
+
+def run(cfg: TuneConfig, workers: int, tick: Callable[[Any], None], stop: StopFlag) -> Any:
+    """Run the study to cfg.trials finished trials with `workers` local workers (1: this process),
+    calling tick(study) about every second; returns the study."""
+    study = prepare(cfg)
+    watcher, _ = open_study(cfg)  # its own storage connection: the worker's is busy in races
+    if workers == 1:
+        done = threading.Event()
+
+        def watch() -> None:
+            while not done.wait(1.0):
+                try:
+                    tick(watcher)
+                except Exception:  # a busy database: the next tick shows it
+                    pass
+
+        thread = threading.Thread(target=watch, daemon=True, name="boxbox-tune-watch")
+        thread.start()
+        try:
+            run_worker(cfg, None, stop)
+        finally:
+            done.set()
+            thread.join()
+    else:
+        wait_workers(spawn_workers(cfg, workers), lambda: tick(watcher), stop)
+    tick(watcher)
+    return study

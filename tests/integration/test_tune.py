@@ -1,0 +1,240 @@
+"""boxbox tune against real races and a real PostgreSQL server: workers killed with SIGKILL in the
+middle of a trial lose only that trial, which is run again; bad input exits 2 before any race."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+import uuid
+from pathlib import Path
+
+import pytest
+
+pytestmark = pytest.mark.torcs
+
+TRACK = "g-track-1"  # about 0.4 s of wall time a lap here
+
+
+@pytest.fixture(scope="module")
+def postgres():
+    """A real PostgreSQL (Debian's package, installed when missing): initdb in a temp dir, a unix
+    socket there, an unprivileged user; stopped and removed afterwards."""
+    from boxbox.tune.postgres import TempServer
+
+    with TempServer() as server:
+        folder = server.folder
+        yield server
+    assert folder is not None and not folder.exists()
+
+
+def tune_cmd(*args: str) -> list[str]:
+    return [sys.executable, "-m", "boxbox.cli", "tune", "--tracks", TRACK, "--params", "mu_scale", "--laps", "2",
+            "--quiet", "--no-compare", *args]
+
+
+def load(storage_url: str | None, study: str):
+    from boxbox.tune.objective import TuneConfig
+    from boxbox.tune.study import open_study
+
+    study_obj, _ = open_study(TuneConfig(study=study, storage=storage_url))
+    return study_obj
+
+
+def kill_mid_trial(proc: subprocess.Popen, storage_url: str | None, study: str, timeout_s: float = 60,
+                   sig: int = signal.SIGKILL) -> int:
+    """Signal proc (SIGKILL) while a trial of its own is RUNNING; the trial's number."""
+    import optuna
+
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        assert proc.poll() is None, "the worker ended before it could be killed mid-trial"
+        try:
+            running = load(storage_url, study).get_trials(states=(optuna.trial.TrialState.RUNNING,))
+        except Exception:  # the study is not made yet
+            running = []
+        mine = [t for t in running if t.user_attrs.get("worker", "").split(":")[1:2] == [str(proc.pid)]]
+        if mine:
+            time.sleep(0.3)  # inside its races
+            proc.send_signal(sig)
+            proc.wait(30)
+            return mine[0].number
+        time.sleep(0.05)
+    raise AssertionError("no trial of the worker seen running")
+
+
+def assert_retried(study, killed: int, trials: int) -> None:
+    import optuna
+
+    states = [t.state for t in study.trials]
+    assert states.count(optuna.trial.TrialState.COMPLETE) == trials
+    assert states.count(optuna.trial.TrialState.RUNNING) == 0 and states.count(optuna.trial.TrialState.WAITING) == 0
+    assert study.trials[killed].state == optuna.trial.TrialState.FAIL
+    retried = [t for t in study.trials if t.system_attrs.get("failed_trial") == killed]
+    assert len(retried) == 1 and retried[0].state == optuna.trial.TrialState.COMPLETE
+    assert retried[0].params == study.trials[killed].params
+
+
+def test_two_workers_on_postgres_one_killed(overlay, postgres, tmp_path):
+    study = f"kill-{uuid.uuid4().hex[:8]}"
+    common = ("--storage", postgres.url, "--study", study, "--trials", "6", "--grace-s", "3", "--setup-out",
+              str(tmp_path / "best.toml"))
+    a = subprocess.Popen(tune_cmd(*common, "--seed", "1"), stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    time.sleep(1.0)  # a first: it makes the study
+    b = subprocess.Popen(tune_cmd(*common, "--seed", "2"), stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    try:
+        killed = kill_mid_trial(a, postgres.url, study)
+        _, b_err = b.communicate(timeout=180)
+        assert b.returncode == 0, b_err.decode()
+    finally:
+        for p in (a, b):
+            if p.poll() is None:
+                p.kill()
+    assert_retried(load(postgres.url, study), killed, 6)
+
+
+def test_journal_resumes_after_kill(overlay):
+    from boxbox.tune.storage import journal_path
+
+    study = f"resume-{uuid.uuid4().hex[:8]}"
+    path = journal_path(study)
+    try:
+        a = subprocess.Popen(tune_cmd("--study", study, "--trials", "5"), stdout=subprocess.DEVNULL,
+                             stderr=subprocess.PIPE)
+        try:
+            killed = kill_mid_trial(a, None, study)
+        finally:
+            if a.poll() is None:
+                a.kill()
+        done = subprocess.run(tune_cmd("--study", study, "--trials", "5"), capture_output=True, text=True,
+                              timeout=180)
+        assert done.returncode == 0, done.stderr
+        assert_retried(load(None, study), killed, 5)
+        from boxbox.tune.objective import runs_root
+
+        assert not [p for p in runs_root().iterdir() if p.name.startswith(f"{a.pid}:")]  # its race folder swept
+        setup = path.with_suffix(".toml")
+        assert setup.read_text().count("mu_scale = ") == 1
+    finally:
+        for p in (path, path.with_suffix(".lock"), path.with_suffix(".toml")):
+            p.unlink(missing_ok=True)
+
+
+def test_ctrl_c_leaves_no_half_written_trial(overlay):
+    import optuna
+
+    from boxbox.tune.storage import journal_path
+
+    study = f"int-{uuid.uuid4().hex[:8]}"
+    try:
+        proc = subprocess.Popen(tune_cmd("--study", study, "--trials", "30"), stdout=subprocess.DEVNULL,
+                                stderr=subprocess.PIPE)
+        try:
+            stopped = kill_mid_trial(proc, None, study, sig=signal.SIGINT)
+        finally:
+            if proc.poll() is None:
+                proc.kill()
+        assert proc.returncode == 130 and "resume with --study" in proc.stderr.read().decode()
+        trials = load(None, study).trials
+        assert optuna.trial.TrialState.RUNNING not in [t.state for t in trials]
+        assert trials[stopped].state == optuna.trial.TrialState.FAIL
+        assert trials[-1].state == optuna.trial.TrialState.WAITING and trials[-1].params == trials[stopped].params
+    finally:
+        path = journal_path(study)
+        for p in (path, path.with_suffix(".lock"), path.with_suffix(".toml")):
+            p.unlink(missing_ok=True)
+
+
+def test_two_local_workers_share_a_study(overlay, tmp_path):
+    from boxbox.tune.storage import journal_path
+
+    study = f"two-{uuid.uuid4().hex[:8]}"
+    try:
+        done = subprocess.run(tune_cmd("--study", study, "--trials", "4", "--workers", "2", "--seed", "3",
+                                       "--report", str(tmp_path)), capture_output=True, text=True, timeout=180)
+        assert done.returncode == 0, done.stderr
+        trials = load(None, study).trials
+        assert len(trials) == 4 and len({t.user_attrs["worker"] for t in trials}) == 2
+        assert len({t.params["mu_scale"] for t in trials}) == 4  # the workers did not sample the same points
+        page = (tmp_path / "report.html").read_text()
+        assert "Optimisation history" in page and page.count("data:image/png;base64") >= 2
+    finally:
+        path = journal_path(study)
+        for p in (path, path.with_suffix(".lock"), path.with_suffix(".toml")):
+            p.unlink(missing_ok=True)
+
+
+@pytest.mark.parametrize("args, message", [
+    (("--params", "mu_scal"), "did you mean mu_scale"),
+    (("--params", "name"), "is not a parameter"),
+    (("--storage", "mysql://me@host/db"), "is not a storage boxbox knows"),
+    (("--storage", "postgresql://nobody@/nothing?host=/nonexistent"), "cannot open it"),
+    (("--tracks", "g-track-9"), "g-track-1"),
+])
+def test_bad_input_exits_2(overlay, args, message):
+    base = ["--tracks", TRACK, "--params", "mu_scale", "--trials", "1", "--laps", "1", "--quiet", "--study",
+            f"bad-{uuid.uuid4().hex[:8]}"]
+    proc = subprocess.run([sys.executable, "-m", "boxbox.cli", "tune", *base, *args], capture_output=True, text=True,
+                          timeout=60)
+    assert proc.returncode == 2, proc.stderr
+    assert message in proc.stderr and len(proc.stderr.strip().splitlines()) == 1
+    from boxbox.tune.storage import journal_path
+
+    assert not journal_path(base[-1]).exists()  # nothing left behind
+
+
+def test_race_setup_file(overlay, tmp_path):
+    import boxbox
+    from boxbox.errors import UsageError
+
+    good = tmp_path / "good.toml"
+    good.write_text("mu_scale = 0.9\n")
+    with_file = boxbox.race(TRACK, laps=1, setup=good, telemetry=False)
+    with_set = boxbox.race(TRACK, laps=1, settings={"mu_scale": 0.9}, telemetry=False)
+    assert with_file.drivers[0].time == with_set.drivers[0].time
+    bad = tmp_path / "bad.toml"
+    bad.write_text("mu_scal = 0.9\n")
+    with pytest.raises(UsageError, match="unknown parameter 'mu_scal'"):
+        boxbox.race(TRACK, laps=1, setup=bad)
+    proc = subprocess.run([sys.executable, "-m", "boxbox.cli", "race", "--setup", str(bad)], capture_output=True,
+                          text=True, timeout=60, env={**os.environ})
+    assert proc.returncode == 2 and "mu_scal" in proc.stderr
+
+
+def test_a_users_robot_declares_its_own_parameters(overlay, tmp_path):
+    """The example of docs/tuning.md, tuned and raced with the setup it gets."""
+    import re
+
+    doc = (Path(__file__).resolve().parents[2] / "docs" / "tuning.md").read_text()
+    code = re.search(r"<!-- example: tunable -->\s*```python\n(.*?)```", doc, re.S)
+    assert code, "docs/tuning.md has no tunable example"
+    (tmp_path / "follower.py").write_text(code.group(1))
+    robot = f"{tmp_path / 'follower.py'}:TunedFollower"
+    setup = tmp_path / "best.toml"
+    study = f"user-{uuid.uuid4().hex[:8]}"
+    done = subprocess.run([sys.executable, "-m", "boxbox.cli", "tune", "--robot", robot, "--tracks", TRACK, "--laps",
+                           "1", "--params", "accel,steer_gain_per_m,mode", "--trials", "3", "--quiet", "--no-compare",
+                           "--study", study, "--setup-out", str(setup)],
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    from boxbox.robot.tunable import read_setup
+
+    best = read_setup(setup)
+    assert set(best) == {"accel", "steer_gain_per_m", "mode"} and 0.2 <= best["accel"] <= 1.0
+    race = subprocess.run([sys.executable, "-m", "boxbox.cli", "race", "--robot", robot, "--track", TRACK, "--laps",
+                           "1", "--setup", str(setup), "--quiet", "--no-telemetry"], capture_output=True, text=True,
+                          timeout=300)
+    assert race.returncode == 0, race.stderr
+    bad = subprocess.run([sys.executable, "-m", "boxbox.cli", "tune", "--robot", robot, "--params", "gear"],
+                         capture_output=True, text=True, timeout=60)
+    assert bad.returncode == 2 and "searchable: accel, steer_gain_per_m, wide, mode" in bad.stderr
+    from boxbox.tune.storage import journal_path
+
+    for p in (journal_path(study), journal_path(study).with_suffix(".lock")):
+        p.unlink()
+
+
+def test_no_server_left(postgres):
+    assert Path(postgres.folder, "data", "postmaster.pid").exists()
