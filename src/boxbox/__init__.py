@@ -10,11 +10,11 @@ Race it with `boxbox race --robot my_robot.py:MyRobot`.
 """
 
 from boxbox.errors import UsageError
-from boxbox.model import Car, Controls, Opponent, PitOrder, State, Track
+from boxbox.model import Car, CarSetup, Controls, Opponent, PitOrder, State, Track
 from boxbox.robot.base import RaceOptions, Robot
 
 __version__ = "0.1.0"
-__all__ = ["Car", "Controls", "Opponent", "PitEvent", "PitOrder", "PitParams", "PitStops", "RaceOptions",
+__all__ = ["Car", "CarSetup", "Controls", "Opponent", "PitEvent", "PitOrder", "PitParams", "PitStops", "RaceOptions",
            "RaceResult", "Robot", "State", "Track", "UsageError", "race"]
 
 
