@@ -362,6 +362,8 @@ class Host:
         try:
             slot.track, slot.car = decode_track(blob, self.spec["track"], self.spec["category"])
             slot.car.name = self.spec["car"]
+            # TORCS tells the car's skill level at NEW_RACE; car_setup and on_track need it before
+            slot.car.skill_level = int(self.spec.get("skill_level", slot.car.skill_level))
             self._track_known(slot.track)
             fuel = self._call("initial_fuel_l", slot.robot.initial_fuel_l, slot.track, slot.car)
             if fuel is not None and not (isinstance(fuel, (int, float)) and 0 <= fuel < math.inf):

@@ -237,7 +237,8 @@ class Race:
                 "robots": [{"spec": s, "name": n} for s, n in zip(cfg.robots, cfg.names, strict=True)],
                 "options": dataclasses.asdict(cfg.options), "telemetry": cfg.telemetry,
                 "connect_timeout_s": cfg.time_model.start_limit_s(len(cfg.robots)),
-                "limits": {"laps": cfg.laps, "min_speed_mps": cfg.min_speed_mps}}
+                "limits": {"laps": cfg.laps, "min_speed_mps": cfg.min_speed_mps},
+                "skill_level": int(cfg.skill_level)}
 
     def _spawn_host(self, listen_fd: int, link_fd: int) -> ForkedHost | subprocess.Popen:
         if not os.environ.get("BOXBOX_HOST_EXEC") and hasattr(os, "fork"):
