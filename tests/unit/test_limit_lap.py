@@ -5,12 +5,22 @@ import pytest
 
 from boxbox.bench.limit import gap_percent, limit_lap, point_mass_car
 from boxbox.model.skill import SkillLevel
+from boxbox.torcs.wire import SIDE_PART_FIELDS
 from trackdata import load
 
 
 @pytest.fixture(scope="module")
 def aalborg():
-    return load("aalborg")
+    """tests/data's aalborg, recorded before the bridge sent the sides' parts: its first part beside
+    the track (`*_side_*`) stands in for the side, with no border."""
+    track, car = load("aalborg")
+    seg, zeros = track.seg, np.zeros(track.n_segments)
+    for side in ("left", "right"):
+        for name in SIDE_PART_FIELDS:
+            seg.setdefault(f"{side}_{name}", zeros.copy())
+        seg[f"{side}_outer_start_width_m"] = seg[f"{side}_outer_end_width_m"] = seg[f"{side}_side_width_m"]
+        seg[f"{side}_outer_friction"] = seg[f"{side}_side_friction"]
+    return track, car
 
 
 def test_more_room_and_more_grip_are_never_slower(aalborg):

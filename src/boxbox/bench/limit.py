@@ -109,11 +109,6 @@ def point_mass_car(car: Car, skill_level: SkillLevel, fuel_l: float = 0.0) -> Po
 
 
 def _side(seg: dict[str, np.ndarray], ids: np.ndarray, frac: np.ndarray, side: str) -> SideParts:
-    if f"{side}_outer_start_width_m" not in seg:  # recorded before the bridge sent the parts: only
-        zeros = np.zeros(len(ids))                # the first part beside the track is known
-        return SideParts(border_width_m=zeros, border_wall=zeros.astype(bool), border_friction=zeros,
-                         outer_width_m=seg[f"{side}_side_width_m"][ids].astype(float),
-                         outer_friction=seg[f"{side}_side_friction"][ids].astype(float))
     outer0, outer1 = seg[f"{side}_outer_start_width_m"][ids], seg[f"{side}_outer_end_width_m"][ids]
     return SideParts(border_width_m=seg[f"{side}_border_width_m"][ids].astype(float),
                      border_wall=seg[f"{side}_border_style"][ids] == BORDER_WALL,
