@@ -92,6 +92,7 @@ def test_bench_races_then_reads_the_cache(tmp_path, overlay):
         assert r["error"] is None and not r["cached"], r
         assert r["time"] > 0 and r["laps"] == 1 and 0 < r["best_lap"] <= r["time"] + 1e-6, r
         assert fmt_time(r["time"]) in first.stdout, (r, first.stdout)  # the table agrees with the JSON
+        assert r["limit_lap"] > 0 and r["limit_gap_pct"] > 0, r  # no lap beats the limit (docs/limit.md)
     for track in ("g-track-1", "michigan"):
         gaps = sorted(r["gap_to_best_s"] for r in rows if r["track"] == track)
         assert gaps[0] == 0.0 and gaps[1] >= 0.0

@@ -1,8 +1,10 @@
 """`boxbox limit` for real: the recorder robot's 0-lap race, the limit lap and its plot."""
 
+import json
 import re
 
 import numpy as np
+import pytest
 
 from boxbox.bench.limit import limit_lap
 from boxbox.model.skill import SkillLevel
@@ -29,10 +31,13 @@ def test_the_recorder_saves_track_sides_and_car(tmp_path, overlay):
 
 
 def test_limit_prints_the_time_and_writes_the_plot(tmp_path):
-    proc = run_boxbox("limit", "--track", "michigan", "--plot", str(tmp_path / "michigan.png"))
+    proc = run_boxbox("limit", "--track", "michigan", "--plot", str(tmp_path / "michigan.png"),
+                      "--json", str(tmp_path / "michigan.json"))
     assert proc.returncode == 0, proc.stderr
     lap = float(re.search(r"limit lap ([0-9.]+) s", proc.stdout).group(1))
     assert 25.0 < lap < 34.1  # below every robot's best lap on michigan (34.12 s, boxbox at semi-pro)
+    saved = json.loads((tmp_path / "michigan.json").read_text())
+    assert saved["lap_time_s"] == pytest.approx(lap, abs=0.01) and len(saved["speed_mps"]) == len(saved["dist_m"]) > 500
     assert (tmp_path / "michigan.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
