@@ -277,10 +277,10 @@ def test_box_qp_solver_matches_the_clipped_optimum_of_a_separable_problem() -> N
     """With a diagonal H the box-constrained optimum is the unconstrained one clipped to the box."""
     import scipy.sparse as sp
 
-    from boxbox.robot.racingline import _solve_box_qp
+    from boxbox.control.minline import solve_box_qp
 
     h_diag = np.array([1.0, 2.0, 4.0, 0.5])
     g = np.array([-4.0, 3.0, -1.0, 0.25])
     lo, hi = np.full(4, -1.0), np.full(4, 1.0)
-    x = _solve_box_qp(sp.diags(h_diag).tocsr(), g, lo, hi)
+    x = solve_box_qp(sp.diags(h_diag).tocsr(), g, lo, hi)
     assert np.allclose(x, np.clip(-g / h_diag, lo, hi), atol=1e-6)

@@ -19,15 +19,13 @@ import dataclasses
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from boxbox.cache import cached_array
+from boxbox.control import minline
+from boxbox.control.minline import closed_curvature, curvature_rows, solve_box_qp
 from boxbox.model.track import LEFT, STRAIGHT, Track
-
-if TYPE_CHECKING:  # annotations only: scipy is imported where a line is computed
-    import scipy.sparse as sp
 
 TWO_PI = 2.0 * math.pi
 
@@ -112,71 +110,13 @@ def middle_line(track: Track, step_m: float = 2.0, margin_m: float = 0.0) -> Mid
                       z_m=z0 + frac * (seg["end_z_m"].astype(float)[ids] - z0), bank_rad=b0 + frac * (b1 - b0))
 
 
-def _solve_box_qp(h: sp.csr_matrix, g: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-    """min 1/2 x'Hx + g'x subject to lo <= x <= hi, H sparse symmetric positive definite.
-
-    PIQP (a proximal interior-point QP solver, Schwan et al., "PIQP: A Proximal Interior-Point
-    Quadratic Programming Solver", IEEE CDC 2023) copes with this H: fourth differences make it
-    ill-conditioned, where first-order (ADMM) solvers crawl.  H is scaled to a unit diagonal
-    first; the optimum does not change."""
-    import piqp
-    import scipy.sparse as sp
-
-    scale = 1.0 / (float(np.abs(h.diagonal()).max()) or 1.0)
-    solver = piqp.SparseSolver()
-    solver.settings.eps_abs = 1e-10
-    solver.settings.eps_rel = 1e-12
-    solver.settings.eps_duality_gap_abs = 1e-12
-    solver.settings.eps_duality_gap_rel = 1e-12
-    solver.settings.max_iter = 500
-    solver.setup(sp.triu(h * scale).tocsc(), g * scale, x_l=lo, x_u=hi)
-    status = solver.solve()
-    if status != piqp.PIQP_SOLVED:
-        raise RuntimeError(f"racing line: the QP solver stopped with {status}")
-    return np.clip(solver.result.x, lo, hi)
-
-
 def _closed_curvature(x_m: np.ndarray, y_m: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Signed curvature (+ left), heading (unwrapped) and chord length to the next point for a
-    closed polyline of n distinct points.
-
-    Curvature: the circle through each point and its two neighbours (exact on sampled arcs).  An
-    interpolating cubic spline rings where the track's curvature jumps (straight to turn), giving
-    +-20 % spikes at every turn entry; the three-point circle does not."""
-    ax, ay = np.roll(x_m, 1), np.roll(y_m, 1)
-    bx, by = np.roll(x_m, -1), np.roll(y_m, -1)
-    cross = (x_m - ax) * (by - ay) - (y_m - ay) * (bx - ax)
-    d_in = np.hypot(x_m - ax, y_m - ay)
-    d_out = np.hypot(bx - x_m, by - y_m)
-    d_across = np.hypot(bx - ax, by - ay)
-    k = 2.0 * cross / np.maximum(d_in * d_out * d_across, 1e-12)
-    heading = np.unwrap(np.arctan2(by - ay, bx - ax))
+    """Signed curvature (+ left, the circle through each point and its two neighbours: exact on
+    sampled arcs, where an interpolating spline rings at every turn entry), heading (unwrapped) and
+    chord length to the next point for a closed polyline of n distinct points."""
+    k, d_out = closed_curvature(x_m, y_m)
+    heading = np.unwrap(np.arctan2(np.roll(y_m, -1) - np.roll(y_m, 1), np.roll(x_m, -1) - np.roll(x_m, 1)))
     return k, heading, d_out
-
-
-def _linear_curvature(px: np.ndarray, py: np.ndarray, nx: np.ndarray, ny: np.ndarray, off: np.ndarray):
-    """Curvature of the line P + off N linearised around `off`: k ~ A off' + c (A sparse, n x n).
-
-    With the current line's unit normal u_i and spacing ds_i, k_i ~ w_i u_i . (R_{i+1} - 2 R_i +
-    R_{i-1}) for R_j = P_j + off_j N_j and w_i = 1 / ds_i^2."""
-    import scipy.sparse as sp
-
-    n = len(px)
-    idx = np.arange(n)
-    prv, nxt = np.roll(idx, 1), np.roll(idx, -1)
-    x, y = px + off * nx, py + off * ny
-    tx = np.roll(x, -1) - np.roll(x, 1)
-    ty = np.roll(y, -1) - np.roll(y, 1)
-    ds = np.maximum(0.5 * np.hypot(tx, ty), 1e-6)
-    ux, uy = -ty / (2 * ds), tx / (2 * ds)
-    w = 1.0 / (ds * ds)
-    c = w * (ux * (np.roll(px, -1) - 2 * px + np.roll(px, 1)) + uy * (np.roll(py, -1) - 2 * py + np.roll(py, 1)))
-    a_prev = w * (ux * nx[prv] + uy * ny[prv])
-    a_mid = -2.0 * w * (ux * nx + uy * ny)
-    a_next = w * (ux * nx[nxt] + uy * ny[nxt])
-    a = sp.csr_matrix((np.concatenate((a_prev, a_mid, a_next)), (np.tile(idx, 3), np.concatenate((prv, idx, nxt)))),
-                      shape=(n, n))
-    return a, c
 
 
 def _min_curvature_offsets(mid: MiddleLine, iterations: int, peak_cap: float, cap_window_m: float,
@@ -207,7 +147,7 @@ def _min_curvature_offsets(mid: MiddleLine, iterations: int, peak_cap: float, ca
     off = np.zeros(n)
     over = np.zeros(n, dtype=np.int8)  # +1 / -1 where k is pushed down from above / below
     for _ in range(max(1, iterations)):
-        a, c = _linear_curvature(px, py, nx, ny, off)
+        a, c = curvature_rows(px, py, nx, ny, off)
         k_now = a @ off + c
         # rows over the cap get penalty weight * (k_i -+ cap_i)^2 (semi-smooth Newton: the set is
         # refreshed every pass; once penalised a row stays so while it is at or over its cap)
@@ -223,7 +163,7 @@ def _min_curvature_offsets(mid: MiddleLine, iterations: int, peak_cap: float, ca
         # would leave a free sideways shift) without moving the line measurably
         h = h + sp.identity(n, format="csr") * (1e-9 * float(h.diagonal().mean()) + 1e-12)
         g = a.T @ ((1.0 + pw) * c - pw * target)
-        new = _solve_box_qp(h, g, lo, hi)
+        new = solve_box_qp(h, g, lo, hi)
         done = np.max(np.abs(new - off)) < 2e-3 and np.array_equal(over, was)
         off = new
         if done:
@@ -335,7 +275,8 @@ class RacingLine:
             return _min_curvature_offsets(mid, iterations, peak_cap, cap_window_m)
 
         if cache:  # the optimisation takes seconds; the same track and settings give the same line
-            key = [Path(__file__).read_bytes(), repr((iterations, peak_cap, cap_window_m)).encode(),
+            key = [Path(__file__).read_bytes(), Path(minline.__file__).read_bytes(),
+                   repr((iterations, peak_cap, cap_window_m)).encode(),
                    *(np.ascontiguousarray(a).tobytes() for a in (mid.x_m, mid.y_m, mid.half_left_m, mid.half_right_m))]
             self.optimal_offset_m = cached_array("racing-lines", key, solve)
         else:
