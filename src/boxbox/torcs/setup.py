@@ -69,18 +69,27 @@ def packages_missing() -> list[str]:
     return missing
 
 
+def apt_install(packages: list[str], report: Report = _quiet, update: bool = True) -> Path:
+    """Install Debian packages with apt-get (as root, or through sudo), logging to the cache's
+    apt.log; `update`: refresh the package lists first.  Returns the log's path."""
+    names = ", ".join(packages)
+    if not shutil.which("apt-get"):
+        raise SetupError(f"Debian packages {names} are missing and apt-get is not available: install them")
+    log = cache_dir() / "logs" / "apt.log"
+    report(f"installing Debian packages: {names} (log: {log})")
+    env_cmd = ["env", "DEBIAN_FRONTEND=noninteractive"]
+    if update:
+        _run(_privileged([*env_cmd, "apt-get", "update"]), log, "apt-get update")
+    _run(_privileged([*env_cmd, "apt-get", "install", "-y", "--no-install-recommends", *packages]), log,
+         f"apt-get install {names}")
+    return log
+
+
 def install_packages(report: Report = _quiet) -> None:
     missing = packages_missing()
     if not missing:
         return
-    if not shutil.which("apt-get"):
-        raise SetupError(f"Debian packages {', '.join(missing)} are missing and apt-get is not available")
-    log = cache_dir() / "logs" / "apt.log"
-    report(f"installing Debian packages: {', '.join(missing)} (log: {log})")
-    env_cmd = ["env", "DEBIAN_FRONTEND=noninteractive"]
-    _run(_privileged([*env_cmd, "apt-get", "update"]), log, "apt-get update")
-    _run(_privileged([*env_cmd, "apt-get", "install", "-y", "--no-install-recommends", *missing]), log,
-         "apt-get install")
+    log = apt_install(missing, report)
     still = packages_missing()
     if still:
         raise SetupError(f"apt-get did not install {', '.join(still)}; see {log}")
@@ -406,14 +415,7 @@ def ensure_chromium(report: Report = _quiet) -> Path:
     browser = find()
     if browser is not None:
         return browser
-    if not shutil.which("apt-get"):
-        raise SetupError("chromium is missing and apt-get is not available to install it")
-    log = cache_dir() / "logs" / "apt.log"
-    report(f"installing Debian's chromium package (log: {log})")
-    env_cmd = ["env", "DEBIAN_FRONTEND=noninteractive"]
-    _run(_privileged([*env_cmd, "apt-get", "update"]), log, "apt-get update")
-    _run(_privileged([*env_cmd, "apt-get", "install", "-y", "--no-install-recommends", "chromium"]), log,
-         "apt-get install chromium")
+    log = apt_install(["chromium"], report)
     browser = find()
     if browser is None:
         raise SetupError(f"apt-get did not install chromium; see {log}")

@@ -36,19 +36,12 @@ def ensure_installed(report: Callable[[str], None] = lambda msg: None) -> Path:
     found = bin_dir()
     if found is not None:
         return found
-    from boxbox.cache import cache_dir
-    from boxbox.torcs.setup import _privileged, _run
+    from boxbox.torcs.setup import apt_install
 
-    if not shutil.which("apt-get"):
-        raise SetupError("PostgreSQL is missing and apt-get is not available: install the postgresql package")
-    log = cache_dir() / "logs" / "apt.log"
-    report(f"installing Debian's postgresql (log: {log})")
-    env = ["env", "DEBIAN_FRONTEND=noninteractive"]
-    known = subprocess.run(["apt-cache", "show", "postgresql"], capture_output=True).returncode == 0
-    if not known:  # a fresh machine's package lists (or a container's empty ones) do not know it yet
-        _run(_privileged([*env, "apt-get", "update"]), log, "apt-get update")
-    _run(_privileged([*env, "apt-get", "install", "-y", "--no-install-recommends", "postgresql"]), log,
-         "apt-get install")
+    # a fresh machine's package lists (or a container's empty ones) may not know it yet
+    known = shutil.which("apt-cache") is not None and \
+        subprocess.run(["apt-cache", "show", "postgresql"], capture_output=True).returncode == 0
+    log = apt_install(["postgresql"], report, update=not known)
     found = bin_dir()
     if found is None:
         raise SetupError(f"apt-get installed postgresql but no initdb is under /usr/lib/postgresql; see {log}")
