@@ -56,8 +56,7 @@ def kill_mid_trial(proc: subprocess.Popen, storage_url: str | None, study: str, 
         except Exception:  # the study is not made yet
             running = []
         mine = [t for t in running if t.user_attrs.get("worker", "").split(":")[1:2] == [str(proc.pid)]]
-        if mine:
-            time.sleep(0.3)  # inside its races
+        if mine:  # at once: a trial's races take about a second, and a busy machine may end them sooner
             proc.send_signal(sig)
             proc.wait(30)
             return mine[0].number
