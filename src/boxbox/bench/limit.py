@@ -38,6 +38,7 @@ from boxbox.robot.recorder import RECORD_FILE, load_track
 from boxbox.torcs import wire
 
 STEP_M = 3.0  # sample spacing of the line
+WING_ANGLES = 8  # rear wing angles tried, from 0 to the car's own
 
 
 @dataclass(frozen=True)
@@ -57,6 +58,7 @@ class LimitLap:
     left_m: np.ndarray
     right_m: np.ndarray
     line: str  # which width the fastest line was drawn over
+    rear_wing_deg: float = math.nan  # the rear wing angle of the fastest lap (a robot may set it: Robot.car_setup)
 
 
 def _record_key(track: str, car: str) -> str:
@@ -143,17 +145,22 @@ def limit_lap(track: Track, car: Car, skill_level: SkillLevel, track_limits: str
         grip_l, grip_r = grippy_sides(left, main_mu), grippy_sides(right, main_mu)
         widths["torcs-grip"] = drivable_width("torcs", half, turn, grip_l, grip_r, car.width_m, *exempt)
     best: LimitLap | None = None
+    # a robot may set the rear wing (Robot.car_setup): the limit is the fastest over its range
+    wings = [dataclasses.replace(car, rear_wing_angle_rad=float(a))
+             for a in np.linspace(0.0, car.rear_wing_angle_rad, WING_ANGLES)] if car.rear_wing_area_m2 > 0 else [car]
+    cars = [(c, point_mass_car(c, skill_level)) for c in wings]
     for name, (room_l, room_r) in widths.items():
         off = min_curvature_offsets(x, y, nx, ny, room_l, room_r)
         k, ds = closed_curvature(x + off * nx, y + off * ny)
         mu = pm.mu * surface_friction(off, half, mid.friction[:-1], left, right)
-        v = lap_speeds_mps(ds, k, np.maximum(mu, 1e-3), pm, kv, bank_rad=bank, grade=grade)
-        lap = LimitLap(track=track.name, car=car.name, skill_level=skill_level, track_limits=track_limits,
-                       lap_time_s=lap_time_s(ds, v), top_speed_mps=float(v.max()), dist_m=mid.dist_m[:-1],
-                       offset_m=off, speed_mps=v, left_m=room_l, right_m=room_r,
-                       line=name)
-        if best is None or lap.lap_time_s < best.lap_time_s:
-            best = lap
+        for wing_car, wing_pm in cars:
+            v = lap_speeds_mps(ds, k, np.maximum(mu, 1e-3), wing_pm, kv, bank_rad=bank, grade=grade)
+            lap = LimitLap(track=track.name, car=car.name, skill_level=skill_level, track_limits=track_limits,
+                           lap_time_s=lap_time_s(ds, v), top_speed_mps=float(v.max()), dist_m=mid.dist_m[:-1],
+                           offset_m=off, speed_mps=v, left_m=room_l, right_m=room_r, line=name,
+                           rear_wing_deg=round(math.degrees(wing_car.rear_wing_angle_rad), 1))
+            if best is None or lap.lap_time_s < best.lap_time_s:
+                best = lap
     assert best is not None
     return best
 
