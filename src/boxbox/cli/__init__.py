@@ -11,7 +11,7 @@ import sys
 
 import click
 
-from boxbox.cli.bench import bench, bench_pits, bench_speed, bench_telemetry
+from boxbox.cli.bench import bench, bench_field, bench_pits, bench_speed, bench_telemetry
 from boxbox.cli.common import err
 from boxbox.cli.gym import bench_gym, scr_server
 from boxbox.cli.info import cars, doctor, robots, setup, tracks
@@ -33,7 +33,7 @@ def main_group() -> None:
     """
 
 
-for _command in (race, params, drill, setup, doctor, tracks, cars, robots, bench, bench_speed, bench_pits,
+for _command in (race, params, drill, setup, doctor, tracks, cars, robots, bench, bench_speed, bench_pits, bench_field,
                  bench_telemetry, report, sweep, soak, scr_server, bench_gym):
     main_group.add_command(_command)
 
