@@ -17,12 +17,14 @@ from __future__ import annotations
 import statistics
 import time
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 from rich.console import Console
 from rich.table import Table
 
 from boxbox.bench.bench import BenchSpec, RaceJob, plan, race_or_recall
+from boxbox.cache import cache_dir
 from boxbox.errors import UsageError
 from boxbox.files import write_json_atomic
 from boxbox.model.skill import DEFAULT_SKILL_LEVEL, SkillLevel
@@ -129,19 +131,25 @@ def incident_laps(lap_times: list[float], threshold_s: float = INCIDENT_S) -> tu
     return len(slow), round(sum(slow), 3)
 
 
+def damage_taken(d: DriverResult) -> int:
+    """Damage at the finish plus what pit stops repaired (known for Python cars, whose robot reports
+    its stops; TORCS's results give only the damage at the finish)."""
+    return d.damage + int(sum(e.get("repair") or 0 for e in d.pit_events if e.get("stop_time") is not None))
+
+
 def car_figures(result: RaceResult, d: DriverResult, start_slot: int) -> dict:
     """The field figures of one car of a finished race."""
     winner = next((x for x in result.drivers if x.rank == 1), None)
     timed = [x for x in result.drivers if x.lap_times]
     lap1 = None
-    if d.lap_times and len(timed) == len(result.drivers):  # every car's laps: a race with a Python car
+    if d.lap_times and len(timed) > 1:  # every car's laps: a race with a Python car (its host saw them)
         places = positions_by_lap([x.lap_times for x in timed])
         lap1 = start_slot - places[timed.index(d)][0]
     laps_down = (winner.laps - d.laps) if winner else 0
     gap = round(d.time - winner.time, 3) if winner and not laps_down and d.time else None
     lost = incident_laps(d.lap_times) if d.lap_times else None
     return {"rank": d.rank, "laps": d.laps, "time": round(d.time, 3), "gap_s": gap, "laps_down": laps_down,
-            "lap1_gain": lap1, "damage": d.damage, "field_damage": sum(x.damage for x in result.drivers),
+            "lap1_gain": lap1, "damage": damage_taken(d), "field_damage": sum(damage_taken(x) for x in result.drivers),
             "incident_laps": lost[0] if lost else None, "incident_loss_s": lost[1] if lost else None,
             "winner": f"{winner.name} ({winner.module}:{winner.idx})" if winner else "-",
             "lap_times": list(d.lap_times)}
@@ -194,7 +202,15 @@ def plan_field(spec: FieldSpec) -> list[tuple[str, str, str, RaceJob]]:
     out = []
     for track in spec.tracks:
         out += [(track, "robot", spec.robot, robot_job[track]), (track, "anchor", ANCHOR, anchor_job[track])]
+    for track, role, _, job in out:
+        job.run_dir = str(runs_root() / f"{track}-{role}-{job.key[:12]}")
     return out
+
+
+def runs_root() -> Path:
+    """bench-field's run dirs: one per race (named by its cache key), never pruned with the
+    automatic run dirs, so `boxbox report` works on every race of the table."""
+    return cache_dir() / "bench-field"
 
 
 def run_field(spec: FieldSpec, overlay: Overlay, console: Console) -> FieldResult:

@@ -175,7 +175,7 @@ def bench_field(tracks, robot, laps, jobs, no_cache, learning, settings, json_fi
       boxbox bench-field --tracks g-track-1 --laps 5 --json f.json
     """
     from boxbox.bench.bench import expand_all
-    from boxbox.bench.field import FieldSpec, run_field
+    from boxbox.bench.field import FieldSpec, run_field, runs_root
     from boxbox.robot.params import parse_set
     from boxbox.torcs import catalog
 
@@ -186,6 +186,7 @@ def bench_field(tracks, robot, laps, jobs, no_cache, learning, settings, json_fi
     result = run_field(spec, overlay, err)
     out.print(result.table())
     out.print(result.summary_line())
+    err.print(f"[dim]run dirs (for `boxbox report`) under {runs_root()}[/]")
     failed = sum(1 for r in result.rows if r["error"])
     err.print(f"[dim]{result.raced} raced, {result.cached} cached, {result.wall_s:.1f} s wall"
               + (f"; [red]{failed} rows with errors[/]" if failed else "") + "[/]")

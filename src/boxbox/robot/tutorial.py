@@ -29,9 +29,10 @@ from boxbox.model import Car, Controls, PitOrder, State, Track
 from boxbox.model.constants import DRIVE_STEP_S
 from boxbox.robot.base import FUEL_L_PER_M_ESTIMATE, RaceOptions, Robot
 from boxbox.robot.learning import TurnLearner
-from boxbox.robot.opponents import Nearby, OpponentParams, collision_brake, nearby, overtake_offset, side_steer
+from boxbox.robot.opponents import Nearby, OpponentParams, nearby, side_steer
 from boxbox.robot.params import TutorialParams, load_params
 from boxbox.robot.pit import PitParams, PitStops
+from boxbox.robot.racecraft import TURN_CURVATURE_1PM, Racecraft, RacecraftParams
 from boxbox.robot.racingline import RacingLine
 from boxbox.robot.strategy import plan_stops
 
@@ -100,6 +101,7 @@ class TutorialRobot(Robot):
         self.opp = OpponentParams(front_range_m=p.front_range_m, back_range_m=p.back_range_m,
                                   length_margin_m=p.length_margin_m, side_margin_m=p.side_margin_m,
                                   overtake_step_m=p.overtake_step_m)
+        self.craft = Racecraft(RacecraftParams(), car.width_m, car.length_m, self.tyre_model.mu)
         self.offset_m = 0.0
         self.target_mps = 0.0  # the speed profile's target the last drive step used
         self.stuck_steps = 0
@@ -214,6 +216,9 @@ class TutorialRobot(Robot):
         was pushed outside its line near the apex."""
         if not self.learner.turns:
             return
+        if self.craft.spoiled(s.sim_time_s):  # traffic shaped this step (robot/racecraft.py)
+            self.last_damage = s.damage
+            return
         dist = s.dist_from_start_m
         i = int(dist / self.step_m) % self.n
         error = None
@@ -228,18 +233,36 @@ class TutorialRobot(Robot):
         self.last_damage = s.damage
 
     def _traffic(self, s: State, v: float) -> list[Nearby]:
-        """The cars near enough to matter, and the overtaking offset moved towards the free side
-        (back to the line, a step at a time, when nobody is near)."""
+        """The cars near enough to matter, and the line's offset from racecraft (robot/racecraft.py:
+        passing, room side by side, letting a lapping car by); back to the line, a step at a time,
+        when nobody is near."""
         p = self.params
         cars = nearby(s, self.car.length_m, self.track.length_m, p.back_range_m, p.front_range_m) \
             if s.opponents else []
         if cars:
-            self.offset_m = overtake_offset(self.offset_m, v, s.to_middle_m, cars, 0.5 * self.track.width_m - 1.5,
-                                            self.car.length_m, self.opp)
+            dist = s.dist_from_start_m
+            self._now_s, self._dist_m = s.sim_time_s, dist
+            j = int(dist / self.step_m) % self.n
+            k = self.line.curvature_at(dist + self.craft.p.horizon_s * v)  # the turn we are heading for
+            inside = 0.0 if abs(k) < TURN_CURVATURE_1PM else math.copysign(1.0, k)
+            straight = next((x for x in range(0, 400, 10) if self.profile.speed_at(dist + x) < 0.95 * v), 400)
+            self.offset_m = self.craft.offset(s.sim_time_s, v, s.to_middle_m, cars, self.offset_m,
+                                              self.line.offset_at(dist), (self._half_left[j], -self._half_right[j]),
+                                              inside, straight, p.overtake_step_m)
         elif self.offset_m:
             self.offset_m = max(0.0, self.offset_m - p.overtake_step_m) if self.offset_m > 0 \
                 else min(0.0, self.offset_m + p.overtake_step_m)
         return cars
+
+    def _other_target(self, c: Nearby) -> float:
+        """The speed a car ahead is predicted to slow to within the horizon: our profile's lowest
+        speed over the road it covers, scaled by how much slower than the profile it drives now
+        (no less than 0.8: a car far below the profile is starting or in trouble, and held at its speed)."""
+        pos = self._dist_m + c.dist_m
+        here = max(1.0, self.profile.speed_at(pos))
+        reach = c.speed_mps * self.craft.p.horizon_s
+        lowest = min(self.profile.speed_at(pos + x) for x in range(0, int(reach) + 1, 10))
+        return min(c.speed_mps, max(0.8, min(1.0, c.speed_mps / here)) * lowest)
 
     def _steer(self, s: State, v: float) -> float:
         return self._steer_line(s, v) if self.params.steering == "line" else self._steer_lookahead(s, v)
@@ -274,7 +297,8 @@ class TutorialRobot(Robot):
     def _avoid_side(self, steer: float, cars: list[Nearby]) -> float:
         if not cars:
             return steer
-        return side_steer(steer, cars, self.car.length_m, self.car.width_m, self.car.steer_lock_rad, self.opp)
+        return side_steer(steer, cars, self.car.length_m, self.car.width_m, self.car.steer_lock_rad, self.opp,
+                          self.craft.p.side_push_rad_per_m)
 
     def _speed(self, s: State, v: float) -> tuple[float, float]:
         """(brake, accel) from the speed profile a little ahead of the car."""
@@ -287,7 +311,7 @@ class TutorialRobot(Robot):
         return 0.0, (1.0 if margin >= p.full_accel_margin_mps else 0.4 + 0.6 * margin / p.full_accel_margin_mps)
 
     def _avoid_collision(self, brake: float, v: float, cars: list[Nearby]) -> float:
-        return collision_brake(brake, v, cars, self.car.width_m, self.opp, self._brakedist) if cars else brake
+        return self.craft.brake(self._now_s, brake, v, cars, self._other_target) if cars else brake
 
     def _traction(self, s: State, v: float, brake: float, accel: float) -> tuple[float, float]:
         """ABS on the brake, or traction control on the throttle (never both)."""
