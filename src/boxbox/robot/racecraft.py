@@ -32,14 +32,15 @@ TURN_CURVATURE_1PM = 1.0 / 300.0  # the line curves more than this: a turn whose
 
 @dataclass(frozen=True)
 class RacecraftParams:
+    plan_passes: bool = False  # False: the tutorial's overtaking offset, with room side by side
     horizon_s: float = 2.0  # how far ahead other cars are predicted
     reaction_s: float = 0.1  # we brake this long after deciding to
     brake_share: float = 0.75  # share of the tyres' grip counted on braking for a car (no downforce)
-    margin_m: float = 1.5  # bumper gap kept to the car ahead
+    margin_m: float = 2.0  # bumper gap kept to the car ahead
     band_m: float = 4.0  # the brake rises from 0 to 1 as the predicted gap falls this much to the margin
     side_gap_m: float = 1.0  # lateral gap kept to a car alongside
     pass_gap_m: float = 1.5  # lateral gap aimed at passing a car
-    lane_m: float = 0.5  # a car ahead overlapping our width plus this is in our lane (brake for it)
+    lane_m: float = 1.0  # a car ahead overlapping our width plus this is in our lane (brake for it)
     edge_m: float = 1.0  # our centre this far inside the track's edge beyond half our width
     pass_time_s: float = 3.0  # a slower car reached within this starts a pass
     abort_s: float = 6.0  # a pass not done by then is given up
@@ -73,18 +74,23 @@ class Racecraft:
 
     # --- the line's offset ----------------------------------------------------------------------
     def offset(self, now_s: float, v: float, my_mid_m: float, cars: list[Nearby], offset_m: float, line_off_m: float,
-               edges_m: tuple[float, float], inside_sign: float, straight_m: float, step_m: float) -> float:
+               edges_m: tuple[float, float], inside_sign: float, straight_m: float, step_m: float,
+               base_offset_m: float | None = None) -> float:
         """The new lateral offset of the line (see the module's docstring).  edges_m: the track's
         (left, right) edges here as lateral positions; straight_m: road ahead before the next
-        braking zone."""
+        braking zone; base_offset_m: an offset chosen elsewhere (the tutorial's overtaking) that
+        only gets the room side by side."""
         p = self.p
         left = edges_m[0] - 0.5 * self.width_m - p.edge_m
         right = edges_m[1] + 0.5 * self.width_m + p.edge_m
-        target = self._pass_target(now_s, v, cars, my_mid_m, line_off_m, left, right, inside_sign, straight_m)
-        if target is None:
-            target = self._yield_target(cars, my_mid_m, left, right)
-        want = 0.0 if target is None else target - line_off_m
-        new = min(want, offset_m + step_m) if offset_m < want else max(want, offset_m - step_m)
+        if base_offset_m is None:
+            target = self._pass_target(now_s, v, cars, my_mid_m, line_off_m, left, right, inside_sign, straight_m)
+            if target is None:
+                target = self._yield_target(cars, my_mid_m, left, right)
+            want = 0.0 if target is None else target - line_off_m
+            new = min(want, offset_m + step_m) if offset_m < want else max(want, offset_m - step_m)
+        else:
+            new = base_offset_m
         alongside = [(c.mid_m, c.width_m or self.width_m) for c in cars if abs(c.dist_m) < self.length_m + 1.0]
         if alongside:
             lo, hi = room(my_mid_m, alongside, self.width_m, p.side_gap_m, left, right)

@@ -29,7 +29,7 @@ from boxbox.model import Car, Controls, PitOrder, State, Track
 from boxbox.model.constants import DRIVE_STEP_S
 from boxbox.robot.base import FUEL_L_PER_M_ESTIMATE, RaceOptions, Robot
 from boxbox.robot.learning import TurnLearner
-from boxbox.robot.opponents import Nearby, OpponentParams, nearby, side_steer
+from boxbox.robot.opponents import Nearby, OpponentParams, nearby, overtake_offset, side_steer
 from boxbox.robot.params import TutorialParams, load_params
 from boxbox.robot.pit import PitParams, PitStops
 from boxbox.robot.racecraft import TURN_CURVATURE_1PM, Racecraft, RacecraftParams
@@ -246,9 +246,12 @@ class TutorialRobot(Robot):
             k = self.line.curvature_at(dist + self.craft.p.horizon_s * v)  # the turn we are heading for
             inside = 0.0 if abs(k) < TURN_CURVATURE_1PM else math.copysign(1.0, k)
             straight = next((x for x in range(0, 400, 10) if self.profile.speed_at(dist + x) < 0.95 * v), 400)
+            base = None if self.craft.p.plan_passes else \
+                overtake_offset(self.offset_m, v, s.to_middle_m, cars, 0.5 * self.track.width_m - 1.5,
+                                self.car.length_m, self.opp)
             self.offset_m = self.craft.offset(s.sim_time_s, v, s.to_middle_m, cars, self.offset_m,
                                               self.line.offset_at(dist), (self._half_left[j], -self._half_right[j]),
-                                              inside, straight, p.overtake_step_m)
+                                              inside, straight, p.overtake_step_m, base)
         elif self.offset_m:
             self.offset_m = max(0.0, self.offset_m - p.overtake_step_m) if self.offset_m > 0 \
                 else min(0.0, self.offset_m + p.overtake_step_m)
