@@ -32,6 +32,7 @@ TURN_CURVATURE_1PM = 1.0 / 300.0  # the line curves more than this: a turn whose
 
 @dataclass(frozen=True)
 class RacecraftParams:
+    brake_mode: str = "gap"  # ttc: the prediction; gap: the tutorial's fixed gap; both: the harder of the two
     plan_passes: bool = False  # False: the tutorial's overtaking offset, with room side by side
     horizon_s: float = 2.0  # how far ahead other cars are predicted
     reaction_s: float = 0.1  # we brake this long after deciding to

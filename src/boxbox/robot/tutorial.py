@@ -29,7 +29,7 @@ from boxbox.model import Car, Controls, PitOrder, State, Track
 from boxbox.model.constants import DRIVE_STEP_S
 from boxbox.robot.base import FUEL_L_PER_M_ESTIMATE, RaceOptions, Robot
 from boxbox.robot.learning import TurnLearner
-from boxbox.robot.opponents import Nearby, OpponentParams, nearby, overtake_offset, side_steer
+from boxbox.robot.opponents import Nearby, OpponentParams, collision_brake, nearby, overtake_offset, side_steer
 from boxbox.robot.params import TutorialParams, load_params
 from boxbox.robot.pit import PitParams, PitStops
 from boxbox.robot.racecraft import TURN_CURVATURE_1PM, Racecraft, RacecraftParams
@@ -314,7 +314,16 @@ class TutorialRobot(Robot):
         return 0.0, (1.0 if margin >= p.full_accel_margin_mps else 0.4 + 0.6 * margin / p.full_accel_margin_mps)
 
     def _avoid_collision(self, brake: float, v: float, cars: list[Nearby]) -> float:
-        return self.craft.brake(self._now_s, brake, v, cars, self._other_target) if cars else brake
+        """Brake for a car ahead: time-to-collision braking from the prediction (robot/racecraft.py),
+        and/or the tutorial's fixed-gap filter (RacecraftParams.brake_mode)."""
+        if not cars:
+            return brake
+        mode = self.craft.p.brake_mode
+        if mode != "gap":
+            brake = self.craft.brake(self._now_s, brake, v, cars, self._other_target)
+        if mode != "ttc":
+            brake = collision_brake(brake, v, cars, self.car.width_m, self.opp, self._brakedist)
+        return brake
 
     def _traction(self, s: State, v: float, brake: float, accel: float) -> tuple[float, float]:
         """ABS on the brake, or traction control on the throttle (never both)."""
