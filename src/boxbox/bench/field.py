@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from rich.console import Console
+from rich.markup import escape
 from rich.table import Table
 
 from boxbox.bench.bench import BenchSpec, RaceJob, plan, race_or_recall
@@ -97,7 +98,7 @@ class FieldResult:
                           f"[{style}]{r['rank'] or '-'}[/]" if not r["error"] else "[red]error[/]",
                           _gap_text(r), "-" if r["lap1_gain"] is None else f"{r['lap1_gain']:+d}",
                           str(r["damage"]), str(r["field_damage"]), lost, r["winner"],
-                          r["error"] or r["run_dir"].rsplit("/", 1)[-1],
+                          _first_line(r["error"]) if r["error"] else r["run_dir"].rsplit("/", 1)[-1],
                           end_section=not first and n < len(self.rows) - 1)
         return table
 
@@ -106,6 +107,11 @@ class FieldResult:
         return (f"{self.spec.robot}: {m['wins']}/{m['tracks']} wins, highest damage {m['max_damage']}, "
                 f"ahead of {ANCHOR} on {m['ahead_of_anchor']}/{m['tracks']}, field damage no higher than "
                 f"with {ANCHOR} on {m['field_damage_not_higher']}/{m['tracks']}")
+
+
+def _first_line(text: str, n: int = 80) -> str:
+    line = text.splitlines()[0] if text else ""
+    return f"[red]{escape(line if len(line) <= n else line[: n - 1] + '…')}[/]"
 
 
 def _ahead(r: dict, anchor: dict | None) -> bool:
