@@ -19,7 +19,8 @@ def test_bench_field_one_lap_and_its_report(tmp_path):
         assert row["field_damage"] >= row["damage"] >= 0
     # the robot's race has every car's laps (its host sees them): lap-1 gain from slot 10
     assert robot["lap1_gain"] is not None and robot["lap1_gain"] == 10 - robot["rank"]
-    assert anchor["lap1_gain"] is None  # no Python car in the anchor race: nobody saw the others' laps
+    # no Python car in the anchor race: only a one-lap race gives every car's lap 1 (its race time)
+    assert anchor["lap1_gain"] == 10 - anchor["rank"]
     assert "skill level semi-pro" in r.stdout and "inferno:3" in r.stdout
 
     page = tmp_path / "race.html"
