@@ -25,6 +25,7 @@ class Nearby:
     laps_ahead: int  # its laps minus ours: > 0 means it is lapping us
     width_m: float = 0.0  # its width (0: unknown, take ours)
     mid_m: float = 0.0  # its to_middle (m, + left of the track's middle)
+    index: int = -1  # its car index (-1: unknown)
 
 
 @dataclass(frozen=True)
@@ -54,7 +55,8 @@ def nearby(state: State, length_m: float, track_length_m: float, back_range_m: f
         if -back_range_m < d < front_range_m:
             # whole laps between us, counting the start line between the two cars
             laps_ahead = round(((o.laps - my_laps) * track_length_m + raw - d) / track_length_m)
-            out.append(Nearby(d, gap, o.to_middle_m - my_mid, o.speed_mps, laps_ahead, o.width_m, o.to_middle_m))
+            out.append(Nearby(d, gap, o.to_middle_m - my_mid, o.speed_mps, laps_ahead, o.width_m, o.to_middle_m,
+                              int(o.car_index)))
     return out
 
 

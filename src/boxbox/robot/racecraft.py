@@ -21,7 +21,7 @@ exactly as without it.  Per step:
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from boxbox.control.traffic import brake_for, min_gap_m, pass_pays, pass_side, room
 from boxbox.model.constants import G_MPS2
@@ -38,6 +38,7 @@ class RacecraftParams:
     reaction_s: float = 0.1  # we brake this long after deciding to
     brake_share: float = 0.75  # share of the tyres' grip counted on braking for a car (no downforce)
     margin_m: float = 2.0  # bumper gap kept to the car ahead
+    close_brake: float = 0.5  # the brake with a car ahead in our lane touching (less as the gap grows)
     band_m: float = 4.0  # the brake rises from 0 to 1 as the predicted gap falls this much to the margin
     side_gap_m: float = 1.0  # lateral gap kept to a car alongside
     pass_gap_m: float = 1.5  # lateral gap aimed at passing a car
@@ -50,8 +51,27 @@ class RacecraftParams:
     follower_m: float = 10.0  # a car this close behind is a follower we do not brake hard in front of
     follower_brake: float = 0.5  # the brake for a car ahead in front of a follower (unless at the margin)
     side_push_rad_per_m: float = 0.3  # steering away from a car alongside closer than the side margin
+    hold_line_curvature_1pm: float = 1.0 / 150.0  # a turn this tight ahead: back to the line, no pass
+    turn_ahead_s: float = 1.5  # how far ahead the turn is looked for
+    lateral_ahead_s: float = 0.5  # how far ahead a car closing in sideways is seen where it will be
     spoil_m: float = 15.0  # a car this close (centre to centre) shapes our driving
     spoil_hold_s: float = 1.0  # ... for this long after
+
+
+def converging(cars: list[Nearby], rates_mps: list[float], ahead_s: float) -> list[Nearby]:
+    """The cars with their lateral positions moved ahead_s along their lateral speed relative to
+    us, where that brings them closer to our line (never further: a car moving away still counts
+    where it is now)."""
+    out = []
+    for c, rate in zip(cars, rates_mps, strict=True):
+        moved = c.lateral_m + rate * ahead_s
+        if abs(moved) < abs(c.lateral_m) and moved * c.lateral_m > 0.0:
+            shift = moved - c.lateral_m
+            c = replace(c, lateral_m=moved, mid_m=c.mid_m + shift)
+        elif moved * c.lateral_m <= 0.0 and c.lateral_m:
+            c = replace(c, lateral_m=math.copysign(1e-3, c.lateral_m), mid_m=c.mid_m - c.lateral_m)
+        out.append(c)
+    return out
 
 
 class Racecraft:
@@ -66,6 +86,18 @@ class Racecraft:
         self.pass_since_s = 0.0
         self.no_pass_until_s = -math.inf
         self.spoiled_until_s = -math.inf
+        self._lateral: dict[int, tuple[float, float]] = {}  # car index -> (time, lateral to us)
+
+    def predict(self, now_s: float, cars: list[Nearby]) -> list[Nearby]:
+        """The cars as they will be laterally lateral_ahead_s from now (closing in on us only),
+        from their lateral speed relative to us over the last step."""
+        rates = []
+        for c in cars:
+            last = self._lateral.get(c.index)
+            dt = now_s - last[0] if last else 0.0
+            rates.append((c.lateral_m - last[1]) / dt if last and 0.0 < dt < 0.1 else 0.0)
+            self._lateral[c.index] = (now_s, c.lateral_m)
+        return converging(cars, rates, self.p.lateral_ahead_s)
 
     def spoiled(self, now_s: float) -> bool:
         return now_s < self.spoiled_until_s
@@ -76,11 +108,13 @@ class Racecraft:
     # --- the line's offset ----------------------------------------------------------------------
     def offset(self, now_s: float, v: float, my_mid_m: float, cars: list[Nearby], offset_m: float, line_off_m: float,
                edges_m: tuple[float, float], inside_sign: float, straight_m: float, step_m: float,
-               base_offset_m: float | None = None) -> float:
+               base_offset_m: float | None = None, turn_1pm: float = 0.0) -> float:
         """The new lateral offset of the line (see the module's docstring).  edges_m: the track's
         (left, right) edges here as lateral positions; straight_m: road ahead before the next
         braking zone; base_offset_m: an offset chosen elsewhere (the tutorial's overtaking) that
-        only gets the room side by side."""
+        only gets the room side by side; turn_1pm: the line's sharpest curvature in the next
+        seconds: in a turn the offset goes back to the line (the speed profile is the line's: off
+        it the radius is another), unless a car alongside needs room."""
         p = self.p
         left = edges_m[0] - 0.5 * self.width_m - p.edge_m
         right = edges_m[1] + 0.5 * self.width_m + p.edge_m
@@ -91,7 +125,9 @@ class Racecraft:
             want = 0.0 if target is None else target - line_off_m
             new = min(want, offset_m + step_m) if offset_m < want else max(want, offset_m - step_m)
         else:
-            new = base_offset_m
+            new = min(left, max(right, line_off_m + base_offset_m)) - line_off_m if left > right else base_offset_m
+        if turn_1pm > p.hold_line_curvature_1pm:
+            new = max(0.0, offset_m - step_m) if offset_m > 0.0 else min(0.0, offset_m + step_m)
         alongside = [(c.mid_m, c.width_m or self.width_m) for c in cars if abs(c.dist_m) < self.length_m + 1.0]
         if alongside:
             lo, hi = room(my_mid_m, alongside, self.width_m, p.side_gap_m, left, right)
@@ -143,14 +179,22 @@ class Racecraft:
         return None
 
     # --- braking for the car ahead --------------------------------------------------------------
-    def brake(self, now_s: float, brake: float, v: float, cars: list[Nearby], other_target) -> float:
-        """brake, raised where a car ahead in our lane would come closer than the margin.
-        other_target(car) -> the speed it is predicted to slow to within the horizon."""
+    def brake(self, now_s: float, brake: float, v: float, cars: list[Nearby], other_target,
+              predict: bool = True) -> float:
+        """brake, raised where a car ahead in our lane would come closer than the margin (predict:
+        from the prediction; always: a car already closer than the margin, faster or not, gets a
+        lift or a touch of brake).  other_target(car) -> the speed it is predicted to slow to
+        within the horizon."""
         p = self.p
         want = 0.0
         closest = math.inf
         for c in cars:
             if c.dist_m <= 0.0 or abs(c.lateral_m) >= 0.5 * (self.width_m + (c.width_m or self.width_m)) + p.lane_m:
+                continue
+            if c.gap_m < p.margin_m:
+                closest = min(closest, c.gap_m)
+                want = max(want, p.close_brake * (1.0 - max(0.0, c.gap_m) / p.margin_m))
+            if not predict:
                 continue
             gap = min_gap_m(c.gap_m, v, c.speed_mps, other_target(c), p.brake_share * self.decel_mps2,
                             self.decel_mps2, p.reaction_s, p.horizon_s)

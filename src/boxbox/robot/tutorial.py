@@ -240,6 +240,7 @@ class TutorialRobot(Robot):
         cars = nearby(s, self.car.length_m, self.track.length_m, p.back_range_m, p.front_range_m) \
             if s.opponents else []
         if cars:
+            cars = self.craft.predict(s.sim_time_s, cars)
             dist = s.dist_from_start_m
             self._now_s, self._dist_m = s.sim_time_s, dist
             j = int(dist / self.step_m) % self.n
@@ -249,9 +250,11 @@ class TutorialRobot(Robot):
             base = None if self.craft.p.plan_passes else \
                 overtake_offset(self.offset_m, v, s.to_middle_m, cars, 0.5 * self.track.width_m - 1.5,
                                 self.car.length_m, self.opp)
+            turn = max(abs(self.line.curvature_at(dist + x))
+                       for x in range(0, int(max(0.0, v) * self.craft.p.turn_ahead_s) + 1, 10))
             self.offset_m = self.craft.offset(s.sim_time_s, v, s.to_middle_m, cars, self.offset_m,
                                               self.line.offset_at(dist), (self._half_left[j], -self._half_right[j]),
-                                              inside, straight, p.overtake_step_m, base)
+                                              inside, straight, p.overtake_step_m, base, turn)
         elif self.offset_m:
             self.offset_m = max(0.0, self.offset_m - p.overtake_step_m) if self.offset_m > 0 \
                 else min(0.0, self.offset_m + p.overtake_step_m)
@@ -319,8 +322,7 @@ class TutorialRobot(Robot):
         if not cars:
             return brake
         mode = self.craft.p.brake_mode
-        if mode != "gap":
-            brake = self.craft.brake(self._now_s, brake, v, cars, self._other_target)
+        brake = self.craft.brake(self._now_s, brake, v, cars, self._other_target, predict=mode != "gap")
         if mode != "ttc":
             brake = collision_brake(brake, v, cars, self.car.width_m, self.opp, self._brakedist)
         return brake
