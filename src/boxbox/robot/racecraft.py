@@ -51,7 +51,7 @@ class RacecraftParams:
     follower_m: float = 10.0  # a car this close behind is a follower we do not brake hard in front of
     follower_brake: float = 0.5  # the brake for a car ahead in front of a follower (unless at the margin)
     side_push_rad_per_m: float = 0.3  # steering away from a car alongside closer than the side margin
-    hold_line_curvature_1pm: float = 1.0 / 150.0  # a turn this tight ahead: back to the line, no pass
+    hold_line_grip_share: float = 0.5  # a turn ahead needing this share of the grip at our speed: back to the line
     turn_ahead_s: float = 1.5  # how far ahead the turn is looked for
     lateral_ahead_s: float = 0.5  # how far ahead a car closing in sideways is seen where it will be
     spoil_m: float = 15.0  # a car this close (centre to centre) shapes our driving
@@ -126,7 +126,7 @@ class Racecraft:
             new = min(want, offset_m + step_m) if offset_m < want else max(want, offset_m - step_m)
         else:
             new = min(left, max(right, line_off_m + base_offset_m)) - line_off_m if left > right else base_offset_m
-        if turn_1pm > p.hold_line_curvature_1pm:
+        if v * v * turn_1pm > p.hold_line_grip_share * self.decel_mps2:
             new = max(0.0, offset_m - step_m) if offset_m > 0.0 else min(0.0, offset_m + step_m)
         alongside = [(c.mid_m, c.width_m or self.width_m) for c in cars if abs(c.dist_m) < self.length_m + 1.0]
         if alongside:
