@@ -87,6 +87,8 @@ class Racecraft:
         self.no_pass_until_s = -math.inf
         self.spoiled_until_s = -math.inf
         self._lateral: dict[int, tuple[float, float]] = {}  # car index -> (time, lateral to us)
+        self._taint_lap = -1
+        self._tainted: set[int] = set()  # turns where traffic shaped a step this lap
 
     def predict(self, now_s: float, cars: list[Nearby]) -> list[Nearby]:
         """The cars as they will be laterally lateral_ahead_s from now (closing in on us only),
@@ -101,6 +103,20 @@ class Racecraft:
 
     def spoiled(self, now_s: float) -> bool:
         return now_s < self.spoiled_until_s
+
+    def tainted(self, now_s: float, lap: int, turn: int) -> tuple[bool, bool]:
+        """(skip this step, newly tainted turn) for the learner: a turn (-1: none) where traffic
+        shaped any step this lap is judged on none of its steps (judged on the rest it would look
+        easier than it is: the hard part is where the car was lifting or aside)."""
+        if lap != self._taint_lap:
+            self._taint_lap = lap
+            self._tainted.clear()
+        if self.spoiled(now_s):
+            new = turn >= 0 and turn not in self._tainted
+            if new:
+                self._tainted.add(turn)
+            return True, new
+        return turn >= 0 and turn in self._tainted, False
 
     def _mark(self, now_s: float) -> None:
         self.spoiled_until_s = now_s + self.p.spoil_hold_s

@@ -216,11 +216,16 @@ class TutorialRobot(Robot):
         was pushed outside its line near the apex."""
         if not self.learner.turns:
             return
-        if self.craft.spoiled(s.sim_time_s):  # traffic shaped this step (robot/racecraft.py)
-            self.last_damage = s.damage
-            return
         dist = s.dist_from_start_m
         i = int(dist / self.step_m) % self.n
+        turn = self.learner.sample_index[i]
+        skip, new = self.craft.tainted(s.sim_time_s, int(s.laps), turn if turn >= 0 else self.learner.last_turn)
+        if skip:  # traffic shaped this turn this lap (robot/racecraft.py): it teaches nothing of its grip
+            if new:
+                t = self.learner.turns[turn if turn >= 0 else self.learner.last_turn]
+                t.min_margin_m, t.max_error_m, t.damaged, t.damage_points = 1e9, -1.0, False, 0.0
+            self.last_damage = s.damage
+            return
         error = None
         margin = min(s.to_left_m, s.to_right_m)
         if self.params.steering == "line":
