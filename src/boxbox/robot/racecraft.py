@@ -141,7 +141,11 @@ class Racecraft:
             want = 0.0 if target is None else target - line_off_m
             new = min(want, offset_m + step_m) if offset_m < want else max(want, offset_m - step_m)
         else:
-            new = min(left, max(right, line_off_m + base_offset_m)) - line_off_m if left > right else base_offset_m
+            new = base_offset_m  # moved aside, but never further out than the track allows (or the line is)
+            if new > 0.0:
+                new = max(0.0, min(new, left - line_off_m))
+            elif new < 0.0:
+                new = min(0.0, max(new, right - line_off_m))
         if v * v * turn_1pm > p.hold_line_grip_share * self.decel_mps2:
             new = max(0.0, offset_m - step_m) if offset_m > 0.0 else min(0.0, offset_m + step_m)
         alongside = [(c.mid_m, c.width_m or self.width_m) for c in cars if abs(c.dist_m) < self.length_m + 1.0]

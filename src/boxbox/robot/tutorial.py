@@ -217,6 +217,8 @@ class TutorialRobot(Robot):
         if not self.learner.turns:
             return
         dist = s.dist_from_start_m
+        if math.isnan(dist):  # TORCS loses a car's place on the track in a pile-up now and then
+            return
         i = int(dist / self.step_m) % self.n
         turn = self.learner.sample_index[i]
         skip, new = self.craft.tainted(s.sim_time_s, int(s.laps), turn if turn >= 0 else self.learner.last_turn)
@@ -243,7 +245,7 @@ class TutorialRobot(Robot):
         when nobody is near."""
         p = self.params
         cars = nearby(s, self.car.length_m, self.track.length_m, p.back_range_m, p.front_range_m) \
-            if s.opponents else []
+            if s.opponents and not math.isnan(s.dist_from_start_m) else []
         if cars:
             cars = self.craft.predict(s.sim_time_s, cars)
             dist = s.dist_from_start_m
