@@ -292,8 +292,8 @@ def test_report_page_has_every_figure_and_table(tmp_path):
     synthetic_run(tmp_path)
     page = build_report(tmp_path)
     images = pngs(page)
-    # lap-time bars, track map, one pit stop, two laps
-    assert page.count("<img ") == len(images) == 5
+    # lap-time bars, the places lap by lap (two cars), track map, one pit stop, two laps
+    assert page.count("<img ") == len(images) == 6
     assert all(im.shape[0] > 100 and im.shape[1] > 100 and im.std() > 0.01 for im in images)
     for text in ("Results", "Lap times", "Pit events", "boxbox 1 (boxbox:0)", "bt 3 (bt:2)", "Pit stop 1, lap 1",
                  "<b>55.000</b>", "telemetry.parquet"):
@@ -311,7 +311,7 @@ def test_report_without_telemetry_and_with_an_error(tmp_path):
     (tmp_path / "result.json").write_text(json.dumps(r))
     page = build_report(tmp_path)
     assert "no telemetry recorded" in page and "&lt;boom&gt;" in page
-    assert page.count("<img ") == len(pngs(page)) == 1  # the lap-time bars
+    assert page.count("<img ") == len(pngs(page)) == 2  # the lap-time bars and the places lap by lap
 
 
 def test_report_needs_a_run_dir(tmp_path):

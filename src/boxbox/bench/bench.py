@@ -14,6 +14,7 @@ import io
 import multiprocessing
 import os
 import queue
+import shutil
 import statistics
 import time
 from dataclasses import dataclass, field
@@ -104,6 +105,7 @@ class RaceJob:
     inputs: dict
     skill_level: SkillLevel = DEFAULT_SKILL_LEVEL
     grid_position: int | None = None
+    run_dir: str = ""  # where to race (made afresh; "": a new automatic run dir, pruned with the oldest)
 
     @property
     def label(self) -> str:
@@ -128,7 +130,9 @@ def _run_job(job: RaceJob, overlay: Overlay) -> dict:
     try:
         if q is not None:
             q.put(("start", job.key, 0, 0.0))
-        run_dir = launch.new_run_dir()
+        if job.run_dir:
+            shutil.rmtree(job.run_dir, ignore_errors=True)  # a race again: nothing of the last one stays
+        run_dir = Path(job.run_dir) if job.run_dir else launch.new_run_dir()
         cfg = launch.RaceConfig(track=job.track, category=job.category, car=job.car, laps=job.laps,
                                 robots=list(job.python_specs), robot_names=list(job.python_names),
                                 opponents=list(job.opponents), options=job.options, cpu=_worker.get("cpu"),

@@ -11,7 +11,7 @@ import sys
 
 import click
 
-from boxbox.cli.bench import bench, bench_learning, bench_pits, bench_speed, bench_telemetry
+from boxbox.cli.bench import bench, bench_field, bench_learning, bench_pits, bench_speed, bench_telemetry
 from boxbox.cli.common import err
 from boxbox.cli.gym import bench_gym, scr_server
 from boxbox.cli.info import cars, doctor, robots, setup, tracks
@@ -36,8 +36,8 @@ def main_group() -> None:
 
 
 for _command in (race, params, drill, setup, doctor, tracks, cars, robots, bench, bench_speed, bench_pits,
-                 bench_telemetry, bench_learning, report, sweep, soak, scr_server, bench_gym, limit, tune,
-                 bench_tune):
+                 bench_field, bench_telemetry, bench_learning, report, sweep, soak, scr_server, bench_gym, limit,
+                 tune, bench_tune):
     main_group.add_command(_command)
 
 

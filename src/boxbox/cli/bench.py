@@ -179,3 +179,46 @@ def bench_telemetry(track, laps, runs, robot, json_file, skill_level) -> None:
         out.print(line)
     if json_file:
         write_json_atomic(json_file, res, indent=1)
+
+
+@click.command("bench-field")
+@click.option("--tracks", type=CommaList("TRACK,..."), default=DEFAULT_TRACKS, show_default=True,
+              help="Tracks, comma separated, or 'all'.")
+@click.option("--robot", default="boxbox", show_default=True, help="Python robot under test, e.g. my_robot.py:MyRobot.")
+@click.option("--laps", type=LAPS, default=10, show_default=True, help="Race length in laps.")
+@click.option("--jobs", type=JOBS, default=1, show_default=True, help="Races run in parallel.")
+@click.option("--no-cache", is_flag=True, help="Race again even what the bench cache has (and refresh it).")
+@click.option("--learning", type=click.Choice(LEARNING_MODES), default="fresh", show_default=True,
+              help="The Python robot's learned data: from nothing each race, the shared store, or none.")
+@click.option("--set", "settings", multiple=True, metavar="KEY=VALUE",
+              help="Override a parameter of the Python robot (see `boxbox params`), e.g. --set mu_scale=0.9.")
+@click.option("--json", "json_file", type=OutputFile(), help="Write the rows as JSON.")
+@skill_level_option
+def bench_field(tracks, robot, laps, jobs, no_cache, learning, settings, json_file, skill_level) -> None:
+    """The robot from last of ten behind nine TORCS robots, and inferno:3 from the same slot.
+
+    \b
+    Grid: inferno:4, berniw:3, bt:2, olethros:2, lliaw:3, tita:3, damned:6, bt:3, berniw:4, then
+    the robot; the anchor race puts inferno:3 (car1-trb1, like the robot) in its slot.
+    Examples:
+      boxbox bench-field
+      boxbox bench-field --tracks g-track-1 --laps 5 --json f.json
+    """
+    from boxbox.bench.bench import expand_all
+    from boxbox.bench.field import FieldSpec, run_field, runs_root
+    from boxbox.robot.params import parse_set
+    from boxbox.torcs import catalog
+
+    overlay = ready()
+    spec = FieldSpec(tracks=expand_all(tracks, list(catalog.tracks())), robot=robot, laps=laps, jobs=jobs,
+                     use_cache=not no_cache, learning=learning, settings=parse_set(settings) if settings else None,
+                     skill_level=skill_level)
+    result = run_field(spec, overlay, err)
+    out.print(result.table())
+    out.print(result.summary_line())
+    err.print(f"[dim]run dirs (for `boxbox report`) under {runs_root()}[/]")
+    failed = sum(1 for r in result.rows if r["error"])
+    err.print(f"[dim]{result.raced} raced, {result.cached} cached, {result.wall_s:.1f} s wall"
+              + (f"; [red]{failed} rows with errors[/]" if failed else "") + "[/]")
+    if json_file:
+        result.write_json(json_file)

@@ -18,6 +18,7 @@ import numpy as np
 
 from boxbox.errors import UsageError
 from boxbox.report.tables import fmt_time
+from boxbox.torcs.positions import positions_by_lap
 from boxbox.torcs.results import is_python_module
 
 KMH = 3.6
@@ -286,6 +287,41 @@ def fig_pit(c: dict, event: dict, pit: dict, car_index: int, length_m: float, ti
 
 
 # --- the page ----------------------------------------------------------------------------------------
+def _field_places(drivers: list[dict]) -> list[list[int]] | None:
+    """Every car's place lap by lap, when the race had several cars and all their lap times are
+    known (a race with a Python car: the robot host sees every car's laps); else None."""
+    if len(drivers) < 2 or not all(d.get("lap_times") for d in drivers):
+        return None
+    return positions_by_lap([list(d["lap_times"]) for d in drivers])
+
+
+def fig_positions(drivers: list[dict], places: list[list[int]]):
+    """Place against lap, one line per car (Python cars drawn thicker)."""
+    laps = max(len(p) for p in places)
+    fig = _figure(max(6.0, min(12.0, 3.0 + 0.5 * laps)), 0.8 + 0.32 * len(drivers))
+    ax = fig.add_subplot()
+    for k, (d, row) in enumerate(zip(drivers, places, strict=True)):
+        python = is_python_module(d["module"])
+        ax.plot(range(1, len(row) + 1), row, marker="o", markersize=3, color=COLORS[k % len(COLORS)],
+                linewidth=2.6 if python else 1.0, label=driver_label(d), zorder=3 if python else 2)
+    ax.set_ylim(len(drivers) + 0.5, 0.5)
+    ax.set_yticks(range(1, len(drivers) + 1))
+    ax.set_xticks(range(1, laps + 1))
+    ax.set_xlabel("end of lap")
+    ax.set_ylabel("place")
+    ax.set_title("Places lap by lap (Python cars drawn thicker)")
+    ax.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.01, 0.5))
+    ax.grid(alpha=0.3)
+    return fig
+
+
+def _positions_table(drivers: list[dict], places: list[list[int]]) -> str:
+    laps = max(len(p) for p in places)
+    rows = [[html.escape(driver_label(d))] + [str(row[k]) if k < len(row) else "-" for k in range(laps)]
+            for d, row in zip(drivers, places, strict=True)]
+    return _table(["driver"] + [str(k + 1) for k in range(laps)], rows, "num")
+
+
 def _results_table(r: dict) -> str:
     rows = []
     for d in r["drivers"]:
@@ -386,7 +422,12 @@ def build_report(run_dir: Path, limit: tuple[np.ndarray, np.ndarray] | None = No
     fig = fig_lap_times(drivers)
     if fig is not None:
         parts.append(_img(fig, "Lap times of every car, lap by lap"))
-    parts += [_lap_table(drivers), "<h2>Pit events</h2>", _pit_table(drivers)]
+    parts.append(_lap_table(drivers))
+    places = _field_places(drivers)
+    if places is not None:
+        parts += ["<h2>Places lap by lap</h2>", _img(fig_positions(drivers, places), "Every car's place, lap by lap"),
+                  _positions_table(drivers, places)]
+    parts += ["<h2>Pit events</h2>", _pit_table(drivers)]
 
     if tel is not None and tel.rows:
         track = tel.meta.get("track", {})

@@ -23,6 +23,9 @@ class Nearby:
     lateral_m: float  # its to_middle minus ours, + to our left
     speed_mps: float
     laps_ahead: int  # its laps minus ours: > 0 means it is lapping us
+    width_m: float = 0.0  # its width (0: unknown, take ours)
+    mid_m: float = 0.0  # its to_middle (m, + left of the track's middle)
+    index: int = -1  # its car index (-1: unknown)
 
 
 @dataclass(frozen=True)
@@ -52,7 +55,8 @@ def nearby(state: State, length_m: float, track_length_m: float, back_range_m: f
         if -back_range_m < d < front_range_m:
             # whole laps between us, counting the start line between the two cars
             laps_ahead = round(((o.laps - my_laps) * track_length_m + raw - d) / track_length_m)
-            out.append(Nearby(d, gap, o.to_middle_m - my_mid, o.speed_mps, laps_ahead))
+            out.append(Nearby(d, gap, o.to_middle_m - my_mid, o.speed_mps, laps_ahead, o.width_m, o.to_middle_m,
+                              int(o.car_index)))
     return out
 
 
@@ -68,13 +72,14 @@ def collision_brake(brake: float, speed_mps: float, cars: list[Nearby], width_m:
 
 
 def side_steer(steer: float, cars: list[Nearby], length_m: float, width_m: float, steer_lock_rad: float,
-               p: OpponentParams) -> float:
-    """Steer away from a car alongside that is closer than the side margin."""
+               p: OpponentParams, gain_rad_per_m: float = 0.1) -> float:
+    """Steer away from a car alongside that is closer than the side margin (gain_rad_per_m of
+    steering per metre it is too close)."""
     for c in cars:
         if abs(c.dist_m) < length_m:  # alongside
             free = abs(c.lateral_m) - width_m
             if free < p.side_margin_m:
-                push = (p.side_margin_m - free) * 0.1 / steer_lock_rad
+                push = (p.side_margin_m - free) * gain_rad_per_m / steer_lock_rad
                 steer += -push if c.lateral_m > 0 else push
     return max(-1.0, min(1.0, steer))
 

@@ -36,6 +36,7 @@ from boxbox.robot.learning import TurnLearner
 from boxbox.robot.opponents import Nearby, OpponentParams, collision_brake, nearby, overtake_offset, side_steer
 from boxbox.robot.params import BOUNDS, CHOICES, TutorialParams, load_params
 from boxbox.robot.pit import PitParams, PitStops
+from boxbox.robot.racecraft import TURN_CURVATURE_1PM, Racecraft, RacecraftParams
 from boxbox.robot.racingline import RacingLine, middle_line
 from boxbox.robot.strategy import plan_stops
 
@@ -120,6 +121,7 @@ class TutorialRobot(Robot):
         self.opp = OpponentParams(front_range_m=p.front_range_m, back_range_m=p.back_range_m,
                                   length_margin_m=p.length_margin_m, side_margin_m=p.side_margin_m,
                                   overtake_step_m=p.overtake_step_m)
+        self.craft = Racecraft(RacecraftParams(), car.width_m, car.length_m, self.tyre_model.mu)
         self.offset_m = 0.0
         self.target_mps = 0.0  # the speed profile's target the last drive step used
         self.stuck_steps = 0
@@ -268,7 +270,17 @@ class TutorialRobot(Robot):
         if not self.learner.turns:
             return
         dist = s.dist_from_start_m
+        if math.isnan(dist):  # TORCS loses a car's place on the track in a pile-up now and then
+            return
         i = int(dist / self.step_m) % self.n
+        turn = self.learner.sample_index[i]
+        skip, new = self.craft.tainted(s.sim_time_s, int(s.laps), turn if turn >= 0 else self.learner.last_turn)
+        if skip:  # traffic shaped this turn this lap (robot/racecraft.py): it teaches nothing of its grip
+            if new:
+                t = self.learner.turns[turn if turn >= 0 else self.learner.last_turn]
+                t.min_margin_m, t.max_error_m, t.damaged, t.damage_points = 1e9, -1.0, False, 0.0
+            self.last_damage = s.damage
+            return
         error = None
         # room left to the limit of the drivable width (robot/drivable.py), at the car's side
         left_m, right_m = self._room_left[i] - s.to_middle_m, self._room_right[i] + s.to_middle_m
@@ -283,18 +295,42 @@ class TutorialRobot(Robot):
         self.last_damage = s.damage
 
     def _traffic(self, s: State, v: float) -> list[Nearby]:
-        """The cars near enough to matter, and the overtaking offset moved towards the free side
-        (back to the line, a step at a time, when nobody is near)."""
+        """The cars near enough to matter, and the line's offset from racecraft (robot/racecraft.py:
+        passing, room side by side, letting a lapping car by); back to the line, a step at a time,
+        when nobody is near."""
         p = self.params
         cars = nearby(s, self.car.length_m, self.track.length_m, p.back_range_m, p.front_range_m) \
-            if s.opponents else []
+            if s.opponents and not math.isnan(s.dist_from_start_m) else []
         if cars:
-            self.offset_m = overtake_offset(self.offset_m, v, s.to_middle_m, cars, 0.5 * self.track.width_m - 1.5,
-                                            self.car.length_m, self.opp)
+            cars = self.craft.predict(s.sim_time_s, cars)
+            dist = s.dist_from_start_m
+            self._now_s, self._dist_m = s.sim_time_s, dist
+            j = int(dist / self.step_m) % self.n
+            k = self.line.curvature_at(dist + self.craft.p.horizon_s * v)  # the turn we are heading for
+            inside = 0.0 if abs(k) < TURN_CURVATURE_1PM else math.copysign(1.0, k)
+            straight = next((x for x in range(0, 400, 10) if self.profile.speed_at(dist + x) < 0.95 * v), 400)
+            base = None if self.craft.p.plan_passes else \
+                overtake_offset(self.offset_m, v, s.to_middle_m, cars, 0.5 * self.track.width_m - 1.5,
+                                self.car.length_m, self.opp)
+            turn = max(abs(self.line.curvature_at(dist + x))
+                       for x in range(0, int(max(0.0, v) * self.craft.p.turn_ahead_s) + 1, 10))
+            self.offset_m = self.craft.offset(s.sim_time_s, v, s.to_middle_m, cars, self.offset_m,
+                                              self.line.offset_at(dist), (self._half_left[j], -self._half_right[j]),
+                                              inside, straight, p.overtake_step_m, base, turn)
         elif self.offset_m:
             self.offset_m = max(0.0, self.offset_m - p.overtake_step_m) if self.offset_m > 0 \
                 else min(0.0, self.offset_m + p.overtake_step_m)
         return cars
+
+    def _other_target(self, c: Nearby) -> float:
+        """The speed a car ahead is predicted to slow to within the horizon: our profile's lowest
+        speed over the road it covers, scaled by how much slower than the profile it drives now
+        (no less than 0.8: a car far below the profile is starting or in trouble, and held at its speed)."""
+        pos = self._dist_m + c.dist_m
+        here = max(1.0, self.profile.speed_at(pos))
+        reach = c.speed_mps * self.craft.p.horizon_s
+        lowest = min(self.profile.speed_at(pos + x) for x in range(0, int(reach) + 1, 10))
+        return min(c.speed_mps, max(0.8, min(1.0, c.speed_mps / here)) * lowest)
 
     def _steer(self, s: State, v: float) -> float:
         return self._steer_line(s, v) if self.params.steering == "line" else self._steer_lookahead(s, v)
@@ -329,7 +365,8 @@ class TutorialRobot(Robot):
     def _avoid_side(self, steer: float, cars: list[Nearby]) -> float:
         if not cars:
             return steer
-        return side_steer(steer, cars, self.car.length_m, self.car.width_m, self.car.steer_lock_rad, self.opp)
+        return side_steer(steer, cars, self.car.length_m, self.car.width_m, self.car.steer_lock_rad, self.opp,
+                          self.craft.p.side_push_rad_per_m)
 
     def _speed(self, s: State, v: float) -> tuple[float, float]:
         """(brake, accel) from the speed profile a little ahead of the car."""
@@ -342,7 +379,15 @@ class TutorialRobot(Robot):
         return 0.0, (1.0 if margin >= p.full_accel_margin_mps else 0.4 + 0.6 * margin / p.full_accel_margin_mps)
 
     def _avoid_collision(self, brake: float, v: float, cars: list[Nearby]) -> float:
-        return collision_brake(brake, v, cars, self.car.width_m, self.opp, self._brakedist) if cars else brake
+        """Brake for a car ahead: time-to-collision braking from the prediction (robot/racecraft.py),
+        and/or the tutorial's fixed-gap filter (RacecraftParams.brake_mode)."""
+        if not cars:
+            return brake
+        mode = self.craft.p.brake_mode
+        brake = self.craft.brake(self._now_s, brake, v, cars, self._other_target, predict=mode != "gap")
+        if mode != "ttc":
+            brake = collision_brake(brake, v, cars, self.car.width_m, self.opp, self._brakedist)
+        return brake
 
     def _traction(self, s: State, v: float, brake: float, accel: float) -> tuple[float, float]:
         """ABS on the brake, or traction control on the throttle (never both)."""

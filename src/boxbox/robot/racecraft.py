@@ -1,0 +1,229 @@
+"""Racecraft: passing, racing side by side, being lapped and braking for cars, from a prediction
+of each nearby car a couple of seconds ahead (control/traffic.py has the physics on plain numbers).
+
+Only ever consulted when a car is near (robot/opponents.py `nearby`): a car racing alone drives
+exactly as without it.  Per step:
+
+- `offset`: the lateral offset of the racing line.  Behind a slower car in our lane that we will
+  reach within pass_time_s: go round it on the inside of the coming turn when that side has room
+  (the braking zone is where passes are made), else on the side with more room, no further aside
+  than needed; a pass not done within abort_s is given up (back to the line, behind it).  A car
+  lapping us from behind: move to the side it is not on.  Cars alongside: the line is kept inside
+  the band they leave us (room given side by side).
+- `brake`: brake for a car ahead when the predicted closest gap (we brake after a reaction time,
+  it slows towards the speed our own profile needs where it is going, scaled by how much slower
+  than that profile it drives) falls below a margin; softer in front of a close follower unless
+  the gap is already at the margin.
+- `spoiled`: whether the last steps were shaped by traffic (a car close, the line moved aside, a
+  brake for a car), so the learner does not read them as the track's grip.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+from boxbox.control.traffic import brake_for, min_gap_m, pass_pays, pass_side, room
+from boxbox.model.constants import G_MPS2
+from boxbox.robot.opponents import Nearby
+
+TURN_CURVATURE_1PM = 1.0 / 300.0  # the line curves more than this: a turn whose inside counts
+
+
+@dataclass(frozen=True)
+class RacecraftParams:
+    brake_mode: str = "gap"  # ttc: the prediction; gap: the tutorial's fixed gap; both: the harder of the two
+    plan_passes: bool = False  # False: the tutorial's overtaking offset, with room side by side
+    horizon_s: float = 2.0  # how far ahead other cars are predicted
+    reaction_s: float = 0.1  # we brake this long after deciding to
+    brake_share: float = 0.75  # share of the tyres' grip counted on braking for a car (no downforce)
+    margin_m: float = 2.0  # bumper gap kept to the car ahead
+    close_brake: float = 0.5  # the brake with a car ahead in our lane touching (less as the gap grows)
+    band_m: float = 4.0  # the brake rises from 0 to 1 as the predicted gap falls this much to the margin
+    side_gap_m: float = 1.0  # lateral gap kept to a car alongside
+    pass_gap_m: float = 1.5  # lateral gap aimed at passing a car
+    lane_m: float = 1.0  # a car ahead overlapping our width plus this is in our lane (brake for it)
+    edge_m: float = 1.0  # our centre this far inside the track's edge beyond half our width
+    pass_time_s: float = 3.0  # a slower car reached within this starts a pass
+    abort_s: float = 6.0  # a pass not done by then is given up
+    cooldown_s: float = 3.0  # after an abort, no new pass for this long
+    lapped_back_m: float = 40.0  # a car lapping us this close behind is let by
+    follower_m: float = 10.0  # a car this close behind is a follower we do not brake hard in front of
+    follower_brake: float = 0.5  # the brake for a car ahead in front of a follower (unless at the margin)
+    side_push_rad_per_m: float = 0.3  # steering away from a car alongside closer than the side margin
+    hold_line_grip_share: float = 0.5  # a turn ahead needing this share of the grip at our speed: back to the line
+    turn_ahead_s: float = 1.5  # how far ahead the turn is looked for
+    lateral_ahead_s: float = 0.5  # how far ahead a car closing in sideways is seen where it will be
+    spoil_m: float = 15.0  # a car this close (centre to centre) shapes our driving
+    spoil_hold_s: float = 1.0  # ... for this long after
+
+
+def converging(cars: list[Nearby], rates_mps: list[float], ahead_s: float) -> list[Nearby]:
+    """The cars with their lateral positions moved ahead_s along their lateral speed relative to
+    us, where that brings them closer to our line (never further: a car moving away still counts
+    where it is now)."""
+    out = []
+    for c, rate in zip(cars, rates_mps, strict=True):
+        moved = c.lateral_m + rate * ahead_s
+        if abs(moved) < abs(c.lateral_m) and moved * c.lateral_m > 0.0:
+            shift = moved - c.lateral_m
+            c = replace(c, lateral_m=moved, mid_m=c.mid_m + shift)
+        elif moved * c.lateral_m <= 0.0 and c.lateral_m:
+            c = replace(c, lateral_m=math.copysign(1e-3, c.lateral_m), mid_m=c.mid_m - c.lateral_m)
+        out.append(c)
+    return out
+
+
+class Racecraft:
+    """Per-race state of the traffic decisions (the pass under way, the learner guard)."""
+
+    def __init__(self, params: RacecraftParams, width_m: float, length_m: float, mu: float) -> None:
+        self.p = params
+        self.width_m = width_m
+        self.length_m = length_m
+        self.decel_mps2 = mu * G_MPS2
+        self.pass_side = 0.0  # +1 left, -1 right, 0: no pass under way
+        self.pass_since_s = 0.0
+        self.no_pass_until_s = -math.inf
+        self.spoiled_until_s = -math.inf
+        self._lateral: dict[int, tuple[float, float]] = {}  # car index -> (time, lateral to us)
+        self._taint_lap = -1
+        self._tainted: set[int] = set()  # turns where traffic shaped a step this lap
+
+    def predict(self, now_s: float, cars: list[Nearby]) -> list[Nearby]:
+        """The cars as they will be laterally lateral_ahead_s from now (closing in on us only),
+        from their lateral speed relative to us over the last step."""
+        rates = []
+        for c in cars:
+            last = self._lateral.get(c.index)
+            dt = now_s - last[0] if last else 0.0
+            rates.append((c.lateral_m - last[1]) / dt if last and 0.0 < dt < 0.1 else 0.0)
+            self._lateral[c.index] = (now_s, c.lateral_m)
+        return converging(cars, rates, self.p.lateral_ahead_s)
+
+    def spoiled(self, now_s: float) -> bool:
+        return now_s < self.spoiled_until_s
+
+    def tainted(self, now_s: float, lap: int, turn: int) -> tuple[bool, bool]:
+        """(skip this step, newly tainted turn) for the learner: a turn (-1: none) where traffic
+        shaped any step this lap is judged on none of its steps (judged on the rest it would look
+        easier than it is: the hard part is where the car was lifting or aside)."""
+        if lap != self._taint_lap:
+            self._taint_lap = lap
+            self._tainted.clear()
+        if self.spoiled(now_s):
+            new = turn >= 0 and turn not in self._tainted
+            if new:
+                self._tainted.add(turn)
+            return True, new
+        return turn >= 0 and turn in self._tainted, False
+
+    def _mark(self, now_s: float) -> None:
+        self.spoiled_until_s = now_s + self.p.spoil_hold_s
+
+    # --- the line's offset ----------------------------------------------------------------------
+    def offset(self, now_s: float, v: float, my_mid_m: float, cars: list[Nearby], offset_m: float, line_off_m: float,
+               edges_m: tuple[float, float], inside_sign: float, straight_m: float, step_m: float,
+               base_offset_m: float | None = None, turn_1pm: float = 0.0) -> float:
+        """The new lateral offset of the line (see the module's docstring).  edges_m: the track's
+        (left, right) edges here as lateral positions; straight_m: road ahead before the next
+        braking zone; base_offset_m: an offset chosen elsewhere (the tutorial's overtaking) that
+        only gets the room side by side; turn_1pm: the line's sharpest curvature in the next
+        seconds: in a turn the offset goes back to the line (the speed profile is the line's: off
+        it the radius is another), unless a car alongside needs room."""
+        p = self.p
+        left = edges_m[0] - 0.5 * self.width_m - p.edge_m
+        right = edges_m[1] + 0.5 * self.width_m + p.edge_m
+        if base_offset_m is None:
+            target = self._pass_target(now_s, v, cars, my_mid_m, line_off_m, left, right, inside_sign, straight_m)
+            if target is None:
+                target = self._yield_target(cars, my_mid_m, left, right)
+            want = 0.0 if target is None else target - line_off_m
+            new = min(want, offset_m + step_m) if offset_m < want else max(want, offset_m - step_m)
+        else:
+            new = base_offset_m  # moved aside, but never further out than the track allows (or the line is)
+            if new > 0.0:
+                new = max(0.0, min(new, left - line_off_m))
+            elif new < 0.0:
+                new = min(0.0, max(new, right - line_off_m))
+        if v * v * turn_1pm > p.hold_line_grip_share * self.decel_mps2:
+            new = max(0.0, offset_m - step_m) if offset_m > 0.0 else min(0.0, offset_m + step_m)
+        alongside = [(c.mid_m, c.width_m or self.width_m) for c in cars if abs(c.dist_m) < self.length_m + 1.0]
+        if alongside:
+            lo, hi = room(my_mid_m, alongside, self.width_m, p.side_gap_m, left, right)
+            new = min(hi, max(lo, line_off_m + new)) - line_off_m
+        if new or any(abs(c.dist_m) < p.spoil_m for c in cars):
+            self._mark(now_s)
+        return new
+
+    def _pass_target(self, now_s: float, v: float, cars: list[Nearby], my_mid_m: float, line_off_m: float,
+                     left: float, right: float, inside_sign: float, straight_m: float) -> float | None:
+        """Our lateral target passing the slower car ahead in our way, or None."""
+        p = self.p
+        ahead = [c for c in cars if c.dist_m > 0.0 and c.speed_mps < v and c.laps_ahead <= 0
+                 and abs(c.lateral_m) < self.width_m + 2.0 * p.pass_gap_m
+                 and c.gap_m < max(2.0 * self.length_m, (v - c.speed_mps) * p.pass_time_s)]
+        if not ahead or now_s < self.no_pass_until_s:
+            self.pass_side = 0.0
+            return None
+        c = min(ahead, key=lambda x: x.dist_m)
+        other_w = c.width_m or self.width_m
+        if abs(line_off_m - c.mid_m) >= 0.5 * (self.width_m + other_w) + p.pass_gap_m:
+            self.pass_side = 0.0
+            return None  # the racing line goes by it: keep the line
+        if self.pass_side == 0.0:
+            self.pass_since_s = now_s
+        elif now_s - self.pass_since_s > p.abort_s:
+            self.pass_side = 0.0
+            self.no_pass_until_s = now_s + p.cooldown_s
+            return None
+        sticky = self.pass_side or inside_sign
+        close = c.gap_m < self.length_m  # too close to cross behind it: pass on the side we are on
+        chosen = pass_side(c.mid_m, self.width_m, other_w, p.pass_gap_m, left, right, sticky,
+                           my_mid_m if close else None)
+        if chosen is None:
+            self.pass_side = 0.0
+            return None  # no room either side: stay behind (brake() keeps the gap)
+        side, target = chosen
+        if self.pass_side == 0.0 and not pass_pays(c.gap_m, v, c.speed_mps, self.length_m, straight_m,
+                                                    side == inside_sign):
+            return None  # would end side by side on the outside of a turn: wait behind
+        self.pass_side = side
+        return target
+
+    def _yield_target(self, cars: list[Nearby], my_mid_m: float, left: float, right: float) -> float | None:
+        """Aside for a car lapping us from close behind: the side it is not on."""
+        for c in cars:
+            if c.laps_ahead > 0 and -self.p.lapped_back_m < c.dist_m < 0.0:
+                return right if c.mid_m > my_mid_m else left
+        return None
+
+    # --- braking for the car ahead --------------------------------------------------------------
+    def brake(self, now_s: float, brake: float, v: float, cars: list[Nearby], other_target,
+              predict: bool = True) -> float:
+        """brake, raised where a car ahead in our lane would come closer than the margin (predict:
+        from the prediction; always: a car already closer than the margin, faster or not, gets a
+        lift or a touch of brake).  other_target(car) -> the speed it is predicted to slow to
+        within the horizon."""
+        p = self.p
+        want = 0.0
+        closest = math.inf
+        for c in cars:
+            if c.dist_m <= 0.0 or abs(c.lateral_m) >= 0.5 * (self.width_m + (c.width_m or self.width_m)) + p.lane_m:
+                continue
+            if c.gap_m < p.margin_m:
+                closest = min(closest, c.gap_m)
+                want = max(want, p.close_brake * (1.0 - max(0.0, c.gap_m) / p.margin_m))
+            if not predict:
+                continue
+            gap = min_gap_m(c.gap_m, v, c.speed_mps, other_target(c), p.brake_share * self.decel_mps2,
+                            self.decel_mps2, p.reaction_s, p.horizon_s)
+            closest = min(closest, gap)
+            want = max(want, brake_for(gap, p.margin_m, p.band_m))
+        if want <= 0.0:
+            return brake
+        self._mark(now_s)
+        follower = any(-p.follower_m < c.dist_m < 0.0 and abs(c.lateral_m) < self.width_m for c in cars)
+        if follower and closest > p.margin_m:
+            want = min(want, p.follower_brake)
+        return max(brake, want)

@@ -1,0 +1,48 @@
+"""bench-field's figures on plain numbers: places lap by lap, incident laps, a car's field figures."""
+
+from __future__ import annotations
+
+from boxbox.bench.field import car_figures, incident_laps
+from boxbox.torcs.positions import positions_by_lap
+from boxbox.torcs.results import DriverResult, RaceResult
+
+
+def test_places_follow_the_sum_of_laps():
+    # a leads lap 1, b passes on lap 2, c never finishes lap 2
+    places = positions_by_lap([[40.0, 42.0], [41.0, 40.0], [45.0]])
+    assert places == [[1, 2], [2, 1], [3]]
+
+
+def test_a_tie_keeps_the_given_order():
+    assert positions_by_lap([[40.0], [40.0]]) == [[1], [2]]
+
+
+def test_incident_laps_leave_out_lap_one_and_count_slow_laps():
+    assert incident_laps([48.0, 40.0, 40.2, 53.0, 40.1]) == (1, 12.85)
+    assert incident_laps([48.0, 40.0, 41.9, 40.1]) == (0, 0.0)
+    assert incident_laps([48.0]) == (0, 0.0)
+
+
+def _driver(name, rank, laps, module="bt", idx=0):
+    return DriverResult(name=name, module=module, idx=idx, car="car1-trb1", rank=rank, laps=len(laps),
+                        time=sum(laps), lap_times=laps, damage=10 * rank)
+
+
+def test_car_figures_from_the_back():
+    winner = _driver("w", 1, [40.0, 40.0, 40.0])
+    me = _driver("me", 2, [41.0, 40.0, 40.5], module="boxbox")
+    slow = _driver("s", 3, [45.0, 50.0])
+    result = RaceResult(track="t", category="road", car="car1-trb1", laps=3, drivers=[winner, me, slow])
+    f = car_figures(result, me, start_slot=3)
+    assert f["rank"] == 2 and f["gap_s"] == 1.5 and f["laps_down"] == 0
+    assert f["lap1_gain"] == 1  # from slot 3 to second after lap 1
+    assert f["field_damage"] == 60 and f["damage"] == 20
+    lapped = car_figures(result, slow, start_slot=3)
+    assert lapped["laps_down"] == 1 and lapped["gap_s"] is None
+
+
+def test_no_lap_one_gain_without_every_car_s_laps():
+    a = _driver("a", 1, [40.0])
+    b = DriverResult(name="b", module="bt", idx=1, car="c", rank=2, laps=1, time=41.0)
+    result = RaceResult(track="t", category="road", car="c", laps=1, drivers=[a, b])
+    assert car_figures(result, a, start_slot=2)["lap1_gain"] is None

@@ -1,0 +1,111 @@
+"""Traffic physics on plain numbers (control/traffic.py) and racecraft's decisions (robot/racecraft.py)."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from boxbox.control.traffic import brake_for, closing_time_s, min_gap_m, pass_pays, pass_side, predicted_speed_mps, room
+from boxbox.robot.opponents import Nearby
+from boxbox.robot.racecraft import Racecraft, RacecraftParams
+
+G = 9.81
+
+
+def test_closing_time():
+    assert closing_time_s(20.0, 30.0, 20.0) == pytest.approx(2.0)
+    assert closing_time_s(20.0, 20.0, 25.0) == math.inf
+
+
+def test_predicted_speed_slows_to_its_target_and_never_speeds_up():
+    assert predicted_speed_mps(30.0, 20.0, 10.0, 0.5) == pytest.approx(25.0)
+    assert predicted_speed_mps(30.0, 20.0, 10.0, 3.0) == 20.0
+    assert predicted_speed_mps(15.0, 20.0, 10.0, 3.0) == 15.0
+
+
+def test_min_gap_of_a_constant_speed_car_is_the_textbook_one():
+    # it keeps 20 m/s; we brake from 30 at 5 m/s^2 at once: the gap closes by (30-20)^2 / (2*5) = 10 m
+    gap = min_gap_m(30.0, 30.0, 20.0, 20.0, 5.0, 5.0, reaction_s=0.0, horizon_s=5.0)
+    assert gap == pytest.approx(20.0, abs=0.3)
+
+
+def test_min_gap_counts_the_car_ahead_braking():
+    steady = min_gap_m(30.0, 30.0, 30.0, 30.0, 8.0, 8.0, 0.1, 2.0)
+    braking = min_gap_m(30.0, 30.0, 30.0, 15.0, 8.0, 8.0, 0.1, 2.0)
+    assert steady == pytest.approx(30.0)
+    assert braking < steady - 1.0  # we react 0.1 s late and brake more softly (8 vs 8 but later)
+
+
+def test_brake_rises_as_the_predicted_gap_falls():
+    assert brake_for(10.0, 2.0, 4.0) == 0.0
+    assert brake_for(4.0, 2.0, 4.0) == pytest.approx(0.5)
+    assert brake_for(1.0, 2.0, 4.0) == 1.0
+
+
+def test_room_keeps_us_clear_of_cars_alongside():
+    # a 2 m car 2.5 m to our right (at -2.5; we are at 0): our centre no lower than -2.5 + 2 + 1
+    lo, hi = room(0.0, [(-2.5, 2.0)], 2.0, 1.0, 5.0, -5.0)
+    assert (lo, hi) == (pytest.approx(0.5), 5.0)
+    lo, hi = room(0.0, [(-1.0, 2.0), (1.0, 2.0)], 2.0, 1.0, 5.0, -5.0)
+    assert lo == hi == pytest.approx(0.0)  # squeezed: the middle of what is left
+
+
+def test_pass_side_takes_the_inside_with_room_else_the_wider_side():
+    # a 2 m car at +1 m on a track from -5 to +5, gap 1.5 m: left needs 1 + 3.5 = 4.5 <= 5, right 1 - 3.5 = -2.5
+    assert pass_side(1.0, 2.0, 2.0, 1.5, 5.0, -5.0, inside_sign=1.0) == (1.0, 4.5)
+    assert pass_side(1.0, 2.0, 2.0, 1.5, 5.0, -5.0, inside_sign=0.0) == (-1.0, -2.5)
+    assert pass_side(0.0, 2.0, 2.0, 1.5, 3.0, -3.0, inside_sign=1.0) is None  # no room either side
+    # too close to cross behind it: only our side (we are to its right)
+    assert pass_side(1.0, 2.0, 2.0, 1.5, 5.0, -5.0, inside_sign=1.0, my_mid_m=0.0) == (-1.0, -2.5)
+
+
+def test_a_pass_pays_when_it_completes_before_the_braking_zone_or_on_the_inside():
+    # 10 m behind, 5 m/s faster, 4.5 m cars: (10 + 9) / 5 = 3.8 s at 40 m/s = 152 m of straight
+    assert pass_pays(10.0, 40.0, 35.0, 4.5, 200.0, inside=False)
+    assert not pass_pays(10.0, 40.0, 35.0, 4.5, 100.0, inside=False)
+    assert pass_pays(10.0, 40.0, 35.0, 4.5, 100.0, inside=True)
+    assert not pass_pays(10.0, 30.0, 35.0, 4.5, 1000.0, inside=False)
+
+
+def _car(dist_m, mid_m, speed_mps, my_mid_m=0.0, laps_ahead=0):
+    gap = dist_m - 4.5 if dist_m > 0 else dist_m + 4.5
+    return Nearby(dist_m, gap, mid_m - my_mid_m, speed_mps, laps_ahead, 2.0, mid_m)
+
+
+def _craft(**kw):
+    return Racecraft(RacecraftParams(**kw), width_m=2.0, length_m=4.5, mu=1.2)
+
+
+def test_racecraft_gives_room_to_a_car_alongside_and_marks_the_step_spoiled():
+    craft = _craft()
+    assert not craft.spoiled(0.0)
+    # racing line at our position (0), a car alongside on our left at +2 m: the line moves right
+    off = craft.offset(1.0, 30.0, 0.0, [_car(1.0, 2.0, 30.0)], 0.0, 0.0, (6.0, -6.0), 0.0, 400.0, 0.1, 0.0)
+    assert off <= 2.0 - (2.0 + 1.0) + 1e-9
+    assert craft.spoiled(1.5) and not craft.spoiled(2.5)
+
+
+def test_racecraft_leaves_the_line_alone_when_nobody_is_near():
+    craft = _craft()
+    far = _car(150.0, 0.0, 30.0)  # far ahead, no faster than us
+    assert craft.offset(1.0, 30.0, 0.0, [far], 0.0, 0.0, (6.0, -6.0), 0.0, 400.0, 0.1, 0.0) == 0.0
+    assert not craft.spoiled(1.0)
+
+
+def test_planned_pass_goes_round_a_slower_car_and_gives_up_in_time():
+    craft = _craft(plan_passes=True, abort_s=2.0)
+    slow = _car(15.0, 0.0, 20.0)
+    # right turn coming (inside -1), room on both sides: the inside
+    off = craft.offset(0.0, 30.0, 0.0, [slow], 0.0, 0.0, (6.0, -6.0), -1.0, 400.0, 0.1)
+    assert off == pytest.approx(-0.1) and craft.pass_side == -1.0
+    craft.offset(2.5, 30.0, 0.0, [slow], -1.0, 0.0, (6.0, -6.0), -1.0, 400.0, 0.1)
+    assert craft.pass_side == 0.0  # not done in abort_s: given up (back towards the line)
+
+
+def test_racecraft_brakes_for_a_car_stopped_in_our_lane_not_for_one_beside_it():
+    craft = _craft()
+    stopped = _car(30.0, 0.0, 0.0)
+    aside = _car(30.0, 4.0, 0.0)
+    assert craft.brake(0.0, 0.0, 30.0, [stopped], lambda c: 0.0) == 1.0
+    assert craft.brake(0.0, 0.0, 30.0, [aside], lambda c: 0.0) == 0.0
