@@ -300,7 +300,7 @@ def test_report_page_has_every_figure_and_table(tmp_path):
         assert text in page, text
     assert "http://" not in page and "https://" not in page  # self-contained
     out = write_report(tmp_path)
-    assert out == tmp_path / "report.html" and out.read_text().count("<img ") == 5
+    assert out == tmp_path / "report.html" and out.read_text().count("<img ") == 6
 
 
 def test_report_without_telemetry_and_with_an_error(tmp_path):
