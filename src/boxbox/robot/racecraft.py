@@ -54,6 +54,7 @@ class RacecraftParams:
     hold_line_grip_share: float = 0.5  # a turn ahead needing this share of the grip at our speed: back to the line
     turn_ahead_s: float = 1.5  # how far ahead the turn is looked for
     lateral_ahead_s: float = 0.5  # how far ahead a car closing in sideways is seen where it will be
+    stopped_mps: float = 3.0  # a car this slow close ahead is driven round, whatever our speed
     spoil_m: float = 15.0  # a car this close (centre to centre) shapes our driving
     spoil_hold_s: float = 1.0  # ... for this long after
 
@@ -141,6 +142,10 @@ class Racecraft:
             want = 0.0 if target is None else target - line_off_m
             new = min(want, offset_m + step_m) if offset_m < want else max(want, offset_m - step_m)
         else:
+            blocked = self._round_stopped(cars, left, right, inside_sign)
+            if blocked is not None:
+                want = blocked - line_off_m
+                base_offset_m = min(want, offset_m + step_m) if offset_m < want else max(want, offset_m - step_m)
             new = base_offset_m  # moved aside, but never further out than the track allows (or the line is)
             if new > 0.0:
                 new = max(0.0, min(new, left - line_off_m))
@@ -190,6 +195,18 @@ class Racecraft:
             return None  # would end side by side on the outside of a turn: wait behind
         self.pass_side = side
         return target
+
+    def _round_stopped(self, cars: list[Nearby], left: float, right: float, inside_sign: float) -> float | None:
+        """Our lateral target round a car stopped (a crash) close ahead in our way, or None: the
+        tutorial's overtaking passes only cars slower than us, so behind a stopped car we stopped too."""
+        p = self.p
+        for c in cars:
+            if 0.0 < c.dist_m < 3.0 * self.length_m and c.speed_mps < p.stopped_mps \
+                    and abs(c.lateral_m) < self.width_m + p.side_gap_m:
+                chosen = pass_side(c.mid_m, self.width_m, c.width_m or self.width_m, p.side_gap_m, left, right,
+                                   inside_sign)
+                return None if chosen is None else chosen[1]
+        return None
 
     def _yield_target(self, cars: list[Nearby], my_mid_m: float, left: float, right: float) -> float | None:
         """Aside for a car lapping us from close behind: the side it is not on."""
