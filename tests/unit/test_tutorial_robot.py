@@ -489,3 +489,10 @@ def test_overtaking_in_lookahead_mode_stays_on_the_track():
 def test_overtaking_in_line_mode_stays_on_the_track():
     steer, side = _pass_a_car_across_the_middle(robot_for(_track_with_the_line_near_an_edge()))
     assert steer * side < 0.15  # the car is at the edge already: do not steer off the track
+
+
+def test_a_car_without_a_place_on_the_track_brakes():
+    """TORCS sets a car's track distance to NaN in a pile-up now and then: brake, do not crash."""
+    robot = robot_for("g-track-1")
+    c = robot.drive(line_state(robot, 100.0, 30.0)._replace(dist_from_start_m=math.nan))
+    assert c.brake == 1.0 and c.accel == 0.0 and c.problem(robot.car.max_gear) is None

@@ -9,6 +9,7 @@ Everything is per step and cheap: one pass over the opponents in plain Python.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from boxbox.model.state import CAR_STATE_OUT, State
@@ -43,8 +44,8 @@ def nearby(state: State, length_m: float, track_length_m: float, back_range_m: f
     half = track_length_m / 2
     my_dist, my_mid, my_laps = state.dist_from_start_m, state.to_middle_m, state.laps
     for o in state.opponents:
-        if int(o.car_state) & CAR_STATE_OUT:
-            continue
+        if int(o.car_state) & CAR_STATE_OUT or not math.isfinite(o.dist_from_start_m + o.to_middle_m + o.speed_mps):
+            continue  # out of the race, or a car whose state TORCS lost in a pile-up (NaN): no input to steer by
         raw = o.dist_from_start_m - my_dist
         d = raw
         if d > half:

@@ -1,21 +1,27 @@
 """Racecraft: passing, racing side by side, being lapped and braking for cars, from a prediction
-of each nearby car a couple of seconds ahead (control/traffic.py has the physics on plain numbers).
+of each nearby car (control/traffic.py has the physics on plain numbers; docs/racecraft.md the
+measurements that chose the defaults).
 
 Only ever consulted when a car is near (robot/opponents.py `nearby`): a car racing alone drives
 exactly as without it.  Per step:
 
-- `offset`: the lateral offset of the racing line.  Behind a slower car in our lane that we will
-  reach within pass_time_s: go round it on the inside of the coming turn when that side has room
-  (the braking zone is where passes are made), else on the side with more room, no further aside
-  than needed; a pass not done within abort_s is given up (back to the line, behind it).  A car
-  lapping us from behind: move to the side it is not on.  Cars alongside: the line is kept inside
-  the band they leave us (room given side by side).
-- `brake`: brake for a car ahead when the predicted closest gap (we brake after a reaction time,
-  it slows towards the speed our own profile needs where it is going, scaled by how much slower
-  than that profile it drives) falls below a margin; softer in front of a close follower unless
-  the gap is already at the margin.
-- `spoiled`: whether the last steps were shaped by traffic (a car close, the line moved aside, a
-  brake for a car), so the learner does not read them as the track's grip.
+- `predict`: each car's lateral position as it will be lateral_ahead_s from now when it is closing
+  in on us sideways (its lateral speed relative to us over the last step), so a car cutting across
+  counts as in our lane before it is.
+- `offset`: the lateral offset of the racing line.  By default the tutorial's overtaking offset
+  (towards the free side of a slower car ahead, aside for a car lapping us), then: round a car
+  stopped close ahead, never further out than the track allows, back to the line where the turn
+  ahead needs more than hold_line_grip_share of the grip at our speed (the speed profile is the
+  line's: off it the radius is another), and inside the band that cars alongside leave us (room
+  side by side).  plan_passes=True plans passes instead (the inside of the coming turn when it has
+  room, no further aside than needed, only when the pass completes before the braking zone or is
+  on the inside, given up after abort_s); it measured worse in the field.
+- `brake`: a touch of brake for a car touching ahead in our lane, faster or not; with
+  brake_mode "ttc" or "both" also braking from the predicted closest gap (we brake after a
+  reaction time, it slows towards the speed our own profile needs where it is going), softer in
+  front of a close follower.  The default "gap" keeps the tutorial's fixed-gap filter for the rest.
+- `spoiled` / `tainted`: whether traffic shaped the last steps (a car close, the line moved aside,
+  a brake for a car), so the learner drops the whole turn for this lap.
 """
 
 from __future__ import annotations
@@ -54,6 +60,7 @@ class RacecraftParams:
     hold_line_grip_share: float = 0.5  # a turn ahead needing this share of the grip at our speed: back to the line
     turn_ahead_s: float = 1.5  # how far ahead the turn is looked for
     lateral_ahead_s: float = 0.5  # how far ahead a car closing in sideways is seen where it will be
+    stopped_mps: float = 3.0  # a car this slow close ahead is driven round, whatever our speed
     spoil_m: float = 15.0  # a car this close (centre to centre) shapes our driving
     spoil_hold_s: float = 1.0  # ... for this long after
 
@@ -141,6 +148,10 @@ class Racecraft:
             want = 0.0 if target is None else target - line_off_m
             new = min(want, offset_m + step_m) if offset_m < want else max(want, offset_m - step_m)
         else:
+            blocked = self._round_stopped(cars, left, right, inside_sign)
+            if blocked is not None:
+                want = blocked - line_off_m
+                base_offset_m = min(want, offset_m + step_m) if offset_m < want else max(want, offset_m - step_m)
             new = base_offset_m  # moved aside, but never further out than the track allows (or the line is)
             if new > 0.0:
                 new = max(0.0, min(new, left - line_off_m))
@@ -190,6 +201,18 @@ class Racecraft:
             return None  # would end side by side on the outside of a turn: wait behind
         self.pass_side = side
         return target
+
+    def _round_stopped(self, cars: list[Nearby], left: float, right: float, inside_sign: float) -> float | None:
+        """Our lateral target round a car stopped (a crash) close ahead in our way, or None: the
+        tutorial's overtaking passes only cars slower than us, so behind a stopped car we stopped too."""
+        p = self.p
+        for c in cars:
+            if 0.0 < c.dist_m < 3.0 * self.length_m and c.speed_mps < p.stopped_mps \
+                    and abs(c.lateral_m) < self.width_m + p.side_gap_m:
+                chosen = pass_side(c.mid_m, self.width_m, c.width_m or self.width_m, p.side_gap_m, left, right,
+                                   inside_sign)
+                return None if chosen is None else chosen[1]
+        return None
 
     def _yield_target(self, cars: list[Nearby], my_mid_m: float, left: float, right: float) -> float | None:
         """Aside for a car lapping us from close behind: the side it is not on."""

@@ -241,6 +241,8 @@ class TutorialRobot(Robot):
         round other cars, then throttle and brake from the speed profile through the pit stop,
         collision avoidance, ABS and traction control and the throttle guards."""
         v = s.speed_x_mps
+        if s.dist_from_start_m != s.dist_from_start_m:  # NaN: TORCS lost the car's place (a pile-up)
+            return self._blind(s)
         if s.laps != self.laps_seen:
             self._new_lap(s)
         if self._stuck(s):
@@ -256,6 +258,11 @@ class TutorialRobot(Robot):
         gear = self.gears.select(int(s.gear), v)
         return Controls(steer=steer, accel=accel, brake=brake, clutch=self._clutch(gear, v, accel), gear=gear,
                         pit_request=self.pits.wanted)
+
+    def _blind(self, s: State) -> Controls:
+        """No place on the track to drive by: brake in the gear the car is in until TORCS finds it."""
+        gear = int(s.gear) if s.gear == s.gear and 1 <= s.gear <= self.car.max_gear else 1
+        return Controls(steer=0.0, accel=0.0, brake=1.0, clutch=0.0, gear=gear)
 
     def _back_out(self, s: State, v: float) -> Controls:
         """Reverse, steering the nose back towards the track's direction."""
