@@ -385,32 +385,37 @@ details { margin: 0.4em 0; } summary { cursor: pointer; font-weight: 600; }
 """
 
 
-def build_report(run_dir: Path, limit: tuple[np.ndarray, np.ndarray] | None = None) -> str:
-    """The HTML page for the race in run_dir (result.json required; telemetry.parquet when recorded);
-    `limit`: the limit lap's speed (m/s) against distance (m), drawn in every lap's speed plot."""
-    from boxbox.torcs.telemetry import FILE_NAME, load_telemetry
-
-    run_dir = Path(run_dir)
+def _read_result(run_dir: Path) -> dict:
     result_file = run_dir / "result.json"
     if not result_file.exists():
         raise UsageError(f"{run_dir} has no result.json: give the run directory of a race "
                          "(printed after `boxbox race`, or chosen with --run-dir)")
     try:
-        r = json.loads(result_file.read_text())
+        return json.loads(result_file.read_text())
     except ValueError as exc:
         raise UsageError(f"{result_file} is not valid JSON: {exc}") from None
-    drivers = r.get("drivers", [])
-    tel = None
-    tel_note = ""
-    tel_file = run_dir / FILE_NAME
-    if tel_file.exists():
-        try:
-            tel = load_telemetry(tel_file)
-        except Exception as exc:
-            tel_note = f"telemetry file unreadable: {type(exc).__name__}: {exc}"
-    else:
-        tel_note = "no telemetry recorded for this race (raced with --no-telemetry, or no Python car)"
 
+
+def _read_telemetry(run_dir: Path):
+    """(the run's telemetry or None, why there is none, its file)."""
+    from boxbox.torcs.telemetry import FILE_NAME, load_telemetry
+
+    tel_file = run_dir / FILE_NAME
+    if not tel_file.exists():
+        return None, "no telemetry recorded for this race (raced with --no-telemetry, or no Python car)", tel_file
+    try:
+        return load_telemetry(tel_file), "", tel_file
+    except Exception as exc:
+        return None, f"telemetry file unreadable: {type(exc).__name__}: {exc}", tel_file
+
+
+def build_report(run_dir: Path, limit: tuple[np.ndarray, np.ndarray] | None = None) -> str:
+    """The HTML page for the race in run_dir (result.json required; telemetry.parquet when recorded);
+    `limit`: the limit lap's speed (m/s) against distance (m), drawn in every lap's speed plot."""
+    run_dir = Path(run_dir)
+    r = _read_result(run_dir)
+    drivers = r.get("drivers", [])
+    tel, tel_note, tel_file = _read_telemetry(run_dir)
     parts = [f"<h1>{html.escape(r.get('track', '?'))} ({html.escape(r.get('category', ''))}), "
              f"{html.escape(r.get('car', ''))}, {r.get('laps', '?')} laps, "
              f"skill level {html.escape(str(r.get('skill_level', 'pro (before the level was recorded)')))}</h1>",

@@ -240,6 +240,34 @@ def _moving_average_wrap(a: np.ndarray, win: int) -> np.ndarray:
     return np.convolve(padded, np.full(win, 1.0 / win), mode="valid")
 
 
+def _optimal_offsets(mid: MiddleLine, iterations: int, peak_cap: float, cap_window_m: float,
+                     cache: bool) -> np.ndarray:
+    """_min_curvature_offsets, cached: the same track and settings give the same line."""
+    def solve() -> np.ndarray:
+        return _min_curvature_offsets(mid, iterations, peak_cap, cap_window_m)
+
+    if not cache:
+        return solve()
+    key = [Path(__file__).read_bytes(), Path(minline.__file__).read_bytes(),
+           repr((iterations, peak_cap, cap_window_m)).encode(),
+           *(np.ascontiguousarray(a).tobytes() for a in (mid.x_m, mid.y_m, mid.half_left_m, mid.half_right_m))]
+    return cached_array("racing-lines", key, solve)
+
+
+def _road_profiles(z_m: np.ndarray, step_m: float, cache: bool) -> tuple[np.ndarray, np.ndarray]:
+    """(vertical curvature, roughness), cached like the line: scipy.ndimage's filters cost a race
+    ~0.3 s of imports alone."""
+    def compute() -> np.ndarray:
+        return np.stack((vertical_curvature(z_m, step_m), road_roughness(z_m, step_m)))
+
+    if not cache:
+        kv, rough = compute()
+        return kv, rough
+    kv, rough = cached_array("road-profiles", [Path(__file__).read_bytes(), repr(step_m).encode(),
+                                               np.ascontiguousarray(z_m).tobytes()], compute)
+    return kv, rough
+
+
 class RacingLine:
     """Minimum-curvature line of one track.
 
@@ -270,17 +298,7 @@ class RacingLine:
         px, py = mid.x_m[:n], mid.y_m[:n]
         nx, ny = -np.sin(mid.heading_rad[:n]), np.cos(mid.heading_rad[:n])
         lo, hi = -mid.half_right_m[:n], mid.half_left_m[:n]
-
-        def solve() -> np.ndarray:
-            return _min_curvature_offsets(mid, iterations, peak_cap, cap_window_m)
-
-        if cache:  # the optimisation takes seconds; the same track and settings give the same line
-            key = [Path(__file__).read_bytes(), Path(minline.__file__).read_bytes(),
-                   repr((iterations, peak_cap, cap_window_m)).encode(),
-                   *(np.ascontiguousarray(a).tobytes() for a in (mid.x_m, mid.y_m, mid.half_left_m, mid.half_right_m))]
-            self.optimal_offset_m = cached_array("racing-lines", key, solve)
-        else:
-            self.optimal_offset_m = solve()
+        self.optimal_offset_m = _optimal_offsets(mid, iterations, peak_cap, cap_window_m, cache)
         off = np.clip(self.blend * self.optimal_offset_m, lo, hi)
         x, y = px + off * nx, py + off * ny
         k_raw, heading, chord = _closed_curvature(x, y)
@@ -304,15 +322,7 @@ class RacingLine:
         self.curvature_1pm = closed(k)
         self.length_factor = closed(factor)
         self.path_length_m = float(chord.sum())
-        z_m, step = mid.z_m[:n], self.step_m
-
-        def vertical() -> np.ndarray:
-            return np.stack((vertical_curvature(z_m, step), road_roughness(z_m, step)))
-
-        # cached like the line: scipy.ndimage's filters cost a race ~0.3 s of imports alone
-        kv, rough = cached_array("road-profiles", [Path(__file__).read_bytes(), repr(step).encode(),
-                                                   np.ascontiguousarray(z_m).tobytes()], vertical) \
-            if cache else vertical()
+        kv, rough = _road_profiles(mid.z_m[:n], self.step_m, cache)
         self.vertical_curvature_1pm = closed(kv)
         self.roughness_1pm = closed(rough)
 
