@@ -276,12 +276,12 @@ class TutorialRobot(Robot):
         was pushed outside its line near the apex."""
         if not self.learner.turns:
             return
-        dist = s.dist_from_start_m
-        if math.isnan(dist):  # TORCS loses a car's place on the track in a pile-up now and then
-            return
+        dist = s.dist_from_start_m  # never NaN here: drive() stops at a NaN distance
         i = int(dist / self.step_m) % self.n
         turn = self.learner.sample_index[i]
-        skip, new = self.craft.tainted(s.sim_time_s, int(s.laps), turn if turn >= 0 else self.learner.last_turn)
+        # alone, traffic never spoiled a step: the learner's usual path, without the call
+        skip, new = self.craft.tainted(s.sim_time_s, int(s.laps), turn if turn >= 0 else self.learner.last_turn) \
+            if self.craft.spoiled_until_s > -math.inf else (False, False)
         if skip:  # traffic shaped this turn this lap (robot/racecraft.py): it teaches nothing of its grip
             if new:
                 t = self.learner.turns[turn if turn >= 0 else self.learner.last_turn]
