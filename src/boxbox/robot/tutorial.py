@@ -15,11 +15,14 @@ filterBColl(filterBPit(getBrake()))))):
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from pathlib import Path
 
 import numpy as np
 
+from boxbox.cache import cached_array
+from boxbox.control import carmodel, lapsim, speed, tyre
 from boxbox.control.braking import brake_distance
 from boxbox.control.carmodel import CarModel
 from boxbox.control.gears import GearBox
@@ -29,6 +32,7 @@ from boxbox.control.steering import steer_to_line, steer_to_point
 from boxbox.control.traction import SlipParams, abs_filter, tcl_filter
 from boxbox.model import Car, CarSetup, Controls, PitOrder, State, Track
 from boxbox.model.constants import DRIVE_STEP_S
+from boxbox.robot import carsetup
 from boxbox.robot.base import FUEL_L_PER_M_ESTIMATE, RaceOptions, Robot
 from boxbox.robot.carsetup import best_rear_wing_rad
 from boxbox.robot.drivable import centre_room
@@ -86,9 +90,20 @@ class TutorialRobot(Robot):
         step_m = [self.step_m * f for f in self.line.length_factor[: self.n].tolist()]
         # the cornering grip: the simulation's own point-mass corner limit must not undercut the robot's
         corner_mu = [base.mu * f * p.mu_scale for f in self._friction]
-        angle, times = best_rear_wing_rad(car, base.mass_kg - car.mass_kg, step_m, self._curv, corner_mu,
-                                          lambda model: self._limits([1.0] * self.n, model), p.rear_balance)
-        self.wing_laps_s = {round(math.degrees(a), 1): round(t, 3) for a, t in times.items()}
+
+        def choose() -> np.ndarray:
+            angle, times = best_rear_wing_rad(car, base.mass_kg - car.mass_kg, step_m, self._curv, corner_mu,
+                                              lambda model: self._limits([1.0] * self.n, model), p.rear_balance)
+            return np.array([angle, *times.keys(), *times.values()])
+
+        # cached: the same line, car and parameters choose the same wing (~50-100 ms of simulated laps)
+        key = [*(Path(str(m.__file__)).read_bytes() for m in (carsetup, lapsim, speed, carmodel, tyre)),
+               Path(__file__).read_bytes(), repr((dataclasses.astuple(car), dataclasses.astuple(p), fuel_l)).encode(),
+               np.ascontiguousarray(self.line.curvature_1pm).tobytes()]
+        chosen = cached_array("car-setups", key, choose).tolist()
+        angle, tried = chosen[0], (len(chosen) - 1) // 2
+        angles, laps = chosen[1:1 + tried], chosen[1 + tried:]
+        self.wing_laps_s = {round(math.degrees(a), 1): round(t, 3) for a, t in zip(angles, laps, strict=True)}
         return CarSetup(rear_wing_angle_rad=angle) if angle != car.rear_wing_angle_rad else None
 
     def on_track(self, track: Track, car: Car) -> None:
