@@ -7,8 +7,7 @@ import os
 import click
 
 from boxbox.cli.common import err, out, ready
-from boxbox.cli.types import LAPS, CommaList, GridPosition, OutputFile, skill_level_option
-from boxbox.options import LEARNING_MODES
+from boxbox.cli.types import LAPS, CommaList, GridPosition, OutputFile, bench_race_options, skill_level_option
 
 DEFAULT_TRACKS = "e-track-2,e-track-4,mixed-2,g-track-1,aalborg,michigan"
 DEFAULT_ROBOTS = "boxbox,bt:2,berniw:3,inferno:3,olethros:2"
@@ -26,11 +25,7 @@ JOBS = click.IntRange(1, 64)
 @click.option("--laps", type=LAPS, default=3, show_default=True, help="Race length in laps.")
 @click.option("--together", is_flag=True, help="All robots in one race per track and car (default: each alone).")
 @click.option("--jobs", type=JOBS, default=None, help="Races run in parallel (default: the number of CPUs).")
-@click.option("--no-cache", is_flag=True, help="Race again even what the bench cache has (and refresh it).")
-@click.option("--learning", type=click.Choice(LEARNING_MODES), default="fresh", show_default=True,
-              help="Python robots' learned data: from nothing each race, the shared store, or none.")
-@click.option("--set", "settings", multiple=True, metavar="KEY=VALUE",
-              help="Override a parameter of the Python robots (see `boxbox params`), e.g. --set mu_scale=0.9.")
+@bench_race_options
 @click.option("--json", "json_file", type=OutputFile(), help="Write the rows as JSON.")
 @click.option("--csv", "csv_file", type=OutputFile(), help="Write the rows as CSV.")
 @click.option("--grid-position", type=GridPosition(), default=None,
@@ -187,11 +182,7 @@ def bench_telemetry(track, laps, runs, robot, json_file, skill_level) -> None:
 @click.option("--robot", default="boxbox", show_default=True, help="Python robot under test, e.g. my_robot.py:MyRobot.")
 @click.option("--laps", type=LAPS, default=10, show_default=True, help="Race length in laps.")
 @click.option("--jobs", type=JOBS, default=1, show_default=True, help="Races run in parallel.")
-@click.option("--no-cache", is_flag=True, help="Race again even what the bench cache has (and refresh it).")
-@click.option("--learning", type=click.Choice(LEARNING_MODES), default="fresh", show_default=True,
-              help="The Python robot's learned data: from nothing each race, the shared store, or none.")
-@click.option("--set", "settings", multiple=True, metavar="KEY=VALUE",
-              help="Override a parameter of the Python robot (see `boxbox params`), e.g. --set mu_scale=0.9.")
+@bench_race_options
 @click.option("--json", "json_file", type=OutputFile(), help="Write the rows as JSON.")
 @skill_level_option
 def bench_field(tracks, robot, laps, jobs, no_cache, learning, settings, json_file, skill_level) -> None:

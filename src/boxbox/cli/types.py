@@ -50,6 +50,21 @@ def skill_level_option(command: Any) -> Any:
                              "docs/rules.md); semi-pro is what TORCS gives its own robots.")(command)
 
 
+def bench_race_options(command: Any) -> Any:
+    """--no-cache, --learning and --set, as every bench of Python robots takes them."""
+    from boxbox.options import LEARNING_MODES
+
+    for option in (
+        click.option("--set", "settings", multiple=True, metavar="KEY=VALUE",
+                     help="Override a parameter of the Python robots (see `boxbox params`), e.g. --set mu_scale=0.9."),
+        click.option("--learning", type=click.Choice(LEARNING_MODES), default="fresh", show_default=True,
+                     help="Python robots' learned data: from nothing each race, the shared store, or none."),
+        click.option("--no-cache", is_flag=True, help="Race again even what the bench cache has (and refresh it)."),
+    ):
+        command = option(command)
+    return command
+
+
 class GridPosition(click.ParamType):
     """A grid slot: 1 (pole) .. 40, or 'last'."""
 
