@@ -112,8 +112,6 @@ class TutorialRobot(Robot):
         self.params = p
         self._prepare_line(track, car, p)
         mid = self.line.middle
-        self.step_m = self.line.step_m
-        self.n = mid.n
         self._normals = [(-math.sin(h), math.cos(h)) for h in mid.heading_rad.tolist()]
         self._half_left = mid.half_left_m.tolist()
         self._half_right = mid.half_right_m.tolist()
@@ -150,7 +148,11 @@ class TutorialRobot(Robot):
         self._stuck_angle = math.radians(p.stuck_angle_deg)
 
     def _prepare_line(self, track: Track, car: Car, p: TutorialParams) -> None:
-        """The racing line and what the speed limits need of it per sample."""
+        """The racing line and what the speed limits need of it per sample (once: car_setup made it
+        already when on_track comes for the same track and parameters)."""
+        if getattr(self, "_line_for", None) == (id(track), car.width_m, p):
+            return
+        self._line_for = (id(track), car.width_m, p)
         self.line = RacingLine(track, step_m=2.0, margin_m=p.line_margin_m, blend=p.racing_line,
                                bounds_m=self._line_bounds(track, car, p))
         mid = self.line.middle
