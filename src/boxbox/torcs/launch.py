@@ -242,6 +242,10 @@ class Race:
 
     def _spawn_host(self, listen_fd: int, link_fd: int) -> ForkedHost | subprocess.Popen:
         if not os.environ.get("BOXBOX_HOST_EXEC") and hasattr(os, "fork"):
+            if self.cfg.telemetry:
+                # the host writes telemetry.parquet as the race ends: imported here, once per launcher
+                # process, every forked host has it (a bench, a study or a notebook races many times)
+                import pyarrow.parquet  # noqa: F401
             return ForkedHost(self.run_dir.host_spec, self.run_dir.host_log, self.cpu)
         with open(self.run_dir.host_log, "wb") as log:
             return subprocess.Popen([sys.executable, "-m", "boxbox.torcs.host", str(self.run_dir.host_spec)],

@@ -298,7 +298,9 @@ def write_telemetry(path: Path, recorders: list[Recorder], track=None, cars: dic
         meta["track"] = track_info(track, cars or {})
     table = table.replace_schema_metadata({METADATA_KEY: json.dumps(meta).encode()})
     with atomic_path(path) as tmp:
-        pq.write_table(table, tmp, compression="zstd")
+        # dictionary pages only for the driver's name: on float columns they cost two thirds of the
+        # write (66 -> 25 ms for a 20-lap race's 38,700 rows) and make the file larger
+        pq.write_table(table, tmp, compression="zstd", use_dictionary=["driver"])
     for rec in recorders:
         rec.remove_spool()
     return table.num_rows
