@@ -35,7 +35,7 @@ def track_with_sides(border_friction: float = 1.4, outer_friction: float = 0.4, 
 def rooms(track, limits: str):
     mid = middle_line(track, 2.0)
     n = mid.n
-    left, right = centre_room(track, mid.seg_id[:n], mid.dist_m[:n], mid.half_left_m[:n], CAR_WIDTH_M, limits)
+    left, right = centre_room(track, mid.seg_id[:n], mid.seg_frac[:n], mid.half_left_m[:n], CAR_WIDTH_M, limits)
     turn = track.seg["type"][mid.seg_id[:n]] == LEFT
     return left, right, turn
 

@@ -26,13 +26,20 @@ from boxbox.cache import cache_dir
 from boxbox.control.carmodel import CarModel, wing_drag_coefficient
 from boxbox.control.lapsim import PointMassCar, lap_speeds_mps, lap_time_s
 from boxbox.control.minline import closed_curvature, min_curvature_offsets
-from boxbox.control.trackwidth import drivable_width, grippy_sides, pit_exempt, side_parts, surface_friction
+from boxbox.control.trackwidth import (
+    drivable_width,
+    grippy_sides,
+    pit_exempt,
+    side_parts,
+    surface_friction,
+    turn_direction,
+)
 from boxbox.errors import BoxboxError
 from boxbox.files import atomic_path
 from boxbox.model import Car, Track
 from boxbox.model.car import FWD
 from boxbox.model.skill import SkillLevel
-from boxbox.model.track import LEFT, RIGHT, STRAIGHT
+from boxbox.model.track import LEFT, RIGHT
 from boxbox.robot.racingline import middle_line, vertical_curvature
 from boxbox.robot.recorder import RECORD_FILE, load_track
 from boxbox.torcs import wire
@@ -122,15 +129,11 @@ def limit_lap(track: Track, car: Car, skill_level: SkillLevel, track_limits: str
     mid = middle_line(track, step_m=step_m)
     ids = mid.seg_id[:-1]
     seg = track.seg
-    starts, lengths = seg["start_dist_m"].astype(float)[ids], seg["length_m"].astype(float)[ids]
-    frac = np.clip((mid.dist_m[:-1] - starts) / np.where(lengths > 0, lengths, 1.0), 0.0, 1.0)
+    frac = mid.seg_frac[:-1]
     half = mid.half_left_m[:-1]
     left, right = side_parts(seg, ids, frac, "left"), side_parts(seg, ids, frac, "right")
-    typ = seg["type"][ids]
-    turn = np.where(typ == LEFT, 1.0, np.where(typ == RIGHT, -1.0, 0.0))
-    turn[typ == STRAIGHT] = 0.0
-    bank0, bank1 = seg["banking_start_rad"][ids], seg["banking_end_rad"][ids]
-    bank = (bank0 + frac * (bank1 - bank0)).astype(float)
+    turn = turn_direction(seg["type"][ids])
+    bank = mid.bank_rad[:-1]
     z = mid.z_m[:-1]
     grade = np.clip((np.roll(z, -1) - z) / mid.step_m, -0.5, 0.5)
     kv = vertical_curvature(z, mid.step_m)

@@ -17,6 +17,8 @@ from typing import Literal
 
 import numpy as np
 
+from boxbox.model.track import LEFT, RIGHT
+
 TrackLimits = Literal["torcs", "strict"]
 TRACK_LIMITS: tuple[str, ...] = ("torcs", "strict")
 CUT_LIMIT_CAR_WIDTHS = 0.7  # ReRaceRules: a cut starts 0.7 car widths beyond the inside edge
@@ -109,6 +111,11 @@ def surface_friction(offset_m: np.ndarray, half_width_m: np.ndarray, main_fricti
     border_mu = np.where(off >= 0, lp.border_friction, rp.border_friction)
     outer_mu = np.where(off >= 0, lp.outer_friction, rp.outer_friction)
     return np.where(beyond <= 0, main, np.where(beyond <= border_w, border_mu, outer_mu))
+
+
+def turn_direction(seg_type: np.ndarray) -> np.ndarray:
+    """+1 on a left turn, -1 on a right turn, 0 on a straight, per TORCS segment type."""
+    return np.where(seg_type == LEFT, 1.0, np.where(seg_type == RIGHT, -1.0, 0.0))
 
 
 def side_parts(seg: dict[str, np.ndarray], ids: np.ndarray, frac: np.ndarray, side: str) -> SideParts:

@@ -14,26 +14,24 @@ from __future__ import annotations
 
 import numpy as np
 
-from boxbox.control.trackwidth import drivable_width, grippy_sides, pit_exempt, side_parts
+from boxbox.control.trackwidth import drivable_width, grippy_sides, pit_exempt, side_parts, turn_direction
 from boxbox.model import Track
 from boxbox.model.track import LEFT, RIGHT
 
 
-def centre_room(track: Track, seg_id: np.ndarray, dist_m: np.ndarray, half_width_m: np.ndarray,
+def centre_room(track: Track, seg_id: np.ndarray, seg_frac: np.ndarray, half_width_m: np.ndarray,
                 car_width_m: float, track_limits: str) -> tuple[np.ndarray, np.ndarray]:
-    """Room (m) for the car's centre left and right of the middle at samples on segments `seg_id`
-    at `dist_m` from the start line, where the track is 2 x half_width_m wide."""
+    """Room (m) for the car's centre left and right of the middle at samples on segments `seg_id`,
+    `seg_frac` of the way along each (MiddleLine's), where the track is 2 x half_width_m wide."""
     seg = track.seg
     ids = np.asarray(seg_id, dtype=int)
-    starts, lengths = seg["start_dist_m"].astype(float)[ids], seg["length_m"].astype(float)[ids]
-    frac = np.clip((np.asarray(dist_m) - starts) / np.where(lengths > 0, lengths, 1.0), 0.0, 1.0)
+    frac = np.asarray(seg_frac, dtype=float)
     main_mu = seg["friction"].astype(float)[ids]
     left = grippy_sides(side_parts(seg, ids, frac, "left"), main_mu, _roughness(seg, ids, "left"),
                         _roll_resistance(seg, ids, "left"))
     right = grippy_sides(side_parts(seg, ids, frac, "right"), main_mu, _roughness(seg, ids, "right"),
                          _roll_resistance(seg, ids, "right"))
-    typ = seg["type"][ids]
-    turn = np.where(typ == LEFT, 1.0, np.where(typ == RIGHT, -1.0, 0.0))
+    turn = turn_direction(seg["type"][ids])
     pit = track.pit
     side, entry, exit_ = (pit.side, pit.entry_seg, pit.exit_seg) if pit else (None, 0, 0)
     exempt_l, exempt_r = pit_exempt(side, entry, exit_, ids, LEFT), pit_exempt(side, entry, exit_, ids, RIGHT)

@@ -45,6 +45,7 @@ class MiddleLine:
     half_right_m: np.ndarray  # usable room right of the middle, positive
     friction: np.ndarray
     seg_id: np.ndarray  # segment holding each sample
+    seg_frac: np.ndarray  # how far along that segment (0..1)
     curvature_1pm: np.ndarray  # exact curvature of the middle line from the segments, + left
     z_m: np.ndarray  # elevation of the middle (linear along each segment, as TORCS has it)
     bank_rad: np.ndarray  # the road's roll, + where the left edge is higher (TORCS's banking angle)
@@ -106,7 +107,7 @@ def middle_line(track: Track, step_m: float = 2.0, margin_m: float = 0.0) -> Mid
     b1 = seg.get("banking_end_rad", no_bank).astype(float)[ids]
     return MiddleLine(length_m=length_m, step_m=length_m / n, dist_m=dist_m, x_m=x, y_m=y,
                       heading_rad=heading, half_left_m=half, half_right_m=half.copy(),
-                      friction=seg["friction"].astype(float)[ids], seg_id=ids, curvature_1pm=k,
+                      friction=seg["friction"].astype(float)[ids], seg_id=ids, seg_frac=frac, curvature_1pm=k,
                       z_m=z0 + frac * (seg["end_z_m"].astype(float)[ids] - z0), bank_rad=b0 + frac * (b1 - b0))
 
 

@@ -171,7 +171,7 @@ class TutorialRobot(Robot):
         the car's centre the learner measures margins against."""
         mid = middle_line(track, 2.0)
         n = mid.n
-        room_l, room_r = centre_room(track, mid.seg_id[:n], mid.dist_m[:n], mid.half_left_m[:n], car.width_m,
+        room_l, room_r = centre_room(track, mid.seg_id[:n], mid.seg_frac[:n], mid.half_left_m[:n], car.width_m,
                                      p.track_limits)
         self._room_left, self._room_right = room_l.tolist(), room_r.tolist()
         safety_m = p.line_margin_m - 0.5 * car.width_m
