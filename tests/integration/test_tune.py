@@ -44,23 +44,31 @@ def load(storage_url: str | None, study: str):
 
 
 def kill_mid_trial(proc: subprocess.Popen, storage_url: str | None, study: str, timeout_s: float = 60,
-                   sig: int = signal.SIGKILL) -> int:
-    """Signal proc (SIGKILL) while a trial of its own is RUNNING; the trial's number."""
+                   sig: int = signal.SIGKILL, fresh_s: float = 0.6) -> int:
+    """Signal proc (SIGKILL) while a trial of its own is RUNNING and began less than fresh_s ago (its
+    races take longer than that, so the signal lands inside them, not after its result); the trial's
+    number."""
+    import datetime
+
     import optuna
 
     deadline = time.monotonic() + timeout_s
+    study_obj = None
     while time.monotonic() < deadline:
         assert proc.poll() is None, "the worker ended before it could be killed mid-trial"
-        try:
-            running = load(storage_url, study).get_trials(states=(optuna.trial.TrialState.RUNNING,))
+        try:  # opened once: each open costs a busy machine a good part of a trial
+            study_obj = study_obj or load(storage_url, study)
+            running = study_obj.get_trials(states=(optuna.trial.TrialState.RUNNING,))
         except Exception:  # the study is not made yet
             running = []
-        mine = [t for t in running if t.user_attrs.get("worker", "").split(":")[1:2] == [str(proc.pid)]]
-        if mine:  # at once: a trial's races take about a second, and a busy machine may end them sooner
+        now = datetime.datetime.now()
+        mine = [t for t in running if t.user_attrs.get("worker", "").split(":")[1:2] == [str(proc.pid)]
+                and t.datetime_start is not None and (now - t.datetime_start).total_seconds() < fresh_s]
+        if mine:
             proc.send_signal(sig)
             proc.wait(30)
             return mine[0].number
-        time.sleep(0.05)
+        time.sleep(0.02)
     raise AssertionError("no trial of the worker seen running")
 
 
