@@ -220,6 +220,18 @@ def test_box_qp_solver_keeps_general_row_bounds() -> None:
                      np.array([3.0]), np.array([4.0]))
 
 
+def test_vertical_curvature_is_the_road_under_the_line() -> None:
+    """Where the banking changes, the road under a line off the middle rises and falls against the
+    middle: the line's vertical curvature is that of z_middle + offset x sin(bank) (mixed-2's banking
+    changes by up to 0.75 degrees per 2 m)."""
+    line, _ = built("mixed-2")
+    mid, n = line.middle, line.middle.n
+    under = vertical_curvature(mid.z_m[:n] + line.offset_m[:n] * np.sin(mid.bank_rad[:n]), line.step_m)
+    middle_only = vertical_curvature(mid.z_m[:n], line.step_m)
+    assert np.allclose(line.vertical_curvature_1pm[:n], under)
+    assert np.abs(under - middle_only).max() > 0.002
+
+
 def test_blend_between_middle_and_racing_line() -> None:
     track, _ = load("mixed-2")
     full, _ = built("mixed-2")
