@@ -508,3 +508,19 @@ def test_a_car_without_a_place_on_the_track_brakes():
     robot = robot_for("g-track-1")
     c = robot.drive(line_state(robot, 100.0, 30.0)._replace(dist_from_start_m=math.nan))
     assert c.brake == 1.0 and c.accel == 0.0 and c.problem(robot.car.max_gear) is None
+
+
+def test_fast_turns_keep_more_room_on_their_outside_only():
+    """line_speed_margin_s narrows each turn's outer bound by s x speed x grip share (the car slides
+    out of its line by more the faster it goes), never the inner one; 0 leaves the bounds alone."""
+    plain, _ = build("g-track-1", robot_args={"set": {"line_speed_margin_s": 0.0}})
+    robot = robot_for("g-track-1")
+    require(robot.params.line_speed_margin_s > 0.0, "the default keeps room outside fast turns")
+    n = robot.n
+    k = plain.line.curvature_1pm[:n]  # the first line's turns: the bounds are narrowed from them
+    left_cut = plain.line.middle.half_left_m[:n] - robot.line.middle.half_left_m[:n]
+    right_cut = plain.line.middle.half_right_m[:n] - robot.line.middle.half_right_m[:n]
+    # a left turn (k > 0) throws the car to the right: only the right bound narrows there
+    assert np.all(left_cut[k > 0.0] <= 1e-9) and np.all(right_cut[k < 0.0] <= 1e-9)
+    assert max(left_cut.max(), right_cut.max()) > 1.0  # the long fast left turn: more than a metre
+    assert np.all(left_cut >= -1e-9) and np.all(right_cut >= -1e-9)
