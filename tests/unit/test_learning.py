@@ -286,3 +286,63 @@ def test_line_errors_do_not_override_leaving_the_track():
     tl = learner(TWO_TURNS)
     drive_lap_on_a_line(tl, {12: 0.1}, margin=-0.5)
     assert tl.turns[0].factor == pytest.approx(0.98)
+
+
+# --- trials judged by section time --------------------------------------------------------------
+
+def time_lap(tl, t0_s, turn0_s):
+    """Enter turn 0 at t0_s and turn 1 turn0_s later (the section of turn 0 is timed)."""
+    tl.enter(0, t0_s)
+    tl.enter(1, t0_s + turn0_s)
+
+
+def test_a_raise_that_made_the_section_slower_is_taken_back_and_the_turn_settles():
+    tl = learner(TWO_TURNS)
+    time_lap(tl, 0.0, 10.0)  # turn 0's section at factor 1.0: 10 s
+    drive_lap_on_a_line(tl, {11: 0.2})  # held its line: raised to 1.01
+    assert tl.turns[0].factor > 1.0
+    time_lap(tl, 30.0, 10.2)  # at the raised factor the section took 10.2 s
+    assert tl.turns[0].factor == 1.0 and tl.turns[0].settled
+    drive_lap_on_a_line(tl, {11: 0.2})  # holding the line again raises it no more
+    assert tl.turns[0].factor == 1.0
+
+
+def test_a_raise_that_paid_stays_and_the_next_one_is_judged_against_it():
+    tl = learner(TWO_TURNS)
+    time_lap(tl, 0.0, 10.0)
+    drive_lap_on_a_line(tl, {11: 0.2})
+    raised = tl.turns[0].factor
+    time_lap(tl, 30.0, 9.9)  # faster: kept
+    assert tl.turns[0].factor == raised and not tl.turns[0].settled
+    assert (tl.turns[0].base_factor, tl.turns[0].base_s) == (raised, pytest.approx(9.9))
+
+
+def test_a_cut_for_leaving_the_track_is_never_taken_back_and_unsettles_the_turn():
+    tl = learner(TWO_TURNS)
+    tl.turns[0].settled = True
+    time_lap(tl, 0.0, 10.0)
+    drive_lap_on_a_line(tl, {12: 0.1}, margin=-0.5)  # off the track: 0.98
+    time_lap(tl, 30.0, 11.0)  # slower, but safety first
+    assert tl.turns[0].factor == pytest.approx(0.98) and not tl.turns[0].settled
+
+
+def test_a_spoiled_section_is_not_judged():
+    tl = learner(TWO_TURNS)
+    time_lap(tl, 0.0, 10.0)
+    drive_lap_on_a_line(tl, {11: 0.2})
+    raised = tl.turns[0].factor
+    tl.enter(0, 30.0, spoiled=True)  # a pit stop in this section
+    tl.enter(1, 60.0)
+    assert tl.turns[0].factor == raised and not tl.turns[0].settled
+
+
+def test_an_understeer_cut_that_made_the_section_slower_is_taken_back():
+    """Pushed off its line (not off the track) is a pace call, judged like a raise."""
+    tl = learner(TWO_TURNS)
+    time_lap(tl, 0.0, 10.0)
+    drive_lap_on_a_line(tl, {11: 0.2, 12: 3.2})
+    assert tl.turns[0].factor == pytest.approx(0.98) and tl.turns[0].eased
+    time_lap(tl, 30.0, 10.3)
+    assert tl.turns[0].factor == 1.0 and tl.turns[0].settled
+    drive_lap_on_a_line(tl, {11: 0.2, 12: 3.2})  # settled: no second understeer cut
+    assert tl.turns[0].factor == 1.0

@@ -5,8 +5,11 @@ lap.  Here each turn (a stretch where the speed profile is limited by curvature)
 factor scaling its cornering speed: a lap with room to spare raises it, leaving the track or
 picking up damage in the turn lowers it and caps it there.  The cap is not for good: every clean
 lap in the turn lifts it by CEILING_RECOVERY, so a turn slowed by one bad lap (another car, a
-slide out of the turn before) earns its speed back.  Factors are kept per track and car in a JSON
-file, so the next race starts from what the last one learned.
+slide out of the turn before) earns its speed back.  A raise is a trial: the section from the
+turn's entry to the next turn's entry is timed at the old factor and at the new one, and a raise
+that made the section slower is taken back and the turn settles there (more corner speed is not
+always less time: a wider exit, a later turn-in to the next turn).  Factors are kept per track and
+car in a JSON file, so the next race starts from what the last one learned.
 """
 
 from __future__ import annotations
@@ -33,6 +36,12 @@ class Turn:
     max_error_m: float = -1.0  # this lap's largest distance from the racing line (-1: not measured)
     damaged: bool = False
     damage_points: float = 0.0  # damage taken in (or just after) this turn this lap
+    settled: bool = False  # a trial here made the section slower: no more trials (until it goes off)
+    eased: bool = False  # the last change was the understeer cut (a pace call, judged like a raise)
+    entered_s: float = -1.0  # sim time the car entered the turn this lap (-1: not timed)
+    driven_factor: float = 0.0  # the factor in force when the car entered it
+    base_factor: float = 0.0  # the factor of the last section timed before a raise (0: none yet)
+    base_s: float = 0.0  # that section's time
 
 
 @dataclass
@@ -45,6 +54,7 @@ class TurnLearner:
     steady_error_m: float = 1.0
     sample_index: list[int] = field(default_factory=list)  # turn index per profile sample, -1 outside
     last_turn: int = -1  # the turn driven most recently
+    timing_turn: int = -1  # the turn whose section (entry to the next turn's entry) is being timed
 
     @classmethod
     def from_limits(cls, limits_mps: list[float], step_m: float, length_m: float, max_speed_mps: float,
@@ -101,6 +111,32 @@ class TurnLearner:
             if margin_m < turn.min_margin_m:
                 turn.min_margin_m = margin_m
 
+    def enter(self, t: int, time_s: float, spoiled: bool = False) -> None:
+        """The car entered turn t at sim time time_s: that ends the section of the turn before
+        (judged by _judge) and starts this one's.  spoiled (traffic, a pit stop): neither counts."""
+        if 0 <= self.timing_turn < len(self.turns):
+            before = self.turns[self.timing_turn]
+            if before.entered_s >= 0.0 and not spoiled:
+                self._judge(before, time_s - before.entered_s)
+            before.entered_s = -1.0
+        turn = self.turns[t]
+        turn.entered_s = -1.0 if spoiled else time_s
+        turn.driven_factor = turn.factor
+        self.timing_turn = t
+
+    @staticmethod
+    def _judge(turn: Turn, section_s: float) -> None:
+        """Keep a raise that made the section faster; take back one that made it slower."""
+        f = turn.driven_factor
+        trial = f > turn.base_factor or (f < turn.base_factor and turn.eased)
+        if turn.base_factor == 0.0 or not trial or section_s <= turn.base_s:
+            # the first timing, the same factor, a cut for safety, or a trial that paid
+            turn.base_factor, turn.base_s = f, section_s
+        else:
+            if turn.factor == f:  # not changed since: back to what was faster, and stay there
+                turn.factor = turn.base_factor
+            turn.settled = True
+
     def end_lap(self) -> int:
         """Update every turn from the lap just driven; returns how many factors changed."""
         changed = 0
@@ -108,17 +144,23 @@ class TurnLearner:
             before = turn.factor
             if turn.min_margin_m == 1e9:
                 continue  # not driven (pit lane, start)
+            eased = False
             if turn.min_margin_m < CRASH_MARGIN_M or turn.damage_points >= CRASH_DAMAGE:
                 turn.factor = max(MIN_FACTOR, turn.factor * CRASH_FACTOR)
                 turn.ceiling = turn.factor
+                turn.settled = False
             elif turn.min_margin_m < OFF_MARGIN_M or turn.damaged:
                 turn.ceiling = max(MIN_FACTOR, turn.factor * 0.98)
                 cut = 0.96 if turn.min_margin_m < -1.0 or turn.damaged else 0.98
                 turn.factor = max(MIN_FACTOR, turn.factor * cut)
-            elif turn.max_error_m > 3.0 * self.steady_error_m:
+                turn.settled = False
+            elif turn.max_error_m > 3.0 * self.steady_error_m and not turn.settled:
                 # pushed off its racing line (understeer): the turn is taken faster than the line
                 # allows, even when the track is wide enough to leave room at the edge
                 turn.factor = max(MIN_FACTOR, turn.factor * 0.98)
+                eased = True
+            elif turn.settled:
+                pass  # a raise here cost time: hold the factor that was faster
             elif 0.0 <= turn.max_error_m < self.steady_error_m:
                 # a racing line uses the whole width, so the margin says little there; a car that
                 # stayed on its line through the turn had grip to spare
@@ -131,6 +173,7 @@ class TurnLearner:
                 spare = min(turn.min_margin_m - self.target_margin_m, 2.0)
                 turn.ceiling = min(MAX_FACTOR, turn.ceiling * CEILING_RECOVERY)
                 turn.factor = min(turn.ceiling, turn.factor * (1.0 + self.gain * 0.05 * spare))
+            turn.eased = eased if turn.factor != before else turn.eased
             turn.min_margin_m = 1e9
             turn.max_error_m = -1.0
             turn.damaged = False
@@ -143,7 +186,7 @@ class TurnLearner:
         path.parent.mkdir(parents=True, exist_ok=True)
         data = {"track": track, "car": car,
                 "turns": [{"start_m": round(t.start_m, 1), "end_m": round(t.end_m, 1), "factor": round(t.factor, 4),
-                           "ceiling": round(t.ceiling, 4)} for t in self.turns]}
+                           "ceiling": round(t.ceiling, 4), "settled": t.settled} for t in self.turns]}
         from boxbox.files import write_json_atomic
 
         write_json_atomic(path, data, indent=1)  # a unique temporary file: races at once may save together
@@ -160,5 +203,6 @@ class TurnLearner:
                 if abs(s["start_m"] - turn.start_m) < 10.0:
                     turn.factor = min(MAX_FACTOR, max(MIN_FACTOR, float(s["factor"])))
                     turn.ceiling = min(MAX_FACTOR, max(MIN_FACTOR, float(s.get("ceiling", MAX_FACTOR))))
+                    turn.settled = bool(s.get("settled", False))
                     break
         return True

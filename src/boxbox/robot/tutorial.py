@@ -325,6 +325,9 @@ class TutorialRobot(Robot):
         # alone, traffic never spoiled a step: the learner's usual path, without the call
         skip, new = self.craft.tainted(s.sim_time_s, int(s.laps), turn if turn >= 0 else self.learner.last_turn) \
             if self.craft.spoiled_until_s > -math.inf else (False, False)
+        if turn >= 0 and turn != self.learner.timing_turn:
+            # a section with a pit stop in it or traffic about says nothing of the factor's worth
+            self.learner.enter(turn, s.sim_time_s, spoiled=skip or self.pits.wanted or self.pits.phase is not None)
         if skip:  # traffic shaped this turn this lap (robot/racecraft.py): it teaches nothing of its grip
             if new:
                 t = self.learner.turns[turn if turn >= 0 else self.learner.last_turn]
