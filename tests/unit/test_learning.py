@@ -346,3 +346,15 @@ def test_an_understeer_cut_that_made_the_section_slower_is_taken_back():
     assert tl.turns[0].factor == 1.0 and tl.turns[0].settled
     drive_lap_on_a_line(tl, {11: 0.2, 12: 3.2})  # settled: no second understeer cut
     assert tl.turns[0].factor == 1.0
+
+
+def test_the_line_closes_the_section_so_the_last_turn_of_a_race_is_judged_too():
+    tl = learner(TWO_TURNS)
+    tl.enter(1, 0.0)
+    tl.close(5.0)  # the line: turn 1's section is 5 s at factor 1.0
+    drive_lap_on_a_line(tl, {26: 0.2})
+    assert tl.turns[1].factor > 1.0
+    tl.enter(1, 30.0)
+    tl.close(35.5)  # slower at the raised factor, judged at the line (the race's end)
+    assert tl.turns[1].factor == 1.0 and tl.turns[1].settled
+    assert tl.timing_turn == -1

@@ -6,7 +6,7 @@ factor scaling its cornering speed: a lap with room to spare raises it, leaving 
 picking up damage in the turn lowers it and caps it there.  The cap is not for good: every clean
 lap in the turn lifts it by CEILING_RECOVERY, so a turn slowed by one bad lap (another car, a
 slide out of the turn before) earns its speed back.  A raise is a trial: the section from the
-turn's entry to the next turn's entry is timed at the old factor and at the new one, and a raise
+turn's entry to the next turn's entry (or the line) is timed at the old factor and at the new one, and a raise
 that made the section slower is taken back and the turn settles there (more corner speed is not
 always less time: a wider exit, a later turn-in to the next turn).  Factors are kept per track and
 car in a JSON file, so the next race starts from what the last one learned.
@@ -114,15 +114,21 @@ class TurnLearner:
     def enter(self, t: int, time_s: float, spoiled: bool = False) -> None:
         """The car entered turn t at sim time time_s: that ends the section of the turn before
         (judged by _judge) and starts this one's.  spoiled (traffic, a pit stop): neither counts."""
+        self.close(time_s, spoiled)
+        turn = self.turns[t]
+        turn.entered_s = -1.0 if spoiled else time_s
+        turn.driven_factor = turn.factor
+        self.timing_turn = t
+
+    def close(self, time_s: float, spoiled: bool = False) -> None:
+        """End the section being timed at time_s: at the next turn's entry, or at the line (so a
+        section never runs into the next lap, and the last one of a race is judged too)."""
         if 0 <= self.timing_turn < len(self.turns):
             before = self.turns[self.timing_turn]
             if before.entered_s >= 0.0 and not spoiled:
                 self._judge(before, time_s - before.entered_s)
             before.entered_s = -1.0
-        turn = self.turns[t]
-        turn.entered_s = -1.0 if spoiled else time_s
-        turn.driven_factor = turn.factor
-        self.timing_turn = t
+        self.timing_turn = -1
 
     @staticmethod
     def _judge(turn: Turn, section_s: float) -> None:

@@ -502,11 +502,22 @@ class TutorialRobot(Robot):
         if first:
             return
         self.fuel_l = s.fuel_l
-        if self.params.learning:
-            self.learner.end_lap()
-            if self.learning_file is not None:
-                self.learner.save(self.learning_file, self.track.name, self.car.name)
+        self._end_lap_learning(s)
         self._build_profile()
+
+    def _end_lap_learning(self, s: State) -> None:
+        """The lap's lessons per turn (robot/learning.py), kept in the learning file."""
+        if not self.params.learning:
+            return
+        self.learner.close(s.sim_time_s, spoiled=self.pits.wanted or self.pits.phase is not None)
+        self.learner.end_lap()
+        if self.learning_file is not None:
+            self.learner.save(self.learning_file, self.track.name, self.car.name)
+
+    def on_race_end(self, state: State) -> None:
+        """The last lap teaches too: nothing after the finish line calls drive() again."""
+        if self.laps_seen >= 1 and self.learner.turns:
+            self._end_lap_learning(state)
 
     def pit_stop(self, state: State) -> PitOrder:
         return self.pits.pit_stop(state)
