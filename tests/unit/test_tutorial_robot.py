@@ -524,3 +524,20 @@ def test_fast_turns_keep_more_room_on_their_outside_only():
     assert np.all(left_cut[k > 0.0] <= 1e-9) and np.all(right_cut[k < 0.0] <= 1e-9)
     assert max(left_cut.max(), right_cut.max()) > 1.0  # the long fast left turn: more than a metre
     assert np.all(left_cut >= -1e-9) and np.all(right_cut >= -1e-9)
+
+
+@pytest.mark.parametrize("speed_mps", [20.0, 80.0])
+def test_understeer_steer_falls_with_downforce_load(speed_mps):
+    """The understeer term is 0.003 rad per m/s^2 of the line's lateral acceleration over
+    1 + CA v^2 / (m g): a tyre loaded by downforce needs less slip angle for the same force."""
+    robot = robot_for("michigan")
+    plain, _ = build("michigan", robot_args={"set": {"line_understeer_rad_per_mps2": 0.0}})
+    j = int(np.argmax(np.abs(robot.line.curvature_1pm[: robot.n])))
+    d = j * robot.step_m
+    s = line_state(robot, d, speed_mps)
+    ahead = d + speed_mps * robot.params.line_preview_s
+    k = robot.line.curvature_at(ahead)
+    m = robot.tyre_model
+    want = 0.003 * speed_mps ** 2 * k / (1.0 + m.ca * speed_mps ** 2 / (m.mass_kg * 9.81)) / robot.car.steer_lock_rad
+    got = robot._steer_line(s, speed_mps) - plain._steer_line(s, speed_mps)
+    assert got == pytest.approx(want, rel=1e-6)

@@ -37,7 +37,8 @@ class TutorialParams:
     line_preview_s: float = 0.05  # "line": take heading and curvature this far ahead (actuation lag)
     line_lateral_gain: float = 2.0
     line_yaw_damping_s: float = 0.05
-    line_understeer_rad_per_mps2: float = 0.002  # "line": extra steer per m/s^2 of lateral acceleration
+    # "line": extra steer per m/s^2 of lateral acceleration, at rest: less as downforce loads the tyres
+    line_understeer_rad_per_mps2: float = 0.003
     line_speed_margin_s: float = 0.04  # more room outside a fast turn: s x speed x share of grip used
     racing_line: float = 1.0  # 0 = the tutorial's middle line, 1 = the optimised line
     line_margin_m: float = 1.2  # racing line's distance from the track edge (car centre)

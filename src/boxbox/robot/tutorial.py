@@ -116,6 +116,7 @@ class TutorialRobot(Robot):
         self._half_left = mid.half_left_m.tolist()
         self._half_right = mid.half_right_m.tolist()
         self.tyre_model = CarModel.from_car(car, fuel_l=car.initial_fuel_l)
+        self._downforce_per_mg = self.tyre_model.ca / (self.tyre_model.mass_kg * G_MPS2)
         self.learner = TurnLearner.from_limits(self._limits([1.0] * self.n, self.tyre_model), self.step_m,
                                                self.line.length_m, p.max_speed_mps, gain=p.learn_gain,
                                                target_margin_m=p.learn_margin_m,
@@ -397,9 +398,11 @@ class TutorialRobot(Robot):
             j = int(dist / self.step_m) % self.n
             line_off = max(-self._half_right[j], min(self._half_left[j], line_off + self.offset_m))
         heading_error = (self.line.heading_at(ahead) - s.yaw_rad + math.pi) % TWO_PI - math.pi
+        # slip angle per lateral acceleration falls as downforce loads the tyres
+        understeer = p.line_understeer_rad_per_mps2 / (1.0 + self._downforce_per_mg * v * v)
         return steer_to_line(heading_error, line_off - s.to_middle_m, self.line.curvature_at(ahead), v,
                              s.yaw_rate_rps, self.wheelbase_m, self.car.steer_lock_rad, p.line_lateral_gain,
-                             p.line_yaw_damping_s, understeer_rad_per_mps2=p.line_understeer_rad_per_mps2)
+                             p.line_yaw_damping_s, understeer_rad_per_mps2=understeer)
 
     def _steer_lookahead(self, s: State, v: float) -> float:
         """The tutorial's steering: at a point on the line lookahead_m + lookahead_s x speed ahead."""
