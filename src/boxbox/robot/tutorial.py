@@ -170,7 +170,15 @@ class TutorialRobot(Robot):
         step_m = np.asarray(self.line.length_factor[: self.n]) * self.step_m
         curv = np.asarray(self._curv)
         mu = model.mu * np.asarray(self._friction) * p.mu_scale
-        v = lapsim.lap_speeds_mps(step_m, curv, mu, carsetup.ideal_gearbox_car(car, model), corner_limit_mps=limits)
+
+        def lap() -> np.ndarray:
+            return lapsim.lap_speeds_mps(step_m, curv, mu, carsetup.ideal_gearbox_car(car, model),
+                                         corner_limit_mps=limits)
+
+        # cached: the same line, car and limits give the same lap (~35 ms of simulation a race)
+        key = [Path(str(lapsim.__file__)).read_bytes(), Path(str(carsetup.__file__)).read_bytes(),
+               repr(dataclasses.astuple(car)).encode(), *(a.tobytes() for a in (limits, step_m, curv, mu))]
+        v = cached_array("fast-turn-laps", key, lap)
         grip = mu * (G_MPS2 + v * v * model.ca_corner / model.mass_kg)
         use = np.clip(v * v * curv / grip, 0.0, 1.0)
         extra = p.line_speed_margin_s * v * use
