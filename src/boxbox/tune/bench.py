@@ -19,7 +19,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-from boxbox.tune.objective import RESULT_ATTR, TuneConfig
+from boxbox.tune.objective import RaceScore, TuneConfig
 from boxbox.tune.storage import Storage, journal_path
 
 Report = Callable[[str], None]
@@ -91,16 +91,26 @@ def round_trip_ms(url: str, n: int = 200) -> float:
         engine.dispose()
 
 
+def _no_race(cfg: TuneConfig, index: int, settings: dict, cpu: int | None) -> RaceScore:
+    """A race's result without racing (every trial the same: none is pruned, each makes every call)."""
+    return RaceScore(track=cfg.tracks[index], score_s=40.0 * cfg.laps, time_s=40.0 * cfg.laps, laps=cfg.laps,
+                     damage=0, wall_s=0.0, lap_times=[40.0] * cfg.laps)
+
+
 def time_storage(base: TuneConfig, url: str | None, trials: int) -> tuple[float, int]:
-    """Mean wall time (ms) of the storage calls of one trial, without its races, and (databases)
-    the SQL statements a trial makes."""
+    """Mean wall time (ms) of the storage calls of one trial, without its races: the worker's own
+    claim and trial (study._claim, study._run_trial, the objective with a stand-in race), so the
+    pruning reports and checks are counted when base.prune; and (databases) the SQL statements a
+    trial makes."""
     from boxbox.robot.loader import load_robot_class
     from boxbox.robot.tunable import param_space
     from boxbox.tune import study as studies
-    from boxbox.tune.space import distributions, suggest
+    from boxbox.tune.objective import make_objective
+    from boxbox.tune.space import distributions
 
     cfg = dataclasses.replace(base, study=f"bench-storage-{uuid.uuid4().hex[:8]}", storage=url, trials=trials)
-    dists = distributions(param_space(load_robot_class(cfg.robot)), cfg.params)
+    objective = make_objective(cfg, distributions(param_space(load_robot_class(cfg.robot)), cfg.params), None,
+                               race=_no_race)
     try:
         studies.prepare(cfg)
         study, storage = studies.open_study(cfg, Storage(url, cfg.study, cfg.heartbeat_s, cfg.grace_s))
@@ -113,15 +123,7 @@ def time_storage(base: TuneConfig, url: str | None, trials: int) -> tuple[float,
         started = time.perf_counter()
         for _ in range(trials):
             trial, _ = studies._claim(study, storage, trials)
-            suggest(trial, dists)
-            total, races = 0.0, []
-            for i, track in enumerate(cfg.tracks):  # what the objective writes (objective.make_objective)
-                total += 40.0 * cfg.laps
-                races.append({"track": track, "score_s": 40.0 * cfg.laps, "lap_times": [40.0] * cfg.laps})
-                if i < len(cfg.tracks) - 1:
-                    trial.report(total, i)
-            trial.set_user_attr(RESULT_ATTR, {"races": races, "races_skipped": 0, "wall_s": 1.0})
-            study.tell(trial, total)
+            studies._run_trial(study, trial, objective, studies.StopFlag())
         return 1000.0 * (time.perf_counter() - started) / trials, round(statements[0] / trials)
     finally:
         _cleanup(cfg.study)

@@ -16,9 +16,11 @@ from __future__ import annotations
 
 import contextlib
 import fcntl
+import math
 import os
 import re
 import socket
+import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -74,7 +76,8 @@ class Storage:
 
         quiet_optuna()
         self.url, self.study_name, self.max_retry = url, study, max_retry
-        self._lock_conn: Any = None
+        self.heartbeat_s = heartbeat_s
+        self._stale_checked = -math.inf  # time.monotonic() of the last stale-trial query
         if url is None:
             path = journal_path(study)
             path.parent.mkdir(parents=True, exist_ok=True)
@@ -117,12 +120,11 @@ class Storage:
         if self.url is not None and self.url.startswith("postgres"):
             from sqlalchemy import text
 
-            with self.optuna.engine.connect() as conn:
-                conn.execute(text("SELECT pg_advisory_lock(:k)"), {"k": ADVISORY_LOCK_KEY})
-                try:
-                    yield
-                finally:
-                    conn.execute(text("SELECT pg_advisory_unlock(:k)"), {"k": ADVISORY_LOCK_KEY})
+            # a transaction's lock: its end (commit, rollback, a connection that died) releases it,
+            # so no unlock statement
+            with self.optuna.engine.begin() as conn:
+                conn.execute(text("SELECT pg_advisory_xact_lock(:k)"), {"k": ADVISORY_LOCK_KEY})
+                yield
             return
         yield
 
@@ -146,10 +148,15 @@ class Storage:
             self.optuna.record_heartbeat(trial_id)
 
     def fail_stale(self, study: Any) -> list[int]:
-        """Fail (and queue again) the RUNNING trials whose worker is gone; their ids."""
+        """Fail (and queue again) the RUNNING trials whose worker is gone; their ids.  On a
+        database at most once a heartbeat interval: a trial turns stale only grace_s after its
+        last beat, so asking at every claim of a short trial only repeats the answer."""
         import optuna
 
         if self.has_heartbeat:
+            if time.monotonic() - self._stale_checked < self.heartbeat_s:
+                return []
+            self._stale_checked = time.monotonic()
             stale = self.optuna._get_stale_trial_ids(study._study_id)  # one query; usually none
             if stale:
                 optuna.storages.fail_stale_trials(study)
