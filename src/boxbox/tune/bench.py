@@ -131,9 +131,11 @@ def time_storage(base: TuneConfig, url: str | None, trials: int) -> tuple[float,
 
 def generalisation(base: TuneConfig, train: list[str], test: list[str], trials: int, workers: int,
                    report: Report) -> list[dict]:
-    """Tune on `train`, then race the best and the robot's own values on train and test tracks."""
+    """Tune on `train`, then race the robot's own values and the best of each pick (tune.pick) on
+    train and test tracks."""
     from boxbox.torcs import checks
     from boxbox.tune import study as studies
+    from boxbox.tune.pick import PICKS, pick_best
 
     cats = [checks.check_race(t, base.car, 1, (), (), base.laps)[0] for t in train]
     cfg = dataclasses.replace(base, study=f"bench-general-{uuid.uuid4().hex[:8]}", tracks=train, categories=cats,
@@ -141,11 +143,14 @@ def generalisation(base: TuneConfig, train: list[str], test: list[str], trials: 
     try:
         report(f"generalisation: {trials} trials on {', '.join(train)}")
         study = studies.run(cfg, workers, lambda s: None, studies.StopFlag())
-        best = study.best_trial.params
+        picks = {how: pick_best(study, cfg, how) for how in PICKS}
+        best = {how: p.trial.params for how, p in picks.items() if p.trial is not None}
         rows = []
         for label, tracks in (("tuned on", train), ("unseen", test)):
             for row in studies.compare(cfg, best, tracks):
-                rows.append({"train": "+".join(train), "set": label, "best_params": best, **row})
+                rows.append({"train": "+".join(train), "set": label, "best_params": best,
+                             "picked": {how: p.trial.number for how, p in picks.items() if p.trial is not None},
+                             "why": {how: p.why for how, p in picks.items()}, **row})
         return rows
     finally:
         _cleanup(cfg.study)

@@ -88,8 +88,10 @@ def _claim(study: Any, storage: Storage, target: int) -> tuple[Any, bool]:
         if c.get("WAITING", 0) == 0 and finished + c.get("RUNNING", 0) >= target:
             return None, False  # others run the last trials: wait, one of them may die
         trial = study.ask()
-        trial.set_user_attr(WORKER_ATTR, worker_tag())
+        # the first beat before anything else: Optuna never finds a trial without one stale, so a
+        # worker killed between the two would leave it RUNNING for good
         storage.beat(trial._trial_id)
+        trial.set_user_attr(WORKER_ATTR, worker_tag())
         return trial, False
 
 
@@ -259,9 +261,10 @@ def pruning_savings(study: Any, n_tracks: int) -> tuple[int, int, float]:
     return skipped, run, skipped * mean
 
 
-def compare(cfg: TuneConfig, best: dict, tracks: list[str] | None = None,
+def compare(cfg: TuneConfig, candidates: dict[str, dict], tracks: list[str] | None = None,
             on_race: Callable[[str, str], None] | None = None) -> list[dict]:
-    """Per track, the race time with the robot's own values (no settings) and with `best`."""
+    """Per track, the race time with the robot's own values (no settings, "defaults") and with each
+    of `candidates` (label -> settings); the problem of each race under "LABEL_problem"."""
     from boxbox.torcs import checks
     from boxbox.tune.objective import run_race
 
@@ -271,7 +274,7 @@ def compare(cfg: TuneConfig, best: dict, tracks: list[str] | None = None,
     rows = []
     for i, track in enumerate(tracks):
         row: dict = {"track": track}
-        for label, settings in (("defaults", {}), ("best", best)):
+        for label, settings in {"defaults": {}, **candidates}.items():
             if on_race:
                 on_race(track, label)
             s = run_race(local, i, settings, None)
