@@ -87,12 +87,25 @@ def _claim(study: Any, storage: Storage, target: int) -> tuple[Any, bool]:
             return None, True
         if c.get("WAITING", 0) == 0 and finished + c.get("RUNNING", 0) >= target:
             return None, False  # others run the last trials: wait, one of them may die
-        trial = study.ask()
+        trial = _ask(study, queued=c.get("WAITING", 0) > 0)
         # the first beat before anything else: Optuna never finds a trial without one stale, so a
         # worker killed between the two would leave it RUNNING for good
         storage.beat(trial._trial_id)
         trial.set_user_attr(WORKER_ATTR, worker_tag())
         return trial, False
+
+
+def _ask(study: Any, queued: bool) -> Any:
+    """study.ask(), which first reads every trial to look for a queued one (7 SQL statements on a
+    database); when the count under the lock found none queued, the new trial is made directly, as
+    ask then does.  A trial queued meanwhile (Ctrl-C's retry, made outside the lock) replaces a
+    running one, so the count still holds, and the next claim takes it."""
+    if queued:
+        return study.ask()
+    import optuna
+
+    study._thread_local.cached_all_trials = None  # as in ask: the trial's sampling reads the study afresh
+    return optuna.Trial(study, study._storage.create_new_trial(study._study_id))
 
 
 def _beating(storage: Storage, trial_id: int, interval_s: float) -> threading.Event:
