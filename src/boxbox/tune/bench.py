@@ -2,12 +2,13 @@
 
 1. Trials per hour with 1 and with 2 local workers (the same study size, pruning off so that each
    trial races every track; each worker a process of its own, started the same way).
-2. What the storage costs a trial: the storage calls of one trial (claim under the lock, stale
-   check, the worker's note, suggestions, a report per lap, the races' notes, the result) made
-   without racing, against the journal file and against a real PostgreSQL on a unix socket; as a
-   share of the mean wall time of a trial from 1.
-3. Optionally, generalisation: a study on three tracks, its best parameters raced on three tracks
-   it never saw against the robot's own values, and the same the other way round.
+2. What the storage costs a trial: a worker's own claim and trial (claim under the lock, the
+   worker's note, suggestions, a report and a pruning check after each track but the last, the
+   races' notes, the result) with its races stood in for, against the journal file and against a
+   real PostgreSQL on a unix socket; as a share of the mean wall time of a trial from 1.
+3. Optionally, generalisation: a study on three tracks, its best parameters by each pick
+   (tune.pick) raced on three tracks it never saw against the robot's own values, and the same the
+   other way round.
 """
 
 from __future__ import annotations
