@@ -13,6 +13,7 @@ import pytest
 import boxbox.robot.params as params_mod
 from boxbox.model import Opponent, State
 from boxbox.robot.base import RaceOptions
+from boxbox.robot.racingline import middle_line
 from boxbox.robot.tutorial import TutorialRobot
 from trackdata import load
 
@@ -54,6 +55,17 @@ def make_opp(**fields) -> Opponent:
     return zero._replace(**{"length_m": 4.52, "width_m": 1.94, "laps": 1.0, **fields})
 
 
+_half_widths: dict[str, np.ndarray] = {}
+
+
+def track_half_width(robot: TutorialRobot, j: int) -> float:
+    """The track's own half width at sample j (the racing line's bounds are narrower, and not by the
+    same amount everywhere: robot/tutorial.py keeps more room outside fast turns)."""
+    if robot.track.name not in _half_widths:
+        _half_widths[robot.track.name] = middle_line(robot.track, robot.step_m).half_left_m
+    return float(_half_widths[robot.track.name][j])
+
+
 def line_state(robot: TutorialRobot, dist_m: float, speed_mps: float, yaw_error_rad: float = 0.0,
                side_m: float = 0.0, **fields) -> State:
     """The car on the robot's racing line at dist_m (side_m to the left of it), heading along it
@@ -71,8 +83,8 @@ def line_state(robot: TutorialRobot, dist_m: float, speed_mps: float, yaw_error_
     values = dict(
         x_m=x + side_m * nx, y_m=y + side_m * ny, yaw_rad=math.remainder(yaw, 2 * math.pi),
         speed_x_mps=speed_mps, to_middle_m=off,
-        to_left_m=float(mid.half_left_m[j]) + robot.line.margin_m - off,
-        to_right_m=float(mid.half_right_m[j]) + robot.line.margin_m + off,
+        to_left_m=track_half_width(robot, j) - off,
+        to_right_m=track_half_width(robot, j) + off,
         angle_rad=math.remainder(float(mid.heading_rad[j]) - yaw, 2 * math.pi),
         dist_from_start_m=d, dist_raced_m=d, seg_id=float(robot.track.segment_at(d)),
         spin_fr_rps=spins[0], spin_fl_rps=spins[1], spin_rr_rps=spins[2], spin_rl_rps=spins[3],
@@ -440,13 +452,13 @@ def test_pit_lookahead_parameter_changes_the_pit_path_steering():
 def _line_at_an_edge(robot):
     """(dist, side, room) of the straight where the racing line runs closest to an edge of the track
     (side -1 = right, +1 = left; room = metres from the line to that edge)."""
-    line, mid = robot.line, robot.line.middle
+    line = robot.line
     k = np.abs(line.curvature_1pm[: robot.n])
     best = None
     for j in range(robot.n):
         if max(k[(j + q) % robot.n] for q in range(-20, 21)) < 1e-3:
-            to_right = line.offset_m[j] + mid.half_right_m[j] + line.margin_m
-            to_left = mid.half_left_m[j] + line.margin_m - line.offset_m[j]
+            to_right = line.offset_m[j] + track_half_width(robot, j)
+            to_left = track_half_width(robot, j) - line.offset_m[j]
             room, side = (to_right, -1.0) if to_right < to_left else (to_left, 1.0)
             if best is None or room < best[0]:
                 best = (room, j * robot.step_m, side)

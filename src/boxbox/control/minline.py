@@ -52,10 +52,12 @@ def min_curvature_offsets(x_m: np.ndarray, y_m: np.ndarray, normal_x: np.ndarray
     return off
 
 
-def solve_box_qp(h, g: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-    """min 1/2 x'Hx + g'x subject to lo <= x <= hi, H sparse symmetric positive semi-definite (a
-    scipy.sparse matrix).  H is scaled to a unit diagonal first; the optimum does not change.
-    RuntimeError when PIQP does not solve it."""
+def solve_box_qp(h, g: np.ndarray, lo: np.ndarray, hi: np.ndarray, rows=None, rows_lo: np.ndarray | None = None,
+                 rows_hi: np.ndarray | None = None) -> np.ndarray:
+    """min 1/2 x'Hx + g'x subject to lo <= x <= hi and, with `rows` (a sparse matrix G),
+    rows_lo <= G x <= rows_hi; H sparse symmetric positive semi-definite (a scipy.sparse matrix).
+    H is scaled to a unit diagonal first; the optimum does not change.  RuntimeError when PIQP does
+    not solve it (an infeasible G included)."""
     import piqp
     import scipy.sparse as sp
 
@@ -66,7 +68,11 @@ def solve_box_qp(h, g: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray
     solver.settings.eps_duality_gap_abs = 1e-12
     solver.settings.eps_duality_gap_rel = 1e-12
     solver.settings.max_iter = 500
-    solver.setup(sp.triu(h * scale).tocsc(), g * scale, x_l=lo, x_u=hi)
+    if rows is None:
+        solver.setup(sp.triu(h * scale).tocsc(), g * scale, x_l=lo, x_u=hi)
+    else:
+        solver.setup(sp.triu(h * scale).tocsc(), g * scale, G=sp.csc_matrix(rows), h_l=rows_lo, h_u=rows_hi,
+                     x_l=lo, x_u=hi)
     status = solver.solve()
     if status != piqp.PIQP_SOLVED:
         raise RuntimeError(f"the QP solver stopped with {status}")

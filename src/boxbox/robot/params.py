@@ -38,6 +38,7 @@ class TutorialParams:
     line_lateral_gain: float = 2.0
     line_yaw_damping_s: float = 0.05
     line_understeer_rad_per_mps2: float = 0.002  # "line": extra steer per m/s^2 of lateral acceleration
+    line_speed_margin_s: float = 0.04  # more room outside a fast turn: s x speed x share of grip used
     racing_line: float = 1.0  # 0 = the tutorial's middle line, 1 = the optimised line
     line_margin_m: float = 1.2  # racing line's distance from the track edge (car centre)
     # the width the line may use: "strict" (the track's edges) or "torcs" (what TORCS allows without
@@ -52,10 +53,11 @@ class TutorialParams:
     side_catch_m: float = 1.5  # "torcs": room kept from where the usable sides end (grass, gravel, wall)
     # speed
     # cornering grip relative to the model's (surface x tyre friction with the skill level's skid
-    # bonus, the weaker axle's downforce, banking): 1.05 measured best over all 38 installed tracks
-    # at once (0.95 to 1.1 tried, `boxbox bench --tracks all`); the shipped tutorial robot: 0.69
-    mu_scale: float = 1.05
-    brake_mu_scale: float = 0.8  # braking grip, same base (the shipped robot brakes on surface friction alone)
+    # bonus, the weaker axle's downforce, banking): 1.0 with braking on 0.7 measured best over all 38
+    # installed tracks at once (mu 0.95 to 1.05, brake 0.7 to 0.8 tried, `boxbox bench --tracks
+    # all`, on the constrained minimum-curvature line); the shipped tutorial robot: 0.69
+    mu_scale: float = 1.0
+    brake_mu_scale: float = 0.7  # braking grip, same base (the shipped robot brakes on surface friction alone)
     brake_method: str = "exact"  # braking distance: "exact" or "approx" (the seed's formula)
     friction_circle: bool = True  # brake less where the line turns (grip shared with cornering)
     elevation: bool = True  # crests unload the tyres and dips load them: turn and brake accordingly
@@ -122,6 +124,7 @@ class Bound:
 BOUNDS = {
     "rear_balance": Bound(0.5, 3.0), "side_catch_m": Bound(0.0, 10.0),
     "mu_scale": Bound(0.3, 1.5), "brake_mu_scale": Bound(0.3, 1.5), "racing_line": Bound(0.0, 1.0),
+    "line_speed_margin_s": Bound(0.0, 0.2),
     "line_margin_m": Bound(0.0, 5.0), "lookahead_m": Bound(1.0, 60.0), "lookahead_s": Bound(0.0, 2.0),
     "line_lateral_gain": Bound(0.1, 10.0, log=True), "line_yaw_damping_s": Bound(0.0, 1.0),
     "line_understeer_rad_per_mps2": Bound(0.0, 0.02), "crest_load_share": Bound(0.0, 1.0),

@@ -31,7 +31,7 @@ from boxbox.control.speed import SpeedProfile, allowed_speed, bump_speed, crest_
 from boxbox.control.steering import steer_to_line, steer_to_point
 from boxbox.control.traction import SlipParams, abs_filter, tcl_filter
 from boxbox.model import Car, CarSetup, Controls, PitOrder, State, Track
-from boxbox.model.constants import DRIVE_STEP_S
+from boxbox.model.constants import DRIVE_STEP_S, G_MPS2
 from boxbox.robot import carsetup
 from boxbox.robot.base import FUEL_L_PER_M_ESTIMATE, RaceOptions, Robot
 from boxbox.robot.carsetup import best_rear_wing_rad
@@ -153,8 +153,34 @@ class TutorialRobot(Robot):
         if getattr(self, "_line_for", None) == (id(track), car.width_m, p):
             return
         self._line_for = (id(track), car.width_m, p)
-        self.line = RacingLine(track, step_m=2.0, margin_m=p.line_margin_m, blend=p.racing_line,
-                               bounds_m=self._line_bounds(track, car, p))
+        bounds = self._line_bounds(track, car, p)
+        self._set_line(RacingLine(track, step_m=2.0, margin_m=p.line_margin_m, blend=p.racing_line, bounds_m=bounds), p)
+        if p.line_speed_margin_s > 0.0:
+            self._set_line(RacingLine(track, step_m=2.0, margin_m=p.line_margin_m, blend=p.racing_line,
+                                      bounds_m=self._fast_turn_bounds(car, p, bounds)), p)
+
+    def _fast_turn_bounds(self, car: Car, p: TutorialParams, bounds: tuple[np.ndarray, np.ndarray]
+                          ) -> tuple[np.ndarray, np.ndarray]:
+        """The bounds with more room kept outside each turn where the line's simulated lap is fast and
+        near its grip: a car slides out of its line by more the faster it goes (g-track-1's long left
+        turn at 45 m/s left the track from a line on the outer edge), never in."""
+        model = CarModel.from_car(car, fuel_l=car.initial_fuel_l)
+        limits = np.maximum(np.asarray(self._limits([1.0] * self.n, model)), 0.1)
+        step_m = np.asarray(self.line.length_factor[: self.n]) * self.step_m
+        curv = np.asarray(self._curv)
+        mu = model.mu * np.asarray(self._friction) * p.mu_scale
+        v = lapsim.lap_speeds_mps(step_m, curv, mu, carsetup.ideal_gearbox_car(car, model), corner_limit_mps=limits)
+        grip = mu * (G_MPS2 + v * v * model.ca_corner / model.mass_kg)
+        use = np.clip(v * v * curv / grip, 0.0, 1.0)
+        extra = p.line_speed_margin_s * v * use
+        k = self.line.curvature_1pm[: self.n]
+        left, right = bounds
+        # a left turn (k > 0) throws the car out to the right
+        return (np.maximum(left - np.where(k < 0.0, extra, 0.0), 0.0),
+                np.maximum(right - np.where(k > 0.0, extra, 0.0), 0.0))
+
+    def _set_line(self, line: RacingLine, p: TutorialParams) -> None:
+        self.line = line
         mid = self.line.middle
         self.step_m = self.line.step_m
         self.n = mid.n
