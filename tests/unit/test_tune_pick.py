@@ -6,6 +6,7 @@ from __future__ import annotations
 import optuna
 import pytest
 
+from boxbox.robot.params import TutorialParams
 from boxbox.tune.objective import RESULT_ATTR, TuneConfig
 from boxbox.tune.pick import pick_best
 from boxbox.tune.synced import SyncedPruner, SyncedSampler
@@ -15,9 +16,12 @@ DISTS = {"mu_scale": optuna.distributions.FloatDistribution(0.3, 1.5),
          "brake_mu_scale": optuna.distributions.FloatDistribution(0.3, 1.5)}
 
 
+MU, BRAKE = TutorialParams().mu_scale, TutorialParams().brake_mu_scale  # the robot's declared defaults
+
+
 def add(study, mu: float, times: tuple[float, float], damage: tuple[int, int]) -> int:
     races = [{"track": t, "score_s": s, "damage": d} for t, s, d in zip(CFG.tracks, times, damage, strict=True)]
-    study.add_trial(optuna.trial.create_trial(params={"mu_scale": mu, "brake_mu_scale": 0.8}, distributions=DISTS,
+    study.add_trial(optuna.trial.create_trial(params={"mu_scale": mu, "brake_mu_scale": BRAKE}, distributions=DISTS,
                                               value=sum(times), user_attrs={RESULT_ATTR: {"races": races}}))
     return len(study.trials) - 1
 
@@ -26,23 +30,23 @@ def add(study, mu: float, times: tuple[float, float], damage: tuple[int, int]) -
 def study():
     optuna.logging.set_verbosity(optuna.logging.WARNING)
     s = optuna.create_study()
-    add(s, 1.05, (100.0, 200.0), (0, 12))  # the robot's declared defaults
+    add(s, MU, (100.0, 200.0), (0, 12))
     return s
 
 
 def test_robust_pick_wants_every_track_and_no_more_damage(study):
-    fastest = add(study, 1.2, (95.0, 201.0), (0, 12))  # the smallest total, but slower on b
-    add(study, 1.15, (99.0, 199.0), (5, 12))  # faster on both, but touches a wall on a
-    steady = add(study, 1.1, (99.5, 199.5), (0, 12))  # 0.25 % on its worst track (b)
-    add(study, 1.08, (98.0, 199.9), (0, 10))  # more on a, only 0.05 % on b
+    fastest = add(study, MU + 0.2, (95.0, 201.0), (0, 12))  # the smallest total, but slower on b
+    add(study, MU + 0.15, (99.0, 199.0), (5, 12))  # faster on both, but touches a wall on a
+    steady = add(study, MU + 0.1, (99.5, 199.5), (0, 12))  # 0.25 % on its worst track (b)
+    add(study, MU + 0.08, (98.0, 199.9), (0, 10))  # more on a, only 0.05 % on b
     robust = pick_best(study, CFG)
     assert robust.trial.number == steady and not robust.is_defaults and "0.25 %" in robust.why
     assert pick_best(study, CFG, "fastest").trial.number == fastest
 
 
 def test_robust_pick_keeps_the_defaults_when_nothing_beats_them_everywhere(study):
-    add(study, 1.2, (90.0, 200.5), (0, 12))
-    add(study, 1.0, (100.0, 199.0), (1, 12))
+    add(study, MU + 0.2, (90.0, 200.5), (0, 12))
+    add(study, MU - 0.05, (100.0, 199.0), (1, 12))
     chosen = pick_best(study, CFG)
     assert chosen.trial.number == 0 and chosen.is_defaults and "stay the best" in chosen.why
 
