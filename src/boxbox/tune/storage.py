@@ -77,6 +77,7 @@ class Storage:
         quiet_optuna()
         self.url, self.study_name, self.max_retry = url, study, max_retry
         self.heartbeat_s = heartbeat_s
+        self._lock_conn: Any = None  # the PostgreSQL connection holding the claim lock, while held
         self._stale_checked = -math.inf  # time.monotonic() of the last stale-trial query
         if url is None:
             path = journal_path(study)
@@ -124,7 +125,11 @@ class Storage:
             # so no unlock statement
             with self.optuna.engine.begin() as conn:
                 conn.execute(text("SELECT pg_advisory_xact_lock(:k)"), {"k": ADVISORY_LOCK_KEY})
-                yield
+                self._lock_conn = conn  # counts() under the lock runs in its transaction: no BEGIN, COMMIT of its own
+                try:
+                    yield
+                finally:
+                    self._lock_conn = None
             return
         yield
 
@@ -138,9 +143,10 @@ class Storage:
             return out
         from sqlalchemy import text
 
-        with self.optuna.engine.connect() as conn:
-            rows = conn.execute(text("SELECT state, count(*) FROM trials WHERE study_id = :s GROUP BY state"),
-                                {"s": study._study_id})
+        query = text("SELECT state, count(*) FROM trials WHERE study_id = :s GROUP BY state")
+        with contextlib.ExitStack() as stack:
+            conn = self._lock_conn or stack.enter_context(self.optuna.engine.connect())
+            rows = conn.execute(query, {"s": study._study_id})
             return {str(state).rpartition(".")[2]: int(n) for state, n in rows}
 
     def beat(self, trial_id: int) -> None:
