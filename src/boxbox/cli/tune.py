@@ -73,10 +73,13 @@ class StorageURL(click.ParamType):
 @click.option("--report", "report_dir", type=OutputDir(), default=None,
               help="Write the study's HTML page (history, importances, slices) into this folder.")
 @click.option("--no-compare", is_flag=True, help="Do not race the robot's own values at the end.")
+@click.option("--pick", type=click.Choice(["robust", "fastest"]), default="robust", show_default=True,
+              help="The best trial: robust = at least as fast as the robot's own values on every track without "
+                   "more damage, the most gained on its worst track; fastest = the smallest total.")
 @skill_level_option
 @click.option("--quiet", is_flag=True, help="No progress bar.")
 def tune(robot, tracks, param_names, trials, laps, car, study_name, storage, workers, grace_s, damage_limit, seed,
-         no_prune, setup_out, report_dir, no_compare, skill_level, quiet) -> None:
+         no_prune, setup_out, report_dir, no_compare, pick, skill_level, quiet) -> None:
     """Tune a robot's parameters with Optuna: each trial races the tracks; the value is the total time.
 
     \b
@@ -111,7 +114,7 @@ def tune(robot, tracks, param_names, trials, laps, car, study_name, storage, wor
     stop = studies.StopFlag()
     stop.install()
     study = _run_with_progress(cfg, workers, stop, quiet)
-    _summary(cfg, study, setup_out, report_dir, compare=not (no_compare or stop.set))
+    _summary(cfg, study, setup_out, report_dir, compare=not (no_compare or stop.set), pick=pick)
     if stop.set:
         raise Interrupted(f"tune stopped by a signal; the study keeps its finished trials: resume with --study {name}")
 
@@ -142,43 +145,35 @@ def _run_with_progress(cfg, workers: int, stop, quiet: bool):
         return studies.run(cfg, workers, tick, stop)
 
 
-def _summary(cfg, study, setup_out: Path | None, report_dir: Path | None, compare: bool) -> None:
+def _summary(cfg, study, setup_out: Path | None, report_dir: Path | None, compare: bool, pick: str) -> None:
     from rich.table import Table
 
-    from boxbox.report.tables import fmt_time
     from boxbox.robot.loader import load_robot_class
     from boxbox.robot.tunable import param_space, write_setup
     from boxbox.tune import study as studies
+    from boxbox.tune.pick import pick_best
     from boxbox.tune.storage import journal_path
 
     p = studies.progress(study)
     skipped, run, saved_s = studies.pruning_savings(study, len(cfg.tracks))
     err.print(f"{p.complete} complete, {p.pruned} pruned, {p.failed} failed trials; pruning skipped {skipped} of "
               f"{skipped + run} races (about {saved_s:.0f} s of racing saved)")
-    if p.best_value is None:
+    chosen = pick_best(study, cfg, pick)
+    if chosen.trial is None:
         err.print("[yellow]no complete trial yet: nothing to compare or write[/]")
         return
-    best = study.best_trial
+    best = chosen.trial
+    err.print(f"best ({pick}): trial #{best.number}, {chosen.why}")
     space = param_space(load_robot_class(cfg.robot))
     params = Table("parameter", "declared default", "best", title=f"study {cfg.study}: best trial #{best.number}")
     for key, value in best.params.items():
         params.add_row(key, _fmt(space.defaults[key]), _fmt(value))
     out.print(params)
     if compare:
-        with err.status("racing the robot's own values for comparison") as status:
-            rows = studies.compare(cfg, best.params, on_race=lambda t, label: status.update(f"{t}: {label}"))
-        # the best trial's own races give its times (races are deterministic); the comparison re-races both
-        times = Table("track", "robot's own values (s)", "best (s)", "gain (s)",
-                      title=f"{cfg.laps} lap(s) each, {cfg.car}, {cfg.skill_level}")
-        for row in rows:
-            times.add_row(row["track"], fmt_time(row["defaults"]) + _flag(row["defaults_problem"]),
-                          fmt_time(row["best"]) + _flag(row["best_problem"]), f"{row['defaults'] - row['best']:+.3f}")
-        total_d, total_b = sum(r["defaults"] for r in rows), sum(r["best"] for r in rows)
-        times.add_row("total", fmt_time(total_d), fmt_time(total_b), f"{total_d - total_b:+.3f}")
-        out.print(times)
+        _compare_table(cfg, best.params)
     target = setup_out or journal_path(cfg.study).with_suffix(".toml")
     target.parent.mkdir(parents=True, exist_ok=True)
-    write_setup(target, best.params, [f"boxbox tune study {cfg.study}: best of {p.complete} complete trials",
+    write_setup(target, best.params, [f"boxbox tune study {cfg.study}: best ({pick}) of {p.complete} complete trials",
                                       f"robot {cfg.robot}, tracks {', '.join(cfg.tracks)}, {cfg.laps} laps, "
                                       f"{cfg.car}: total {best.value:.3f} s",
                                       f"race with it: boxbox race --setup {target}"])
@@ -186,7 +181,27 @@ def _summary(cfg, study, setup_out: Path | None, report_dir: Path | None, compar
     if report_dir is not None:
         from boxbox.tune.report import write_report
 
-        err.print(f"report: {write_report(study, cfg, report_dir / 'report.html')}")
+        err.print(f"report: {write_report(study, cfg, report_dir / 'report.html', pick)}")
+
+
+def _compare_table(cfg, best: dict) -> None:
+    """Race the robot's own values and the best on each track; print both times."""
+    from rich.table import Table
+
+    from boxbox.report.tables import fmt_time
+    from boxbox.tune import study as studies
+
+    with err.status("racing the robot's own values for comparison") as status:
+        rows = studies.compare(cfg, {"best": best}, on_race=lambda t, label: status.update(f"{t}: {label}"))
+    # the best trial's own races give its times (races are deterministic); the comparison re-races both
+    times = Table("track", "robot's own values (s)", "best (s)", "gain (s)",
+                  title=f"{cfg.laps} lap(s) each, {cfg.car}, {cfg.skill_level}")
+    for row in rows:
+        times.add_row(row["track"], fmt_time(row["defaults"]) + _flag(row["defaults_problem"]),
+                      fmt_time(row["best"]) + _flag(row["best_problem"]), f"{row['defaults'] - row['best']:+.3f}")
+    total_d, total_b = sum(r["defaults"] for r in rows), sum(r["best"] for r in rows)
+    times.add_row("total", fmt_time(total_d), fmt_time(total_b), f"{total_d - total_b:+.3f}")
+    out.print(times)
 
 
 def _fmt(value) -> str:
@@ -276,13 +291,18 @@ def _general_table(rows: list[dict], laps: int) -> None:
     from rich.table import Table
 
     from boxbox.report.tables import fmt_time
+    from boxbox.tune.pick import PICKS
 
-    table = Table("tuned on", "track", "", "robot's own values (s)", "tuned (s)", "gain (s)",
-                  title=f"generalisation: {laps} lap(s) a race, best parameters of each study")
+    table = Table("tuned on", "track", "", "robot's own values (s)", *(f"{h} pick (s), gain" for h in PICKS),
+                  title=f"generalisation: {laps} lap(s) a race, the best of each study by each pick")
     for r in rows:
+        cells = [fmt_time(r[h]) + _flag(r[f"{h}_problem"]) + f", {r['defaults'] - r[h]:+.3f}" if h in r else "-"
+                 for h in PICKS]
         table.add_row(r["train"], r["track"], r["set"], fmt_time(r["defaults"]) + _flag(r["defaults_problem"]),
-                      fmt_time(r["best"]) + _flag(r["best_problem"]), f"{r['defaults'] - r['best']:+.3f}")
+                      *cells)
     out.print(table)
     for train in dict.fromkeys(r["train"] for r in rows):
-        best = next(r["best_params"] for r in rows if r["train"] == train)
-        out.print(f"best of {train}: " + ", ".join(f"{k}={_fmt(v)}" for k, v in best.items()))
+        first = next(r for r in rows if r["train"] == train)
+        for how, params in first["best_params"].items():
+            out.print(f"{how} pick of {train}: trial #{first['picked'][how]}, "
+                      + ", ".join(f"{k}={_fmt(v)}" for k, v in params.items()) + f" ({first['why'][how]})")

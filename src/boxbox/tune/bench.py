@@ -2,12 +2,13 @@
 
 1. Trials per hour with 1 and with 2 local workers (the same study size, pruning off so that each
    trial races every track; each worker a process of its own, started the same way).
-2. What the storage costs a trial: the storage calls of one trial (claim under the lock, stale
-   check, the worker's note, suggestions, a report per lap, the races' notes, the result) made
-   without racing, against the journal file and against a real PostgreSQL on a unix socket; as a
-   share of the mean wall time of a trial from 1.
-3. Optionally, generalisation: a study on three tracks, its best parameters raced on three tracks
-   it never saw against the robot's own values, and the same the other way round.
+2. What the storage costs a trial: a worker's own claim and trial (claim under the lock, the
+   worker's note, suggestions, a report and a pruning check after each track but the last, the
+   races' notes, the result) with its races stood in for, against the journal file and against a
+   real PostgreSQL on a unix socket; as a share of the mean wall time of a trial from 1.
+3. Optionally, generalisation: a study on three tracks, its best parameters by each pick
+   (tune.pick) raced on three tracks it never saw against the robot's own values, and the same the
+   other way round.
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-from boxbox.tune.objective import RESULT_ATTR, TuneConfig
+from boxbox.tune.objective import RaceScore, TuneConfig
 from boxbox.tune.storage import Storage, journal_path
 
 Report = Callable[[str], None]
@@ -91,16 +92,26 @@ def round_trip_ms(url: str, n: int = 200) -> float:
         engine.dispose()
 
 
+def _no_race(cfg: TuneConfig, index: int, settings: dict, cpu: int | None) -> RaceScore:
+    """A race's result without racing (every trial the same: none is pruned, each makes every call)."""
+    return RaceScore(track=cfg.tracks[index], score_s=40.0 * cfg.laps, time_s=40.0 * cfg.laps, laps=cfg.laps,
+                     damage=0, wall_s=0.0, lap_times=[40.0] * cfg.laps)
+
+
 def time_storage(base: TuneConfig, url: str | None, trials: int) -> tuple[float, int]:
-    """Mean wall time (ms) of the storage calls of one trial, without its races, and (databases)
-    the SQL statements a trial makes."""
+    """Mean wall time (ms) of the storage calls of one trial, without its races: the worker's own
+    claim and trial (study._claim, study._run_trial, the objective with a stand-in race), so the
+    pruning reports and checks are counted when base.prune; and (databases) the SQL statements a
+    trial makes."""
     from boxbox.robot.loader import load_robot_class
     from boxbox.robot.tunable import param_space
     from boxbox.tune import study as studies
-    from boxbox.tune.space import distributions, suggest
+    from boxbox.tune.objective import make_objective
+    from boxbox.tune.space import distributions
 
     cfg = dataclasses.replace(base, study=f"bench-storage-{uuid.uuid4().hex[:8]}", storage=url, trials=trials)
-    dists = distributions(param_space(load_robot_class(cfg.robot)), cfg.params)
+    objective = make_objective(cfg, distributions(param_space(load_robot_class(cfg.robot)), cfg.params), None,
+                               race=_no_race)
     try:
         studies.prepare(cfg)
         study, storage = studies.open_study(cfg, Storage(url, cfg.study, cfg.heartbeat_s, cfg.grace_s))
@@ -113,15 +124,7 @@ def time_storage(base: TuneConfig, url: str | None, trials: int) -> tuple[float,
         started = time.perf_counter()
         for _ in range(trials):
             trial, _ = studies._claim(study, storage, trials)
-            suggest(trial, dists)
-            total, races = 0.0, []
-            for i, track in enumerate(cfg.tracks):  # what the objective writes (objective.make_objective)
-                total += 40.0 * cfg.laps
-                races.append({"track": track, "score_s": 40.0 * cfg.laps, "lap_times": [40.0] * cfg.laps})
-                if i < len(cfg.tracks) - 1:
-                    trial.report(total, i)
-            trial.set_user_attr(RESULT_ATTR, {"races": races, "races_skipped": 0, "wall_s": 1.0})
-            study.tell(trial, total)
+            studies._run_trial(study, trial, objective, studies.StopFlag())
         return 1000.0 * (time.perf_counter() - started) / trials, round(statements[0] / trials)
     finally:
         _cleanup(cfg.study)
@@ -129,9 +132,11 @@ def time_storage(base: TuneConfig, url: str | None, trials: int) -> tuple[float,
 
 def generalisation(base: TuneConfig, train: list[str], test: list[str], trials: int, workers: int,
                    report: Report) -> list[dict]:
-    """Tune on `train`, then race the best and the robot's own values on train and test tracks."""
+    """Tune on `train`, then race the robot's own values and the best of each pick (tune.pick) on
+    train and test tracks."""
     from boxbox.torcs import checks
     from boxbox.tune import study as studies
+    from boxbox.tune.pick import PICKS, pick_best
 
     cats = [checks.check_race(t, base.car, 1, (), (), base.laps)[0] for t in train]
     cfg = dataclasses.replace(base, study=f"bench-general-{uuid.uuid4().hex[:8]}", tracks=train, categories=cats,
@@ -139,11 +144,14 @@ def generalisation(base: TuneConfig, train: list[str], test: list[str], trials: 
     try:
         report(f"generalisation: {trials} trials on {', '.join(train)}")
         study = studies.run(cfg, workers, lambda s: None, studies.StopFlag())
-        best = study.best_trial.params
+        picks = {how: pick_best(study, cfg, how) for how in PICKS}
+        best = {how: p.trial.params for how, p in picks.items() if p.trial is not None}
         rows = []
         for label, tracks in (("tuned on", train), ("unseen", test)):
             for row in studies.compare(cfg, best, tracks):
-                rows.append({"train": "+".join(train), "set": label, "best_params": best, **row})
+                rows.append({"train": "+".join(train), "set": label, "best_params": best,
+                             "picked": {how: p.trial.number for how, p in picks.items() if p.trial is not None},
+                             "why": {how: p.why for how, p in picks.items()}, **row})
         return rows
     finally:
         _cleanup(cfg.study)

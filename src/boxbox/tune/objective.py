@@ -139,10 +139,16 @@ def run_race(cfg: TuneConfig, index: int, settings: dict, cpu: int | None) -> Ra
     return score_race(result, cfg.laps, cfg.damage_limit)
 
 
-def make_objective(cfg: TuneConfig, dists: dict[str, Any], cpu: int | None) -> Callable[[Any], float]:
-    """The Optuna objective: race every track, report the running total after each, prune between
-    tracks.  Each race's figures (lap times included) go into one trial attribute, "races", written
-    once at the end: every storage write costs a round trip (docs/tuning.md)."""
+Race = Callable[[TuneConfig, int, dict, "int | None"], RaceScore]
+
+
+def make_objective(cfg: TuneConfig, dists: dict[str, Any], cpu: int | None,
+                   race: Race = run_race) -> Callable[[Any], float]:
+    """The Optuna objective: race every track; with pruning, report the running total after each
+    track but the last and ask the pruner (without pruning nothing reads the reports, so none are
+    written).  Each race's figures (lap times included) go into one trial attribute, "races",
+    written once at the end: every storage write costs a round trip (docs/tuning.md).  `race`
+    stands in for run_race in the bench of the storage's cost."""
     import optuna
 
     from boxbox.tune.space import suggest
@@ -153,13 +159,13 @@ def make_objective(cfg: TuneConfig, dists: dict[str, Any], cpu: int | None) -> C
         total = 0.0
         races: list[dict] = []
         for i, track in enumerate(cfg.tracks):
-            score = run_race(cfg, i, settings, cpu)
+            score = race(cfg, i, settings, cpu)
             total += score.score_s
             races.append(asdict(score))
-            if i == len(cfg.tracks) - 1:
-                break  # the last total is the trial's value: no report (a database round trip) needed
+            if not cfg.prune or i == len(cfg.tracks) - 1:
+                continue  # the last total is the trial's value: no report needed
             trial.report(total, i)
-            if cfg.prune and trial.should_prune():
+            if trial.should_prune():
                 trial.set_user_attr(RESULT_ATTR, {"races": races, "races_skipped": len(cfg.tracks) - 1 - i,
                                                   "wall_s": round(time.monotonic() - started, 3)})
                 raise optuna.TrialPruned(f"after {track}: {total:.3f} s")

@@ -16,9 +16,11 @@ from __future__ import annotations
 
 import contextlib
 import fcntl
+import math
 import os
 import re
 import socket
+import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -74,7 +76,9 @@ class Storage:
 
         quiet_optuna()
         self.url, self.study_name, self.max_retry = url, study, max_retry
-        self._lock_conn: Any = None
+        self.heartbeat_s = heartbeat_s
+        self._lock_conn: Any = None  # the PostgreSQL connection holding the claim lock, while held
+        self._stale_checked = -math.inf  # time.monotonic() of the last stale-trial query
         if url is None:
             path = journal_path(study)
             path.parent.mkdir(parents=True, exist_ok=True)
@@ -117,12 +121,15 @@ class Storage:
         if self.url is not None and self.url.startswith("postgres"):
             from sqlalchemy import text
 
-            with self.optuna.engine.connect() as conn:
-                conn.execute(text("SELECT pg_advisory_lock(:k)"), {"k": ADVISORY_LOCK_KEY})
+            # a transaction's lock: its end (commit, rollback, a connection that died) releases it,
+            # so no unlock statement
+            with self.optuna.engine.begin() as conn:
+                conn.execute(text("SELECT pg_advisory_xact_lock(:k)"), {"k": ADVISORY_LOCK_KEY})
+                self._lock_conn = conn  # counts() under the lock runs in its transaction: no BEGIN, COMMIT of its own
                 try:
                     yield
                 finally:
-                    conn.execute(text("SELECT pg_advisory_unlock(:k)"), {"k": ADVISORY_LOCK_KEY})
+                    self._lock_conn = None
             return
         yield
 
@@ -136,9 +143,10 @@ class Storage:
             return out
         from sqlalchemy import text
 
-        with self.optuna.engine.connect() as conn:
-            rows = conn.execute(text("SELECT state, count(*) FROM trials WHERE study_id = :s GROUP BY state"),
-                                {"s": study._study_id})
+        query = text("SELECT state, count(*) FROM trials WHERE study_id = :s GROUP BY state")
+        with contextlib.ExitStack() as stack:
+            conn = self._lock_conn or stack.enter_context(self.optuna.engine.connect())
+            rows = conn.execute(query, {"s": study._study_id})
             return {str(state).rpartition(".")[2]: int(n) for state, n in rows}
 
     def beat(self, trial_id: int) -> None:
@@ -146,10 +154,15 @@ class Storage:
             self.optuna.record_heartbeat(trial_id)
 
     def fail_stale(self, study: Any) -> list[int]:
-        """Fail (and queue again) the RUNNING trials whose worker is gone; their ids."""
+        """Fail (and queue again) the RUNNING trials whose worker is gone; their ids.  On a
+        database at most once a heartbeat interval: a trial turns stale only grace_s after its
+        last beat, so asking at every claim of a short trial only repeats the answer."""
         import optuna
 
         if self.has_heartbeat:
+            if time.monotonic() - self._stale_checked < self.heartbeat_s:
+                return []
+            self._stale_checked = time.monotonic()
             stale = self.optuna._get_stale_trial_ids(study._study_id)  # one query; usually none
             if stale:
                 optuna.storages.fail_stale_trials(study)

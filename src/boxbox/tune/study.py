@@ -29,18 +29,39 @@ def open_study(cfg: TuneConfig, storage: Storage | None = None, create: bool = F
     """The study (created when asked and missing), with cfg's sampler and pruner."""
     import optuna
 
+    from boxbox.tune.synced import SyncedPruner, SyncedSampler
+
     storage = storage or Storage(cfg.storage, cfg.study, cfg.heartbeat_s, cfg.grace_s, cfg.max_retry)
     # multivariate: the parameters sampled together (grip in turns and under braking go together),
     # and the trials read once per trial instead of once per parameter
-    sampler = optuna.samplers.TPESampler(seed=cfg.seed, n_startup_trials=min(10, max(2, cfg.trials // 5)),
-                                         multivariate=True)
+    sampler = SyncedSampler(optuna.samplers.TPESampler(seed=cfg.seed, n_startup_trials=min(10, max(2, cfg.trials // 5)),
+                                                       multivariate=True))
     # the first tracks decide little: prune only once a few trials have finished all of them
-    pruner = optuna.pruners.MedianPruner(n_startup_trials=5, n_warmup_steps=0) if cfg.prune \
+    pruner = SyncedPruner(optuna.pruners.MedianPruner(n_startup_trials=5, n_warmup_steps=0)) if cfg.prune \
         else optuna.pruners.NopPruner()
     study = optuna.create_study(study_name=cfg.study, storage=storage.optuna, sampler=sampler, pruner=pruner,
                                 direction="minimize", load_if_exists=True) if create else \
         optuna.load_study(study_name=cfg.study, storage=storage.optuna, sampler=sampler, pruner=pruner)
     return study, storage
+
+
+def tell(study: Any, trial: Any, value: float | None = None, state: Any = None) -> None:
+    """Finish a trial as study.tell does, from the trial as its Trial object holds it (Optuna keeps
+    its parameters, reports and notes there as they are written) instead of reading it back from
+    the storage twice (12 SQL statements on a database).  A pruned trial's value is its last
+    report, as with study.tell."""
+    import optuna
+
+    state = state or optuna.trial.TrialState.COMPLETE
+    frozen = trial._get_latest_trial()
+    values = None if value is None else [float(value)]
+    if state == optuna.trial.TrialState.PRUNED and frozen.last_step is not None:
+        values = [frozen.intermediate_values[frozen.last_step]]
+    study._thread_local.cached_all_trials = None  # the next trial reads the study afresh
+    try:
+        study.sampler.after_trial(study, frozen, state, values)
+    finally:  # an UpdateFinishedTrialError here: another worker found the trial stale and retried it
+        study._storage.set_trial_state_values(trial._trial_id, state, values)
 
 
 def counts(study: Any) -> dict[str, int]:
@@ -77,10 +98,25 @@ def _claim(study: Any, storage: Storage, target: int) -> tuple[Any, bool]:
             return None, True
         if c.get("WAITING", 0) == 0 and finished + c.get("RUNNING", 0) >= target:
             return None, False  # others run the last trials: wait, one of them may die
-        trial = study.ask()
-        trial.set_user_attr(WORKER_ATTR, worker_tag())
+        trial = _ask(study, queued=c.get("WAITING", 0) > 0)
+        # the first beat before anything else: Optuna never finds a trial without one stale, so a
+        # worker killed between the two would leave it RUNNING for good
         storage.beat(trial._trial_id)
+        trial.set_user_attr(WORKER_ATTR, worker_tag())
         return trial, False
+
+
+def _ask(study: Any, queued: bool) -> Any:
+    """study.ask(), which first reads every trial to look for a queued one (7 SQL statements on a
+    database); when the count under the lock found none queued, the new trial is made directly, as
+    ask then does.  A trial queued meanwhile (Ctrl-C's retry, made outside the lock) replaces a
+    running one, so the count still holds, and the next claim takes it."""
+    if queued:
+        return study.ask()
+    import optuna
+
+    study._thread_local.cached_all_trials = None  # as in ask: the trial's sampling reads the study afresh
+    return optuna.Trial(study, study._storage.create_new_trial(study._study_id))
 
 
 def _beating(storage: Storage, trial_id: int, interval_s: float) -> threading.Event:
@@ -155,7 +191,7 @@ def _run_trial(study: Any, trial: Any, objective: Callable[[Any], float], stop: 
     try:
         value = objective(trial)
     except optuna.TrialPruned:
-        study.tell(trial, state=optuna.trial.TrialState.PRUNED)
+        tell(study, trial, state=optuna.trial.TrialState.PRUNED)
         return 1
     except TrialInterrupted:
         stop.event.set()
@@ -165,9 +201,9 @@ def _run_trial(study: Any, trial: Any, objective: Callable[[Any], float], stop: 
         raise
     except Exception as exc:  # a bug in a robot's code path we did not foresee: this trial only
         trial.set_user_attr("error", f"{type(exc).__name__}: {exc}"[:300])
-        study.tell(trial, state=optuna.trial.TrialState.FAIL)
+        tell(study, trial, state=optuna.trial.TrialState.FAIL)
         return 0
-    study.tell(trial, value)
+    tell(study, trial, value)
     return 1
 
 
@@ -176,7 +212,7 @@ def _fail_and_requeue(study: Any, trial: Any, why: str) -> None:
     import optuna
 
     trial.set_user_attr("stopped", why)
-    study.tell(trial, state=optuna.trial.TrialState.FAIL)
+    tell(study, trial, state=optuna.trial.TrialState.FAIL)
     frozen = study._storage.get_trial(trial._trial_id)
     study.add_trial(optuna.trial.create_trial(state=optuna.trial.TrialState.WAITING, params=frozen.params,
                                               distributions=frozen.distributions,
@@ -249,9 +285,10 @@ def pruning_savings(study: Any, n_tracks: int) -> tuple[int, int, float]:
     return skipped, run, skipped * mean
 
 
-def compare(cfg: TuneConfig, best: dict, tracks: list[str] | None = None,
+def compare(cfg: TuneConfig, candidates: dict[str, dict], tracks: list[str] | None = None,
             on_race: Callable[[str, str], None] | None = None) -> list[dict]:
-    """Per track, the race time with the robot's own values (no settings) and with `best`."""
+    """Per track, the race time with the robot's own values (no settings, "defaults") and with each
+    of `candidates` (label -> settings); the problem of each race under "LABEL_problem"."""
     from boxbox.torcs import checks
     from boxbox.tune.objective import run_race
 
@@ -261,7 +298,7 @@ def compare(cfg: TuneConfig, best: dict, tracks: list[str] | None = None,
     rows = []
     for i, track in enumerate(tracks):
         row: dict = {"track": track}
-        for label, settings in (("defaults", {}), ("best", best)):
+        for label, settings in {"defaults": {}, **candidates}.items():
             if on_race:
                 on_race(track, label)
             s = run_race(local, i, settings, None)
