@@ -125,6 +125,7 @@ class TutorialRobot(Robot):
         if p.learning and self.options.learning_dir:
             self.learning_file = Path(self.options.learning_dir) / f"{track.name}--{car.name}.json"
             self.learner.load(self.learning_file)
+        self._learning_saved: list[tuple[float, float, bool]] | None = None  # what the file holds
         self.fuel_l = car.initial_fuel_l
         self._build_profile()
         self.gears = GearBox(car, shift=p.shift, shift_margin_mps=p.shift_margin_mps)
@@ -517,13 +518,16 @@ class TutorialRobot(Robot):
         self._build_profile()
 
     def _end_lap_learning(self, s: State) -> None:
-        """The lap's lessons per turn (robot/learning.py), kept in the learning file."""
+        """The lap's lessons per turn (robot/learning.py), kept in the learning file when a factor
+        changed (a file write inside a drive step took over 200 ms on a busy disk: not every lap)."""
         if not self.params.learning:
             return
         self.learner.close(s.sim_time_s, spoiled=self.pits.wanted or self.pits.phase is not None)
         self.learner.end_lap()
-        if self.learning_file is not None:
+        state = [(t.factor, t.ceiling, t.settled) for t in self.learner.turns]
+        if state != self._learning_saved and self.learning_file is not None:
             self.learner.save(self.learning_file, self.track.name, self.car.name)
+            self._learning_saved = state
 
     def on_race_end(self, state: State) -> None:
         """The last lap teaches too: nothing after the finish line calls drive() again."""
