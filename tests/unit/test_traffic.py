@@ -131,7 +131,7 @@ def test_inside_speed_follows_the_tighter_radius():
 
 
 def test_racecraft_brakes_for_a_car_ahead_that_brakes_hard():
-    craft = _craft()
+    craft = _craft(braking_ahead_mps2=5.0)
     t = 0.0
     # a car 8 m ahead (bumper gap 3.5 m) in our lane at our speed: no brake while it keeps its speed
     for _ in range(10):

@@ -20,12 +20,12 @@ exactly as without it.  Per step:
   brake_mode "ttc" or "both" also braking from the predicted closest gap (we brake after a
   reaction time, it slows towards the speed our own profile needs where it is going), softer in
   front of a close follower.  The default "gap" keeps the tutorial's fixed-gap filter for the rest.
-- `brake` also brakes for a car ahead in our lane that is braking hard (its deceleration measured
-  over the last steps, `braking_ahead_mps2`): the fixed-gap filter takes its speed of now, and a car
-  braking earlier than our profile was run into; `lift` takes the throttle off `lift_m` before the
-  fixed-gap brake would act behind a slower car, instead of full throttle and full brake in turn
-  (that cost a stop for fuel in 10-lap field races).
-- Options measured and left off (docs/racecraft.md): `inward_grip_share` (a move towards a turn's
+- `lift`: the throttle off `lift_m` before the fixed-gap brake would act behind a slower car,
+  instead of full throttle and full brake in turn (that cost a stop for fuel in 10-lap field races).
+- Options measured and left off (docs/racecraft.md): `braking_ahead_mps2` (brake for a car ahead
+  in our lane that brakes hard, its deceleration measured over the last steps: the fixed-gap filter
+  takes its speed of now, and a car braking earlier than our profile was run into),
+  `inward_grip_share` (a move towards a turn's
   inside only with grip to spare), `inside_speed` (the speed of the tighter radius of an inside
   offset), `yield_inside` (brake to fall in behind a car alongside on the outside of the coming
   turn), `next_turn_s` / `keep_inside` (the first turn ahead is the inside to pass on, and an inside
@@ -76,7 +76,7 @@ class RacecraftParams:
     inward_grip_share: float = 0.0  # a full step towards a turn's inside needs this share of grip spare (0: no limit)
     yield_inside: bool = False  # brake to fall behind a car alongside ahead on the outside of the coming turn
     yield_side_m: float = 1.5  # ... that close sideways (beyond our width)
-    braking_ahead_mps2: float = 5.0  # a car ahead braking harder than this is predicted braking on (0: off)
+    braking_ahead_mps2: float = 0.0  # a car ahead braking harder than this is predicted braking on (0: off)
     next_turn_s: float = 0.0  # the turn whose inside counts: the first within this many s (0: horizon_s ahead)
     keep_inside: bool = False  # a pass on the inside of the coming turn is not called back to the line
     lift_m: float = 10.0  # lift off the throttle this far before the fixed-gap brake would brake (0: off)
