@@ -155,11 +155,12 @@ def test_racecraft_lifts_before_the_fixed_gap_brake_only_behind_a_slower_car():
     def brakedist(v1, v2):
         return (v1 * v1 - v2 * v2) / (2.0 * 10.0)
 
-    # 30 -> 25 m/s needs 13.75 m; the fixed-gap brake acts inside 13.75 + 3 m, the lift 10 m before
-    assert craft.lift(1.0, 30.0, [_car(4.5 + 20.0, 0.0, 25.0)], brakedist) == 0.0
-    assert craft.lift(1.0, 30.0, [_car(4.5 + 30.0, 0.0, 25.0)], brakedist) == 1.0
-    assert craft.lift(1.0, 30.0, [_car(4.5 + 20.0, 0.0, 31.0)], brakedist) == 1.0  # faster: no lift
-    assert craft.lift(1.0, 30.0, [_car(4.5 + 20.0, 5.0, 25.0)], brakedist) == 1.0  # beside our lane
+    # 30 -> 25 m/s needs 13.75 m; the fixed-gap brake acts inside 13.75 + 3 m, the lift 5 m before (18.75)
+    assert craft.lift(1.0, 30.0, [_car(4.5 + 18.0, 0.0, 25.0)], brakedist) == 0.0
+    assert craft.lift(1.0, 30.0, [_car(4.5 + 20.0, 0.0, 25.0)], brakedist) == 1.0
+    assert craft.lift(1.0, 30.0, [_car(4.5 + 18.0, 0.0, 31.0)], brakedist) == 1.0  # faster: no lift
+    assert craft.lift(1.0, 30.0, [_car(4.5 + 18.0, 5.0, 25.0)], brakedist) == 1.0  # beside our lane
+    assert _craft(lift_m=0.0).lift(1.0, 30.0, [_car(4.5 + 18.0, 0.0, 25.0)], brakedist) == 1.0  # off
 
 
 def test_racecraft_falls_in_behind_a_car_turning_in_from_the_outside():
