@@ -271,7 +271,7 @@ class TutorialRobot(Robot):
         brake, accel, steer = self.pits.step(s, v, brake, accel, steer)
         brake = self._avoid_collision(brake, v, cars)
         brake, accel = self._traction(s, v, brake, accel)
-        if cars:
+        if cars:  # behind a slower car: coast before the gap brake, not throttle and brake in turn
             accel = self.craft.lift(accel, v, cars, self._brakedist)
         accel = self._guard_throttle(s, v, steer, accel)
         gear = self.gears.select(int(s.gear), v)
