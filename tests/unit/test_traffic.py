@@ -109,3 +109,65 @@ def test_racecraft_brakes_for_a_car_stopped_in_our_lane_not_for_one_beside_it():
     aside = _car(30.0, 4.0, 0.0)
     assert craft.brake(0.0, 0.0, 30.0, [stopped], lambda c: 0.0) == 1.0
     assert craft.brake(0.0, 0.0, 30.0, [aside], lambda c: 0.0) == 0.0
+
+
+def test_inward_step_is_held_by_the_grip_left_and_outward_never():
+    from boxbox.robot.racecraft import inward_step
+    # left turn (k > 0) at the grip limit: v^2 k = 20^2 * 0.03 = 12 = the grip: no move inwards (left)
+    assert inward_step(0.0, 0.1, 0.03, 20.0, 12.0, 0.1, 0.3) == 0.0
+    assert inward_step(0.0, -0.1, 0.03, 20.0, 12.0, 0.1, 0.3) == -0.1  # outwards eases the path
+    # half the grip spare (more than the 0.3 share): the full step; 15 % spare: half of it
+    assert inward_step(0.0, 0.1, 0.015, 20.0, 12.0, 0.1, 0.3) == pytest.approx(0.1)
+    assert inward_step(0.0, 0.1, 0.0255, 20.0, 12.0, 0.1, 0.3) == pytest.approx(0.05)
+    assert inward_step(0.0, 0.1, 0.03, 20.0, 12.0, 0.1, 0.0) == 0.1  # share 0: no limit
+
+
+def test_inside_speed_follows_the_tighter_radius():
+    from boxbox.robot.racecraft import inside_speed_mps
+    # R = 20 m left turn, 2 m to the left (inside): R 18 m, speed x sqrt(18/20)
+    assert inside_speed_mps(20.0, 0.05, 2.0) == pytest.approx(20.0 * math.sqrt(0.9))
+    assert inside_speed_mps(20.0, 0.05, -2.0) == 20.0  # outside: unchanged
+    assert inside_speed_mps(20.0, -0.05, -2.0) == pytest.approx(20.0 * math.sqrt(0.9))
+
+
+def test_racecraft_brakes_for_a_car_ahead_that_brakes_hard():
+    craft = _craft(braking_ahead_mps2=5.0)
+    t = 0.0
+    # a car 8 m ahead (bumper gap 3.5 m) in our lane at our speed: no brake while it keeps its speed
+    for _ in range(10):
+        t += 0.02
+        craft.predict(t, [_car(8.0, 0.0, 40.0)])
+    assert craft.brake(t, 0.0, 40.0, [_car(8.0, 0.0, 40.0)], lambda c: c.speed_mps, predict=False) == 0.0
+    # it brakes at 10 m/s^2: measured from its speed, it is braked for before it is slower than the gap allows
+    speed = 40.0
+    for _ in range(10):
+        t += 0.02
+        speed -= 0.2
+        cars = craft.predict(t, [_car(8.0, 0.0, speed)])
+    assert craft.brake(t, 0.0, 40.0, cars, lambda c: c.speed_mps, predict=False) == 1.0
+    assert craft.brake(t, 0.0, 40.0, cars, lambda c: c.speed_mps, predict=False) > \
+        _craft(braking_ahead_mps2=0.0).brake(t, 0.0, 40.0, cars, lambda c: c.speed_mps, predict=False)
+
+
+def test_racecraft_lifts_before_the_fixed_gap_brake_only_behind_a_slower_car():
+    craft = _craft()
+
+    def brakedist(v1, v2):
+        return (v1 * v1 - v2 * v2) / (2.0 * 10.0)
+
+    # 30 -> 25 m/s needs 13.75 m; the fixed-gap brake acts inside 13.75 + 3 m, the lift 5 m before (18.75)
+    assert craft.lift(1.0, 30.0, [_car(4.5 + 18.0, 0.0, 25.0)], brakedist) == 0.0
+    assert craft.lift(1.0, 30.0, [_car(4.5 + 20.0, 0.0, 25.0)], brakedist) == 1.0
+    assert craft.lift(1.0, 30.0, [_car(4.5 + 18.0, 0.0, 31.0)], brakedist) == 1.0  # faster: no lift
+    assert craft.lift(1.0, 30.0, [_car(4.5 + 18.0, 5.0, 25.0)], brakedist) == 1.0  # beside our lane
+    assert _craft(lift_m=0.0).lift(1.0, 30.0, [_car(4.5 + 18.0, 0.0, 25.0)], brakedist) == 1.0  # off
+
+
+def test_racecraft_falls_in_behind_a_car_turning_in_from_the_outside():
+    craft = _craft(yield_inside=True)
+    # right turn ahead (inside -1): we are on its inside, the car alongside 2 m ahead, 3 m to our left
+    craft.offset(0.0, 30.0, 0.0, [], 0.0, 0.0, (6.0, -6.0), -1.0, 400.0, 0.1)
+    beside = _car(2.0, 3.0, 30.0)
+    assert craft.brake(0.0, 0.0, 30.0, [beside], lambda c: c.speed_mps, predict=False) == 1.0
+    craft.offset(0.0, 30.0, 0.0, [], 0.0, 0.0, (6.0, -6.0), 1.0, 400.0, 0.1)  # left turn: we are outside
+    assert craft.brake(0.0, 0.0, 30.0, [beside], lambda c: c.speed_mps, predict=False) == 0.0

@@ -20,6 +20,16 @@ exactly as without it.  Per step:
   brake_mode "ttc" or "both" also braking from the predicted closest gap (we brake after a
   reaction time, it slows towards the speed our own profile needs where it is going), softer in
   front of a close follower.  The default "gap" keeps the tutorial's fixed-gap filter for the rest.
+- `lift`: the throttle off `lift_m` before the fixed-gap brake would act behind a slower car,
+  instead of full throttle and full brake in turn (that cost a stop for fuel in 10-lap field races).
+- Options measured and left off (docs/racecraft.md): `braking_ahead_mps2` (brake for a car ahead
+  in our lane that brakes hard, its deceleration measured over the last steps: the fixed-gap filter
+  takes its speed of now, and a car braking earlier than our profile was run into),
+  `inward_grip_share` (a move towards a turn's
+  inside only with grip to spare), `inside_speed` (the speed of the tighter radius of an inside
+  offset), `yield_inside` (brake to fall in behind a car alongside on the outside of the coming
+  turn), `next_turn_s` / `keep_inside` (the first turn ahead is the inside to pass on, and an inside
+  pass is not called back to the line).
 - `spoiled` / `tainted`: whether traffic shaped the last steps (a car close, the line moved aside,
   a brake for a car), so the learner drops the whole turn for this lap.
 """
@@ -63,6 +73,14 @@ class RacecraftParams:
     stopped_mps: float = 3.0  # a car this slow close ahead is driven round, whatever our speed
     spoil_m: float = 15.0  # a car this close (centre to centre) shapes our driving
     spoil_hold_s: float = 1.0  # ... for this long after
+    inward_grip_share: float = 0.0  # a full step towards a turn's inside needs this share of grip spare (0: no limit)
+    yield_inside: bool = False  # brake to fall behind a car alongside ahead on the outside of the coming turn
+    yield_side_m: float = 1.5  # ... that close sideways (beyond our width)
+    braking_ahead_mps2: float = 0.0  # a car ahead braking harder than this is predicted braking on (0: off)
+    next_turn_s: float = 0.0  # the turn whose inside counts: the first within this many s (0: horizon_s ahead)
+    keep_inside: bool = False  # a pass on the inside of the coming turn is not called back to the line
+    lift_m: float = 5.0  # lift off the throttle this far before the fixed-gap brake would brake (0: off)
+    inside_speed: bool = False  # an offset towards a turn's inside caps the speed to its tighter radius
 
 
 def converging(cars: list[Nearby], rates_mps: list[float], ahead_s: float) -> list[Nearby]:
@@ -81,6 +99,29 @@ def converging(cars: list[Nearby], rates_mps: list[float], ahead_s: float) -> li
     return out
 
 
+def inward_step(offset_m: float, new_m: float, k_1pm: float, v: float, grip_mps2: float, step_m: float,
+                grip_share: float) -> float:
+    """new_m, its move towards the inside of the turn the car is in (curvature k_1pm, + left)
+    shortened by the grip left over: a move inwards tightens the path, and at the limit there is no
+    grip for it (a move outwards eases the path and is not held).  Full step with grip_share of the
+    grip spare, none with none spare."""
+    if grip_share <= 0.0 or (new_m - offset_m) * k_1pm <= 0.0:
+        return new_m
+    spare = 1.0 - v * v * abs(k_1pm) / grip_mps2
+    allowed = step_m * max(0.0, min(1.0, spare / grip_share))
+    return offset_m + max(-allowed, min(allowed, new_m - offset_m))
+
+
+def inside_speed_mps(target_mps: float, k_1pm: float, offset_m: float) -> float:
+    """The speed for a line moved offset_m (+ left) from one of curvature k_1pm (+ left) at
+    target_mps: towards the inside the radius shrinks by the offset (1/k - d), and the speed the
+    same grip allows with it (v^2 k is the lateral acceleration); towards the outside, unchanged."""
+    tight = k_1pm * offset_m
+    if tight <= 0.0:
+        return target_mps
+    return target_mps * math.sqrt(max(0.25, 1.0 - tight))
+
+
 class Racecraft:
     """Per-race state of the traffic decisions (the pass under way, the learner guard)."""
 
@@ -93,9 +134,11 @@ class Racecraft:
         self.pass_since_s = 0.0
         self.no_pass_until_s = -math.inf
         self.spoiled_until_s = -math.inf
-        self._lateral: dict[int, tuple[float, float]] = {}  # car index -> (time, lateral to us)
+        self._lateral: dict[int, tuple[float, float, float]] = {}  # car index -> (time, lateral to us, speed)
+        self._accel: dict[int, float] = {}  # car index -> its measured acceleration (m/s^2)
         self._taint_lap = -1
         self._tainted: set[int] = set()  # turns where traffic shaped a step this lap
+        self._inside = 0.0  # the inside of the turn we are coming to (+1 left, -1 right, 0 none), from offset()
 
     def predict(self, now_s: float, cars: list[Nearby]) -> list[Nearby]:
         """The cars as they will be laterally lateral_ahead_s from now (closing in on us only),
@@ -104,8 +147,13 @@ class Racecraft:
         for c in cars:
             last = self._lateral.get(c.index)
             dt = now_s - last[0] if last else 0.0
-            rates.append((c.lateral_m - last[1]) / dt if last and 0.0 < dt < 0.1 else 0.0)
-            self._lateral[c.index] = (now_s, c.lateral_m)
+            fresh = last is not None and 0.0 < dt < 0.1
+            rates.append((c.lateral_m - last[1]) / dt if last and fresh else 0.0)
+            accel = self._accel.get(c.index, 0.0)
+            if last and fresh:  # smoothed over ~0.1 s: a contact jolts one step's speed
+                accel += min(1.0, dt / 0.1) * ((c.speed_mps - last[2]) / dt - accel)
+            self._accel[c.index] = accel if fresh else 0.0
+            self._lateral[c.index] = (now_s, c.lateral_m, c.speed_mps)
         return converging(cars, rates, self.p.lateral_ahead_s)
 
     def spoiled(self, now_s: float) -> bool:
@@ -131,7 +179,7 @@ class Racecraft:
     # --- the line's offset ----------------------------------------------------------------------
     def offset(self, now_s: float, v: float, my_mid_m: float, cars: list[Nearby], offset_m: float, line_off_m: float,
                edges_m: tuple[float, float], inside_sign: float, straight_m: float, step_m: float,
-               base_offset_m: float | None = None, turn_1pm: float = 0.0) -> float:
+               base_offset_m: float | None = None, turn_1pm: float = 0.0, here_1pm: float = 0.0) -> float:
         """The new lateral offset of the line (see the module's docstring).  edges_m: the track's
         (left, right) edges here as lateral positions; straight_m: road ahead before the next
         braking zone; base_offset_m: an offset chosen elsewhere (the tutorial's overtaking) that
@@ -139,6 +187,7 @@ class Racecraft:
         seconds: in a turn the offset goes back to the line (the speed profile is the line's: off
         it the radius is another), unless a car alongside needs room."""
         p = self.p
+        self._inside = inside_sign
         left = edges_m[0] - 0.5 * self.width_m - p.edge_m
         right = edges_m[1] + 0.5 * self.width_m + p.edge_m
         if base_offset_m is None:
@@ -157,8 +206,10 @@ class Racecraft:
                 new = max(0.0, min(new, left - line_off_m))
             elif new < 0.0:
                 new = min(0.0, max(new, right - line_off_m))
-        if v * v * turn_1pm > p.hold_line_grip_share * self.decel_mps2:
+        inside_pass = p.keep_inside and self.pass_side != 0.0 and self.pass_side == inside_sign
+        if v * v * turn_1pm > p.hold_line_grip_share * self.decel_mps2 and not inside_pass:
             new = max(0.0, offset_m - step_m) if offset_m > 0.0 else min(0.0, offset_m + step_m)
+        new = inward_step(offset_m, new, here_1pm, v, self.decel_mps2, step_m, p.inward_grip_share)
         alongside = [(c.mid_m, c.width_m or self.width_m) for c in cars if abs(c.dist_m) < self.length_m + 1.0]
         if alongside:
             lo, hi = room(my_mid_m, alongside, self.width_m, p.side_gap_m, left, right)
@@ -221,6 +272,50 @@ class Racecraft:
                 return right if c.mid_m > my_mid_m else left
         return None
 
+    def _braking_ahead(self, v: float, cars: list[Nearby]) -> float:
+        """Brake for a car ahead in our lane that is braking (measured): the closest gap predicted
+        when it keeps braking as hard for the horizon (no lower than half its speed) and we brake
+        after a reaction time.  The fixed-gap filter takes its speed of now, and in a braking zone
+        where it brakes earlier than our profile we ran into it."""
+        p = self.p
+        want = 0.0
+        for c in cars:
+            a = self._accel.get(c.index, 0.0)
+            if c.dist_m <= 0.0 or a > -p.braking_ahead_mps2 or c.speed_mps >= v \
+                    or abs(c.lateral_m) >= 0.5 * (self.width_m + (c.width_m or self.width_m)) + p.lane_m:
+                continue
+            target = max(0.5 * c.speed_mps, c.speed_mps + a * p.horizon_s)
+            gap = min_gap_m(c.gap_m, v, c.speed_mps, target, p.brake_share * self.decel_mps2, -a,
+                            p.reaction_s, p.horizon_s)
+            want = max(want, brake_for(gap, p.margin_m, p.band_m))
+        return want
+
+    def lift(self, accel: float, v: float, cars: list[Nearby], brakedist) -> float:
+        """No throttle when a slower car ahead in our lane is within lift_m of the gap the
+        fixed-gap filter brakes at: behind a car, full throttle then full brake every other step
+        burns fuel for nothing (a 10-lap race behind traffic needed a stop for fuel) and closes in
+        harder than needed."""
+        p = self.p
+        if accel <= 0.0 or p.lift_m <= 0.0:
+            return accel
+        for c in cars:
+            if 0.0 < c.dist_m and c.speed_mps < v and abs(c.lateral_m) < self.width_m + p.side_gap_m \
+                    and brakedist(v, c.speed_mps) + p.lift_m > c.gap_m:
+                return 0.0
+        return accel
+
+    def _yield_brake(self, cars: list[Nearby]) -> float:
+        """Brake to fall in behind a car alongside and ahead of us on the outside of the turn we
+        are coming to: it turns in to its apex and does not see us (TORCS's robots squeeze a car on
+        their inside into the edge); a pass on the inside is made ahead of it or not at all."""
+        if not self._inside:
+            return 0.0
+        for c in cars:
+            if -0.5 * self.length_m < c.dist_m < self.length_m + 1.0 and c.lateral_m * self._inside < 0.0 \
+                    and abs(c.lateral_m) < self.width_m + self.p.yield_side_m:
+                return 1.0
+        return 0.0
+
     # --- braking for the car ahead --------------------------------------------------------------
     def brake(self, now_s: float, brake: float, v: float, cars: list[Nearby], other_target,
               predict: bool = True) -> float:
@@ -243,6 +338,10 @@ class Racecraft:
                             self.decel_mps2, p.reaction_s, p.horizon_s)
             closest = min(closest, gap)
             want = max(want, brake_for(gap, p.margin_m, p.band_m))
+        if p.yield_inside:
+            want = max(want, self._yield_brake(cars))
+        if p.braking_ahead_mps2 > 0.0:
+            want = max(want, self._braking_ahead(v, cars))
         if want <= 0.0:
             return brake
         self._mark(now_s)

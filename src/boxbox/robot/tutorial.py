@@ -40,7 +40,7 @@ from boxbox.robot.learning import TurnLearner
 from boxbox.robot.opponents import Nearby, OpponentParams, collision_brake, nearby, overtake_offset, side_steer
 from boxbox.robot.params import BOUNDS, CHOICES, TutorialParams, load_params
 from boxbox.robot.pit import PitParams, PitStops
-from boxbox.robot.racecraft import TURN_CURVATURE_1PM, Racecraft, RacecraftParams
+from boxbox.robot.racecraft import TURN_CURVATURE_1PM, Racecraft, RacecraftParams, inside_speed_mps
 from boxbox.robot.racingline import RacingLine, middle_line
 from boxbox.robot.strategy import plan_stops
 
@@ -307,6 +307,8 @@ class TutorialRobot(Robot):
         brake, accel, steer = self.pits.step(s, v, brake, accel, steer)
         brake = self._avoid_collision(brake, v, cars)
         brake, accel = self._traction(s, v, brake, accel)
+        if cars:  # behind a slower car: coast before the gap brake, not throttle and brake in turn
+            accel = self.craft.lift(accel, v, cars, self._brakedist)
         accel = self._guard_throttle(s, v, steer, accel)
         gear = self.gears.select(int(s.gear), v)
         return Controls(steer=steer, accel=accel, brake=brake, clutch=self._clutch(gear, v, accel), gear=gear,
@@ -369,7 +371,10 @@ class TutorialRobot(Robot):
             dist = s.dist_from_start_m
             self._now_s, self._dist_m = s.sim_time_s, dist
             j = int(dist / self.step_m) % self.n
-            k = self.line.curvature_at(dist + self.craft.p.horizon_s * v)  # the turn we are heading for
+            k = self.line.curvature_at(dist + self.craft.p.horizon_s * v) if not self.craft.p.next_turn_s \
+                else next((c for c in (self.line.curvature_at(dist + x) for x in
+                                       range(0, int(max(0.0, v) * self.craft.p.next_turn_s) + 1, 10))
+                           if abs(c) >= TURN_CURVATURE_1PM), 0.0)  # the turn we are heading for
             inside = 0.0 if abs(k) < TURN_CURVATURE_1PM else math.copysign(1.0, k)
             straight = next((x for x in range(0, 400, 10) if self.profile.speed_at(dist + x) < 0.95 * v), 400)
             base = None if self.craft.p.plan_passes else \
@@ -379,7 +384,8 @@ class TutorialRobot(Robot):
                        for x in range(0, int(max(0.0, v) * self.craft.p.turn_ahead_s) + 1, 10))
             self.offset_m = self.craft.offset(s.sim_time_s, v, s.to_middle_m, cars, self.offset_m,
                                               self.line.offset_at(dist), (self._half_left[j], -self._half_right[j]),
-                                              inside, straight, p.overtake_step_m, base, turn)
+                                              inside, straight, p.overtake_step_m, base, turn,
+                                              self.line.curvature_at(dist))
         elif self.offset_m:
             self.offset_m = max(0.0, self.offset_m - p.overtake_step_m) if self.offset_m > 0 \
                 else min(0.0, self.offset_m + p.overtake_step_m)
@@ -437,6 +443,9 @@ class TutorialRobot(Robot):
         """(brake, accel) from the speed profile a little ahead of the car."""
         p = self.params
         target = self.profile.speed_at(s.dist_from_start_m + v * p.speed_lookahead_s)
+        if self.offset_m and self.craft.p.inside_speed:  # off the line in traffic: its radius, not the line's
+            target = inside_speed_mps(target, self.line.curvature_at(s.dist_from_start_m + v * p.speed_lookahead_s),
+                                      self.offset_m)
         self.target_mps = target  # for telemetry
         if v > target:
             return min(1.0, (v - target) / p.brake_band_mps), 0.0
