@@ -150,7 +150,7 @@ def test_racecraft_brakes_for_a_car_ahead_that_brakes_hard():
 
 
 def test_racecraft_lifts_before_the_fixed_gap_brake_only_behind_a_slower_car():
-    craft = _craft()
+    craft = _craft(lift_m=5.0)
 
     def brakedist(v1, v2):
         return (v1 * v1 - v2 * v2) / (2.0 * 10.0)
@@ -159,6 +159,7 @@ def test_racecraft_lifts_before_the_fixed_gap_brake_only_behind_a_slower_car():
     assert craft.lift(1.0, 30.0, [_car(4.5 + 18.0, 0.0, 25.0)], brakedist) == 0.0
     assert craft.lift(1.0, 30.0, [_car(4.5 + 20.0, 0.0, 25.0)], brakedist) == 1.0
     assert craft.lift(1.0, 30.0, [_car(4.5 + 18.0, 0.0, 31.0)], brakedist) == 1.0  # faster: no lift
+    assert _craft().lift(1.0, 30.0, [_car(4.5 + 18.0, 0.0, 25.0)], brakedist) == 1.0  # off by default
     assert craft.lift(1.0, 30.0, [_car(4.5 + 18.0, 5.0, 25.0)], brakedist) == 1.0  # beside our lane
     assert _craft(lift_m=0.0).lift(1.0, 30.0, [_car(4.5 + 18.0, 0.0, 25.0)], brakedist) == 1.0  # off
 

@@ -79,7 +79,9 @@ class RacecraftParams:
     braking_ahead_mps2: float = 0.0  # a car ahead braking harder than this is predicted braking on (0: off)
     next_turn_s: float = 0.0  # the turn whose inside counts: the first within this many s (0: horizon_s ahead)
     keep_inside: bool = False  # a pass on the inside of the coming turn is not called back to the line
-    lift_m: float = 5.0  # lift off the throttle this far before the fixed-gap brake would brake (0: off)
+    # lift off the throttle this far before the fixed-gap brake would brake (0: off; 5 m cost 3.2 s of
+    # passing two cars on g-track-1 for the same places over 8-12 lap fields: docs/racecraft.md)
+    lift_m: float = 0.0
     inside_speed: bool = False  # an offset towards a turn's inside caps the speed to its tighter radius
 
 
