@@ -242,6 +242,11 @@ class PitStops:
                 self.event.stop_error_m = round(self.path.signed_coord(state.dist_from_start_m) - self.path.box_m, 3)
         return PitOrder(fuel_l=fuel, repair=repair)
 
+    @property
+    def busy(self) -> bool:
+        """A stop is asked for this lap or under way (the lap's times say nothing of the track)."""
+        return self.wanted or self.phase is not None
+
     def report(self) -> dict:
         """{"pit_events": [...], "pit_plan": ...} for the driver's entry in the race JSON."""
         events = self.events + ([self.event] if self.event is not None else [])

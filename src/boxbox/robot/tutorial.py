@@ -339,7 +339,7 @@ class TutorialRobot(Robot):
             if self.craft.spoiled_until_s > -math.inf else (False, False)
         if turn >= 0 and turn != self.learner.timing_turn:
             # a section with a pit stop in it or traffic about says nothing of the factor's worth
-            self.learner.enter(turn, s.sim_time_s, spoiled=skip or self.pits.wanted or self.pits.phase is not None)
+            self.learner.enter(turn, s.sim_time_s, spoiled=skip or self.pits.busy)
         if skip:  # traffic shaped this turn this lap (robot/racecraft.py): it teaches nothing of its grip
             if new:
                 t = self.learner.turns[turn if turn >= 0 else self.learner.last_turn]
@@ -531,7 +531,7 @@ class TutorialRobot(Robot):
         changed (a file write inside a drive step took over 200 ms on a busy disk: not every lap)."""
         if not self.params.learning:
             return
-        self.learner.close(s.sim_time_s, spoiled=self.pits.wanted or self.pits.phase is not None)
+        self.learner.close(s.sim_time_s, spoiled=self.pits.busy)
         self.learner.end_lap()
         state = [(t.factor, t.ceiling, t.settled) for t in self.learner.turns]
         if state != self._learning_saved and self.learning_file is not None:
