@@ -68,11 +68,8 @@ def solve_box_qp(h, g: np.ndarray, lo: np.ndarray, hi: np.ndarray, rows=None, ro
     solver.settings.eps_duality_gap_abs = 1e-12
     solver.settings.eps_duality_gap_rel = 1e-12
     solver.settings.max_iter = 500
-    if rows is None:
-        solver.setup(sp.triu(h * scale).tocsc(), g * scale, x_l=lo, x_u=hi)
-    else:
-        solver.setup(sp.triu(h * scale).tocsc(), g * scale, G=sp.csc_matrix(rows), h_l=rows_lo, h_u=rows_hi,
-                     x_l=lo, x_u=hi)
+    solver.setup(sp.triu(h * scale).tocsc(), g * scale, G=None if rows is None else sp.csc_matrix(rows),
+                 h_l=rows_lo, h_u=rows_hi, x_l=lo, x_u=hi)
     status = solver.solve()
     if status != piqp.PIQP_SOLVED:
         raise RuntimeError(f"the QP solver stopped with {status}")

@@ -20,9 +20,10 @@ exactly as without it.  Per step:
   brake_mode "ttc" or "both" also braking from the predicted closest gap (we brake after a
   reaction time, it slows towards the speed our own profile needs where it is going), softer in
   front of a close follower.  The default "gap" keeps the tutorial's fixed-gap filter for the rest.
-- `lift`: the throttle off `lift_m` before the fixed-gap brake would act behind a slower car,
-  instead of full throttle and full brake in turn (that cost a stop for fuel in 10-lap field races).
-- Options measured and left off (docs/racecraft.md): `braking_ahead_mps2` (brake for a car ahead
+- Options measured and left off (docs/racecraft.md): `lift_m` (the throttle off that far before
+  the fixed-gap brake would act behind a slower car, instead of full throttle and full brake in
+  turn: on the robot of 2026-11-24 it saved a stop for fuel in 10-lap field races; on the final
+  one it cost passes), `braking_ahead_mps2` (brake for a car ahead
   in our lane that brakes hard, its deceleration measured over the last steps: the fixed-gap filter
   takes its speed of now, and a car braking earlier than our profile was run into),
   `inward_grip_share` (a move towards a turn's
