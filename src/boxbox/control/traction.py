@@ -20,6 +20,9 @@ class SlipParams:
     abs_range_mps: float = 5.0  # brake is released fully at abs_slip + abs_range
     abs_min_speed_mps: float = 3.0  # below this wheel speeds say little: leave the brake alone
     tcl_slip_mps: float = 2.0
+    # and above this share of the car's speed: a tyre's force peaks at a slip *ratio* (simuv2's
+    # magic formula), so a fixed 2 m/s cuts the throttle far below the peak at speed
+    tcl_slip_ratio: float = 0.0
     tcl_range_mps: float = 10.0
     tcl_min_speed_mps: float = 3.0
 
@@ -68,12 +71,14 @@ def tcl_filter(
     drivetrain: int,
     params: SlipParams = DEFAULT_SLIP,
 ) -> float:
-    """Throttle reduced by (slip - 2) / 10 when the driven wheels outrun the car by more than 2 m/s."""
+    """Throttle reduced by (slip - allowed) / 10 when the driven wheels outrun the car by more than the
+    allowed slip: 2 m/s, or tcl_slip_ratio x the car's speed where that is more."""
     if speed_mps < params.tcl_min_speed_mps:
         return accel
     slip_mps = driven_wheel_speed_mps(wheel_spin_rps, wheel_radii_m, drivetrain) - speed_mps
-    if slip_mps > params.tcl_slip_mps:
-        accel -= (slip_mps - params.tcl_slip_mps) / params.tcl_range_mps
+    allowed_mps = max(params.tcl_slip_mps, params.tcl_slip_ratio * speed_mps)
+    if slip_mps > allowed_mps:
+        accel -= (slip_mps - allowed_mps) / params.tcl_range_mps
         if accel < 0.0:
             accel = 0.0
     return accel

@@ -1,7 +1,7 @@
 """The width the tutorial robot's racing line may use, per sample of the middle line.
 
-With `track_limits = "strict"` (the default) the line keeps `line_margin_m` from the track's edges
-(the car's centre), as a racing series would enforce.  With `"torcs"` it may also use what TORCS
+With `track_limits = "strict"` the line keeps `line_margin_m` from the track's edges (the car's
+centre), as a racing series would enforce.  With `"torcs"` (the default) it may also use what TORCS
 allows without a penalty (docs/track-limits.md: the outside of every turn and both sides of every
 straight up to the barrier, the inside of a turn up to 0.7 car widths beyond its edge), but only
 sides that grip at least as well as the track (grass and sand would cost more than the width gives)

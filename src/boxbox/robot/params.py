@@ -42,11 +42,11 @@ class TutorialParams:
     line_speed_margin_s: float = 0.04  # more room outside a fast turn: s x speed x share of grip used
     racing_line: float = 1.0  # 0 = the tutorial's middle line, 1 = the optimised line
     line_margin_m: float = 1.2  # racing line's distance from the track edge (car centre)
-    # the width the line may use: "strict" (the track's edges) or "torcs" (what TORCS allows without
-    # penalty, the sides that grip like the track included; robot/drivable.py).  strict by default:
-    # over all 38 tracks torcs was no faster (mean gap to the best Debian robot -2.85 % against
-    # -2.93 %: aalborg -1.4 s, mixed-1 +1.6 s, ole-road-1 +10 s with more damage)
-    track_limits: str = "strict"
+    # the width the line may use: "torcs" (what TORCS allows without penalty, the sides that grip
+    # like the track included; robot/drivable.py) or "strict" (the track's edges).  torcs by default
+    # since the constrained line: over all 38 tracks as fast or faster on all but forza (+0.23 s),
+    # aalborg -1.45 s, mixed-2 -1.25 s, mixed-1 -0.72 s, no penalty (docs/tutorial-robot.md item 18)
+    track_limits: str = "torcs"
     # car setup: the rear wing angle per track from the lap simulation (robot/carsetup.py), never
     # below the angle that keeps the rear's downforce per weight rear_balance x the front's
     wing_setup: bool = True
@@ -79,6 +79,7 @@ class TutorialParams:
     abs_slip_mps: float = 2.0
     abs_range_mps: float = 5.0
     tcl_slip_mps: float = 2.0
+    tcl_slip_ratio: float = 0.15  # ... or this share of the speed, where more (the tyre peaks at a slip ratio)
     tcl_range_mps: float = 10.0
     slip_min_speed_mps: float = 3.0
     spin_yaw_rate_rps: float = 0.7  # no throttle while turning this much faster than the line, against the steering
@@ -133,6 +134,7 @@ BOUNDS = {
     "brake_band_mps": Bound(0.1, 10.0, log=True), "full_accel_margin_mps": Bound(0.1, 10.0, log=True),
     "clutch_start": Bound(0.0, 1.0), "shift": Bound(0.5, 0.999), "shift_margin_mps": Bound(0.0, 20.0),
     "abs_slip_mps": Bound(0.1, 20.0, log=True), "tcl_slip_mps": Bound(0.1, 20.0, log=True),
+    "tcl_slip_ratio": Bound(0.0, 0.5),
     "counter_lock_accel": Bound(0.0, 1.0), "lock_accel": Bound(0.0, 1.0),
     "pit_brake_mu_scale": Bound(0.1, 1.5), "pit_stop_grip_share": Bound(0.1, 1.0), "pit_mu": Bound(0.05, 2.0),
     "learn_gain": Bound(0.0, 1.0), "learn_margin_m": Bound(0.0, 3.0), "learn_steady_error_m": Bound(0.1, 5.0),

@@ -130,7 +130,8 @@ class TutorialRobot(Robot):
         self._build_profile()
         self.gears = GearBox(car, shift=p.shift, shift_margin_mps=p.shift_margin_mps)
         self.slip = SlipParams(abs_slip_mps=p.abs_slip_mps, abs_range_mps=p.abs_range_mps,
-                               tcl_slip_mps=p.tcl_slip_mps, tcl_range_mps=p.tcl_range_mps,
+                               tcl_slip_mps=p.tcl_slip_mps, tcl_slip_ratio=p.tcl_slip_ratio,
+                               tcl_range_mps=p.tcl_range_mps,
                                abs_min_speed_mps=p.slip_min_speed_mps, tcl_min_speed_mps=p.slip_min_speed_mps)
         self.radii = (car.wheel_radius_fr_m, car.wheel_radius_fl_m, car.wheel_radius_rr_m, car.wheel_radius_rl_m)
         self.opp = OpponentParams(front_range_m=p.front_range_m, back_range_m=p.back_range_m,

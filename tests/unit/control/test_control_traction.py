@@ -86,3 +86,14 @@ def test_tcl_awd_uses_all_wheels():
 
 def test_tcl_not_below_zero():
     assert tcl_filter(0.3, 20.0, spins(20, 20, 60, 60), R, RWD) == 0.0
+
+
+def test_tcl_slip_ratio_allows_more_slip_at_speed():
+    ratio = SlipParams(tcl_slip_ratio=0.15)
+    # at 40 m/s 0.15 allows 6 m/s: 5 m/s of slip keeps the throttle, the fixed 2 m/s cut it by 0.3
+    assert tcl_filter(1.0, 40.0, spins(40, 40, 45, 45), R, RWD, ratio) == 1.0
+    assert tcl_filter(1.0, 40.0, spins(40, 40, 45, 45), R, RWD) == pytest.approx(0.7, abs=1e-12)
+    # 11 m/s of slip at 40 m/s: cut by (11 - 6) / 10
+    assert tcl_filter(1.0, 40.0, spins(40, 40, 51, 51), R, RWD, ratio) == pytest.approx(0.5, abs=1e-12)
+    # at 10 m/s the ratio allows 1.5 m/s, less than the fixed 2 m/s, which stays the floor
+    assert tcl_filter(1.0, 10.0, spins(10, 10, 17, 17), R, RWD, ratio) == pytest.approx(0.5, abs=1e-12)
