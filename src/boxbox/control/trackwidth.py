@@ -135,18 +135,22 @@ def side_parts(seg: dict[str, np.ndarray], ids: np.ndarray, frac: np.ndarray, si
 
 def grippy_sides(side: SideParts, main_friction: np.ndarray,
                  roughness: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
-                 roll_resistance: tuple[np.ndarray, np.ndarray] | None = None) -> SideParts:
+                 roll_resistance: tuple[np.ndarray, np.ndarray] | None = None,
+                 ride_height_m: float = 0.0) -> SideParts:
     """The side with its parts that grip less than the track cut off (a wall from there out).
-    roughness: (the track's, the border's, the side's) surface roughness per sample; parts rougher
-    than the track count as gripping less too (simuv2 shakes the wheels' load on rough surfaces).
+    roughness: (the track's, the border's, the side's) surface roughness per sample: the height (m)
+    of the wave TORCS puts on the surface (RtTrackHeightL). A part rougher than the track counts as
+    gripping less (the wave shakes the wheels' load), unless its crest-to-trough height (twice the
+    roughness) stays below the car's `ride_height_m`: the floor clears the waves.
     roll_resistance: (the track's, the side's) rolling resistance; a side that brakes the car more
     than the track is left out as well."""
     border_ok = (side.border_width_m <= 0) | (side.border_friction >= main_friction)
     outer_ok = side.outer_friction >= main_friction
     if roughness is not None:
         main_rough, border_rough, outer_rough = roughness
-        border_ok &= (side.border_width_m <= 0) | (border_rough <= main_rough)
-        outer_ok &= outer_rough <= main_rough
+        smooth = np.maximum(main_rough, 0.5 * ride_height_m)
+        border_ok &= (side.border_width_m <= 0) | (border_rough <= smooth)
+        outer_ok &= outer_rough <= smooth
     if roll_resistance is not None:
         outer_ok &= roll_resistance[1] <= roll_resistance[0]
     outer_ok &= border_ok

@@ -20,17 +20,18 @@ from boxbox.model.track import LEFT, RIGHT
 
 
 def centre_room(track: Track, seg_id: np.ndarray, seg_frac: np.ndarray, half_width_m: np.ndarray,
-                car_width_m: float, track_limits: str) -> tuple[np.ndarray, np.ndarray]:
+                car_width_m: float, track_limits: str, ride_height_m: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """Room (m) for the car's centre left and right of the middle at samples on segments `seg_id`,
-    `seg_frac` of the way along each (MiddleLine's), where the track is 2 x half_width_m wide."""
+    `seg_frac` of the way along each (MiddleLine's), where the track is 2 x half_width_m wide;
+    ride_height_m: the car's lowest, the surface waves it clears (trackwidth.grippy_sides)."""
     seg = track.seg
     ids = np.asarray(seg_id, dtype=int)
     frac = np.asarray(seg_frac, dtype=float)
     main_mu = seg["friction"].astype(float)[ids]
     left = grippy_sides(side_parts(seg, ids, frac, "left"), main_mu, _roughness(seg, ids, "left"),
-                        _roll_resistance(seg, ids, "left"))
+                        _roll_resistance(seg, ids, "left"), ride_height_m)
     right = grippy_sides(side_parts(seg, ids, frac, "right"), main_mu, _roughness(seg, ids, "right"),
-                         _roll_resistance(seg, ids, "right"))
+                         _roll_resistance(seg, ids, "right"), ride_height_m)
     turn = turn_direction(seg["type"][ids])
     pit = track.pit
     side, entry, exit_ = (pit.side, pit.entry_seg, pit.exit_seg) if pit else (None, 0, 0)

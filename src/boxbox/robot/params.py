@@ -51,7 +51,8 @@ class TutorialParams:
     # below the angle that keeps the rear's downforce per weight rear_balance x the front's
     wing_setup: bool = True
     rear_balance: float = 1.5
-    side_catch_m: float = 1.5  # "torcs": room kept from where the usable sides end (grass, gravel, wall)
+    side_catch_m: float = 0.6  # "torcs": room kept from where the usable sides end (grass, gravel, wall)
+    cut_catch_m: float = 0.5  # "torcs": room kept from the cutting limit inside a turn (no slide inwards)
     # speed
     # cornering grip relative to the model's (surface x tyre friction with the skill level's skid
     # bonus, the weaker axle's downforce, banking): 1.0 with braking on 0.7 measured best over all 38
@@ -124,7 +125,7 @@ class Bound:
 
 # declared bounds; every other number parameter is finite and >= 0
 BOUNDS = {
-    "rear_balance": Bound(0.5, 3.0), "side_catch_m": Bound(0.0, 10.0),
+    "rear_balance": Bound(0.5, 3.0), "side_catch_m": Bound(0.0, 10.0), "cut_catch_m": Bound(0.0, 10.0),
     "mu_scale": Bound(0.3, 1.5), "brake_mu_scale": Bound(0.3, 1.5), "racing_line": Bound(0.0, 1.0),
     "line_speed_margin_s": Bound(0.0, 0.2),
     "line_margin_m": Bound(0.0, 5.0), "lookahead_m": Bound(1.0, 60.0), "lookahead_s": Bound(0.0, 2.0),

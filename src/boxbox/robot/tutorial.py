@@ -29,6 +29,7 @@ from boxbox.control.gears import GearBox
 from boxbox.control.pit_brake import ENTRY, EXIT, FREE, GAVE_UP, HOLD, LANE, LIMIT, STOP
 from boxbox.control.speed import SpeedProfile, allowed_speed, bump_speed, crest_speed
 from boxbox.control.steering import steer_to_line, steer_to_point
+from boxbox.control.trackwidth import CUT_LIMIT_CAR_WIDTHS
 from boxbox.control.traction import SlipParams, abs_filter, tcl_filter
 from boxbox.model import Car, CarSetup, Controls, PitOrder, State, Track
 from boxbox.model.constants import DRIVE_STEP_S, G_MPS2
@@ -208,16 +209,21 @@ class TutorialRobot(Robot):
         the car's centre the learner measures margins against."""
         mid = middle_line(track, 2.0)
         n = mid.n
+        ride_m = min(car.ride_height_fr_m, car.ride_height_fl_m, car.ride_height_rr_m, car.ride_height_rl_m)
         room_l, room_r = centre_room(track, mid.seg_id[:n], mid.seg_frac[:n], mid.half_left_m[:n], car.width_m,
-                                     p.track_limits)
+                                     p.track_limits, ride_m)
         self._room_left, self._room_right = room_l.tolist(), room_r.tolist()
         safety_m = p.line_margin_m - 0.5 * car.width_m
         # beyond the track's edge a car that runs wide still finds grip (the sides' part it may use);
         # beyond the sides' there is grass, gravel or a wall: keep side_catch_m more from it
         half = mid.half_left_m[:n]
         strict = np.maximum(half - p.line_margin_m, 0.0)
-        bound_l = np.where(room_l > half - 0.5 * car.width_m, room_l - safety_m - p.side_catch_m, room_l - safety_m)
-        bound_r = np.where(room_r > half - 0.5 * car.width_m, room_r - safety_m - p.side_catch_m, room_r - safety_m)
+        # where TORCS's cutting limit on a turn's inside binds, the sides go on beyond it: no catch
+        cut = half + CUT_LIMIT_CAR_WIDTHS * car.width_m
+        catch_l = np.where(np.isclose(room_l, cut), p.cut_catch_m, p.side_catch_m)
+        catch_r = np.where(np.isclose(room_r, cut), p.cut_catch_m, p.side_catch_m)
+        bound_l = np.where(room_l > half - 0.5 * car.width_m, room_l - safety_m - catch_l, room_l - safety_m)
+        bound_r = np.where(room_r > half - 0.5 * car.width_m, room_r - safety_m - catch_r, room_r - safety_m)
         return np.maximum(bound_l, np.minimum(strict, room_l)), np.maximum(bound_r, np.minimum(strict, room_r))
 
     def _setup_pit(self, track: Track, car: Car, p: TutorialParams) -> None:

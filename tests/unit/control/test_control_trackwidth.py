@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from boxbox.control.trackwidth import SideParts, drivable_width, surface_friction
+from boxbox.control.trackwidth import SideParts, drivable_width, grippy_sides, surface_friction
 
 N = 4
 HALF = np.full(N, 5.0)
@@ -45,6 +45,20 @@ def test_surface_under_the_car():
     left, right = side(border_mu=1.0, outer_mu=0.6), side(border_mu=1.1, outer_mu=0.7)
     mu = surface_friction(off, HALF, np.full(N, 1.2), left, right)
     assert mu.tolist() == pytest.approx([1.2, 1.0, 0.7, 1.1])
+
+
+def test_rough_parts_count_when_the_floor_clears_their_waves():
+    grippy = side(border_mu=1.3, outer_mu=1.3)
+    main_mu, main_rough = np.full(N, 1.2), np.full(N, 0.005)
+    # border waves 0.025 m, side waves 0.05 m high (TORCS's roughness)
+    rough = (main_rough, np.full(N, 0.025), np.full(N, 0.05))
+    low = grippy_sides(grippy, main_mu, rough)  # no ride height: rougher than the track is out
+    assert low.border_wall.all() and not low.outer_width_m.any()
+    # a 0.09 m ride height clears 0.025 m waves (0.05 crest to trough), not 0.05 m ones
+    high = grippy_sides(grippy, main_mu, rough, ride_height_m=0.09)
+    assert not high.border_wall.any() and not high.outer_width_m.any()
+    higher = grippy_sides(grippy, main_mu, rough, ride_height_m=0.12)
+    assert higher.outer_width_m.tolist() == [3.0] * N
 
 
 @pytest.mark.parametrize("call", [
