@@ -10,7 +10,14 @@ from functools import cache
 import numpy as np
 import pytest
 
-from boxbox.robot.racingline import RacingLine, middle_line, road_roughness, turn_regions, vertical_curvature
+from boxbox.robot.racingline import (
+    RacingLine,
+    middle_line,
+    road_roughness,
+    turn_regions,
+    vertical_curvature,
+    washboard,
+)
 from trackdata import TRACKS, build_track, load
 
 # PIQP solves e-track-2's line in well under a second; the bound leaves room for a busy machine
@@ -319,3 +326,20 @@ def test_box_qp_solver_matches_the_clipped_optimum_of_a_separable_problem() -> N
     lo, hi = np.full(4, -1.0), np.full(4, 1.0)
     x = solve_box_qp(sp.diags(h_diag).tocsr(), g, lo, hi)
     assert np.allclose(x, np.clip(-g / h_diag, lo, hi), atol=1e-6)
+
+
+def test_washboard_is_a_long_rough_stretch_not_a_kink():
+    step_m = 2.0
+    rough = np.zeros(100)
+    rough[10:14] = 0.01  # an 8 m kink
+    rough[40:52] = 0.05  # 24 m of bumps ...
+    rough[58:70] = 0.05  # ... 12 m smooth ... 24 m more: one 60 m washboard
+    rough[95:] = 0.01  # 10 m before the line ...
+    rough[:3] = 0.01  # ... and 6 m after it: one 16 m kink across the start
+    board = washboard(rough, step_m, min_length_m=30.0, join_gap_m=20.0)
+    assert board[40:70].all() and board.sum() == 30
+    assert not board[10:14].any() and not board[95:].any() and not board[:3].any()
+    # with gaps bridged only under 10 m the two halves are 24 m kinks each
+    assert not washboard(rough, step_m, min_length_m=30.0, join_gap_m=10.0).any()
+    with pytest.raises(ValueError):
+        washboard(rough, 0.0)

@@ -66,6 +66,7 @@ class TutorialParams:
     banking: bool = True  # a road banked into the turn carries the car faster (and one banked away slower)
     crest_load_share: float = 0.5  # over a crest keep at least this share of the car's weight on the tyres
     bump_accel_mps2: float = 4.0  # over short bumps (a washboard) keep v^2 x their curvature below this
+    kink_accel_mps2: float = 12.0  # ... and over a single rough kink (a jump's lip) below this
     max_speed_mps: float = 100.0
     speed_lookahead_s: float = 0.06  # compare speed with the profile this far ahead (latency)
     full_accel_margin_mps: float = 1.0
@@ -131,7 +132,8 @@ BOUNDS = {
     "line_margin_m": Bound(0.0, 5.0), "lookahead_m": Bound(1.0, 60.0), "lookahead_s": Bound(0.0, 2.0),
     "line_lateral_gain": Bound(0.1, 10.0, log=True), "line_yaw_damping_s": Bound(0.0, 1.0),
     "line_understeer_rad_per_mps2": Bound(0.0, 0.02), "crest_load_share": Bound(0.0, 1.0),
-    "bump_accel_mps2": Bound(0.5, 50.0, log=True), "max_speed_mps": Bound(10.0, 150.0),
+    "bump_accel_mps2": Bound(0.5, 50.0, log=True),
+    "kink_accel_mps2": Bound(0.5, 50.0, log=True), "max_speed_mps": Bound(10.0, 150.0),
     "brake_band_mps": Bound(0.1, 10.0, log=True), "full_accel_margin_mps": Bound(0.1, 10.0, log=True),
     "clutch_start": Bound(0.0, 1.0), "shift": Bound(0.5, 0.999), "shift_margin_mps": Bound(0.0, 20.0),
     "abs_slip_mps": Bound(0.1, 20.0, log=True), "tcl_slip_mps": Bound(0.1, 20.0, log=True),

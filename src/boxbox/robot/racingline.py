@@ -260,6 +260,37 @@ def _optimal_offsets(mid: MiddleLine, iterations: int, peak_cap: float, cap_wind
     return cached_array("racing-lines", key, solve)
 
 
+def washboard(roughness_1pm: np.ndarray, step_m: float, min_length_m: float = 30.0,
+              join_gap_m: float = 20.0) -> np.ndarray:
+    """Per sample of a closed lap: True inside a washboard, a rough stretch (roughness > 0, gaps
+    under `join_gap_m` bridged) at least `min_length_m` long. Bumps that repeat shake the car at its
+    own frequency and bottom it out (dirt-2); a single kink (a jump's lip, a slope change) is one
+    kick the suspension absorbs."""
+    rough = np.asarray(roughness_1pm, dtype=float) > 0.0
+    if rough.ndim != 1 or step_m <= 0 or min_length_m < 0 or join_gap_m < 0:
+        raise ValueError("roughness_1pm must be 1-D, step_m > 0, lengths >= 0")
+    n = len(rough)
+    if not rough.any():
+        return rough
+    if rough.all():
+        return rough if n * step_m >= min_length_m else np.zeros(n, bool)
+    start = int(np.argmin(rough))  # walk the loop from a smooth sample: no run wraps past it
+    order = np.roll(np.arange(n), -start)
+    flags, out = rough[order], np.zeros(n, bool)
+    edges = np.flatnonzero(np.diff(np.r_[0, flags.astype(int), 0]))
+    runs = [[int(a), int(b)] for a, b in zip(edges[::2], edges[1::2], strict=True)]
+    joined = [runs[0]]
+    for a, b in runs[1:]:
+        if (a - joined[-1][1]) * step_m < join_gap_m:
+            joined[-1][1] = b
+        else:
+            joined.append([a, b])
+    for a, b in joined:
+        if (b - a) * step_m >= min_length_m:
+            out[order[a:b]] = True
+    return out
+
+
 def _road_profiles(z_m: np.ndarray, step_m: float, cache: bool) -> tuple[np.ndarray, np.ndarray]:
     """(vertical curvature, roughness), cached like the line: scipy.ndimage's filters cost a race
     ~0.3 s of imports alone."""

@@ -42,7 +42,7 @@ from boxbox.robot.opponents import Nearby, OpponentParams, collision_brake, near
 from boxbox.robot.params import BOUNDS, CHOICES, TutorialParams, load_params
 from boxbox.robot.pit import PitParams, PitStops
 from boxbox.robot.racecraft import TURN_CURVATURE_1PM, Racecraft, RacecraftParams, inside_speed_mps
-from boxbox.robot.racingline import RacingLine, middle_line
+from boxbox.robot.racingline import RacingLine, middle_line, washboard
 from boxbox.robot.strategy import plan_stops
 
 TWO_PI = 2.0 * math.pi
@@ -200,6 +200,9 @@ class TutorialRobot(Robot):
         self._curv = [abs(k) for k in self.line.curvature_1pm[: self.n].tolist()]
         self._vcurv = self.line.vertical_curvature_1pm[: self.n].tolist() if p.elevation else [0.0] * self.n
         self._rough = self.line.roughness_1pm[: self.n].tolist() if p.elevation else [0.0] * self.n
+        # bumps that repeat (a washboard) are taken at bump_accel_mps2; a single kink at kink_accel_mps2
+        board = washboard(np.asarray(self._rough), self.step_m)
+        self._bump_accel = np.where(board, p.bump_accel_mps2, p.kink_accel_mps2).tolist()
         # banking into the turn the line takes (TORCS's angle is + with the left edge higher)
         turn_sign = np.sign(self.line.curvature_1pm[: self.n])
         self._bank = (-turn_sign * mid.bank_rad[: self.n]).tolist() if p.banking else [0.0] * self.n
@@ -268,14 +271,14 @@ class TutorialRobot(Robot):
     def _limits(self, factors: list[float], model: CarModel) -> list[float]:
         p = self.params
         out = []
-        for k, kv, rough, f, g, bank in zip(self._curv, self._vcurv, self._rough, self._friction, factors,
-                                            self._bank, strict=False):
+        for k, kv, rough, f, g, bank, bump in zip(self._curv, self._vcurv, self._rough, self._friction, factors,
+                                                  self._bank, self._bump_accel, strict=False):
             mu = model.mu * f * p.mu_scale * g
             v = allowed_speed(1.0 / k if k > 1e-9 else math.inf, mu, model, p.max_speed_mps, kv, bank)
             if kv < 0.0:
                 v = min(v, crest_speed(kv, model, p.crest_load_share, p.max_speed_mps))
             if rough > 0.0:
-                v = min(v, bump_speed(rough, p.bump_accel_mps2, p.max_speed_mps))
+                v = min(v, bump_speed(rough, bump, p.max_speed_mps))
             out.append(v)
         return out
 
