@@ -7,6 +7,7 @@ Called per drive step: floats only.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from boxbox.model.car import AWD, FWD, RWD
@@ -70,15 +71,27 @@ def tcl_filter(
     wheel_radii_m: Wheels,
     drivetrain: int,
     params: SlipParams = DEFAULT_SLIP,
+    max_ratio: float = math.inf,
 ) -> float:
     """Throttle reduced by (slip - allowed) / 10 when the driven wheels outrun the car by more than the
-    allowed slip: 2 m/s, or tcl_slip_ratio x the car's speed where that is more."""
+    allowed slip: 2 m/s, or tcl_slip_ratio (at most `max_ratio`) x the car's speed where that is
+    more. `max_ratio`: the slip the turn leaves the tyre (spare_slip_ratio)."""
     if speed_mps < params.tcl_min_speed_mps:
         return accel
     slip_mps = driven_wheel_speed_mps(wheel_spin_rps, wheel_radii_m, drivetrain) - speed_mps
-    allowed_mps = max(params.tcl_slip_mps, params.tcl_slip_ratio * speed_mps)
+    ratio = params.tcl_slip_ratio if params.tcl_slip_ratio < max_ratio else max_ratio
+    allowed_mps = max(params.tcl_slip_mps, ratio * speed_mps)
     if slip_mps > allowed_mps:
         accel -= (slip_mps - allowed_mps) / params.tcl_range_mps
         if accel < 0.0:
             accel = 0.0
     return accel
+
+
+def spare_slip_ratio(peak_slip: float, lateral_share: float) -> float:
+    """The longitudinal slip ratio a tyre has left beside a turn that takes `lateral_share` (0..1) of
+    its grip: simuv2's tyre force follows the combined slip sqrt(sx^2 + sy^2), which peaks at
+    `peak_slip`, so with sy ~ share x peak the rest is peak x sqrt(1 - share^2) (a heavy car spun on
+    g-track-1's long turn with the throttle's full slip there)."""
+    spare = 1.0 - lateral_share * lateral_share
+    return peak_slip * math.sqrt(spare) if spare > 0.0 else 0.0

@@ -46,3 +46,9 @@ def skid_grip_gain(stiffness: float, dynamic_friction: float, elasticity: float,
     pro_peak = float(pro.max())
     usable = slip[slip <= (slip[pro.argmax()] if usable_slip is None else usable_slip)]
     return float(magic_formula(usable, stiffness, dynamic_friction, elasticity, skid_factor).max()) / pro_peak
+
+
+def peak_slip(stiffness: float, dynamic_friction: float, elasticity: float) -> float:
+    """The combined slip (dimensionless) at which the pro tyre's force peaks: beyond it a tyre slides."""
+    slip = np.linspace(0.0, MAX_SLIP, 3001)
+    return float(slip[int(np.argmax(magic_formula(slip, stiffness, dynamic_friction, elasticity)))])

@@ -30,7 +30,7 @@ from boxbox.control.pit_brake import ENTRY, EXIT, FREE, GAVE_UP, HOLD, LANE, LIM
 from boxbox.control.speed import SpeedProfile, allowed_speed, bump_speed, crest_speed
 from boxbox.control.steering import steer_to_line, steer_to_point
 from boxbox.control.trackwidth import CUT_LIMIT_CAR_WIDTHS
-from boxbox.control.traction import SlipParams, abs_filter, tcl_filter
+from boxbox.control.traction import SlipParams, abs_filter, spare_slip_ratio, tcl_filter
 from boxbox.model import Car, CarSetup, Controls, PitOrder, State, Track
 from boxbox.model.constants import DRIVE_STEP_S, G_MPS2
 from boxbox.robot import carsetup
@@ -135,6 +135,7 @@ class TutorialRobot(Robot):
                                tcl_range_mps=p.tcl_range_mps,
                                abs_min_speed_mps=p.slip_min_speed_mps, tcl_min_speed_mps=p.slip_min_speed_mps)
         self.radii = (car.wheel_radius_fr_m, car.wheel_radius_fl_m, car.wheel_radius_rr_m, car.wheel_radius_rl_m)
+        self._peak_slip = tyre.peak_slip(car.tyre_stiffness_rr, car.tyre_dynamic_friction_rr, car.tyre_elasticity_rr)
         self.opp = OpponentParams(front_range_m=p.front_range_m, back_range_m=p.back_range_m,
                                   length_margin_m=p.length_margin_m, side_margin_m=p.side_margin_m,
                                   overtake_step_m=p.overtake_step_m)
@@ -290,6 +291,8 @@ class TutorialRobot(Robot):
         limits = self._limits(factors, model)
         brake_mu = [model.mu * f * p.brake_mu_scale for f in self._friction]
         corner_mu = [model.mu * f * p.mu_scale * g for f, g in zip(self._friction, factors, strict=False)]
+        self._corner_mu = corner_mu  # per sample, for traction control's share of grip the turn takes
+        self._ca_per_kg = model.ca_corner / model.mass_kg
         self.profile = SpeedProfile(limits, brake_mu, model, self.step_m, max_speed_mps=p.max_speed_mps,
                                     curvature_1pm=self._curv if p.friction_circle else None, corner_mu=corner_mu,
                                     brake_method=p.brake_method,
@@ -478,7 +481,10 @@ class TutorialRobot(Robot):
         spins = (s.spin_fr_rps, s.spin_fl_rps, s.spin_rr_rps, s.spin_rl_rps)
         if brake > 0.0:
             return abs_filter(brake, v, spins, self.radii, self.slip), 0.0
-        return 0.0, tcl_filter(accel, v, spins, self.radii, self.car.drivetrain, self.slip)
+        i = int(s.dist_from_start_m / self.step_m) % self.n
+        share = min(1.0, v * v * self._curv[i] / (self._corner_mu[i] * (G_MPS2 + v * v * self._ca_per_kg)))
+        spare = spare_slip_ratio(self._peak_slip, share)
+        return 0.0, tcl_filter(accel, v, spins, self.radii, self.car.drivetrain, self.slip, spare)
 
     def _guard_throttle(self, s: State, v: float, steer: float, accel: float) -> float:
         """Less throttle when the tyres have no grip to spare: at the steering lock (lock guard) and

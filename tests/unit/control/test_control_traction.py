@@ -2,7 +2,7 @@ import dataclasses
 
 import pytest
 
-from boxbox.control.traction import SlipParams, abs_filter, driven_wheel_speed_mps, tcl_filter
+from boxbox.control.traction import SlipParams, abs_filter, driven_wheel_speed_mps, spare_slip_ratio, tcl_filter
 from boxbox.model.car import AWD, FWD, RWD
 
 R = (0.33, 0.33, 0.3, 0.3)  # fr, fl, rr, rl
@@ -97,3 +97,17 @@ def test_tcl_slip_ratio_allows_more_slip_at_speed():
     assert tcl_filter(1.0, 40.0, spins(40, 40, 51, 51), R, RWD, ratio) == pytest.approx(0.5, abs=1e-12)
     # at 10 m/s the ratio allows 1.5 m/s, less than the fixed 2 m/s, which stays the floor
     assert tcl_filter(1.0, 10.0, spins(10, 10, 17, 17), R, RWD, ratio) == pytest.approx(0.5, abs=1e-12)
+
+
+def test_tcl_ratio_capped_by_the_slip_a_turn_leaves():
+    ratio = SlipParams(tcl_slip_ratio=0.15)
+    # a tyre peaking at slip 0.26: a straight leaves it all, a turn at 90 % of the grip 0.113
+    assert spare_slip_ratio(0.26, 0.0) == pytest.approx(0.26)
+    assert spare_slip_ratio(0.26, 0.9) == pytest.approx(0.26 * (1 - 0.81) ** 0.5)
+    assert spare_slip_ratio(0.26, 1.0) == 0.0 and spare_slip_ratio(0.26, 1.2) == 0.0
+    # 5 m/s of slip at 40 m/s: free on a straight (0.15 allows 6), cut in the turn (0.113 allows 4.5)
+    assert tcl_filter(1.0, 40.0, spins(40, 40, 45, 45), R, RWD, ratio, spare_slip_ratio(0.26, 0.0)) == 1.0
+    cut = tcl_filter(1.0, 40.0, spins(40, 40, 45, 45), R, RWD, ratio, spare_slip_ratio(0.26, 0.9))
+    assert cut == pytest.approx(1.0 - (5.0 - 40.0 * 0.26 * 0.19 ** 0.5) / 10.0)
+    # at the grip's limit only the fixed 2 m/s is left
+    assert tcl_filter(1.0, 40.0, spins(40, 40, 45, 45), R, RWD, ratio, 0.0) == pytest.approx(0.7)

@@ -3,7 +3,7 @@ import math
 import numpy as np
 import pytest
 
-from boxbox.control.tyre import magic_formula, skid_grip_gain
+from boxbox.control.tyre import magic_formula, peak_slip, skid_grip_gain
 
 CAR1_TRB1 = (20.0, 0.8, 0.7)  # stiffness, dynamic friction, elasticity from its car file
 
@@ -21,6 +21,12 @@ def test_the_formula_by_hand_at_one_point():
     bx = 20.0 / c * 0.1
     expected = math.sin(c * math.atan(bx * 0.3 + 0.7 * math.atan(bx))) * (1.0 + 0.1 * 0.3)
     assert magic_formula(np.array([0.1]), *CAR1_TRB1, skid_factor=0.3)[0] == pytest.approx(expected, rel=1e-12)
+
+
+def test_peak_slip_of_car1_trb1_and_of_torcs_defaults():
+    assert peak_slip(*CAR1_TRB1) == pytest.approx(0.263, abs=0.002)
+    # a stiffer tyre peaks at less slip
+    assert peak_slip(60.0, 0.8, 0.7) < peak_slip(30.0, 0.8, 0.7)
 
 
 def test_skid_gain_is_one_at_pro_and_grows_with_slip_below_it():
