@@ -182,6 +182,15 @@ def samples(study: Any, dists: dict[str, Any]) -> list[Sample]:
             for t in sorted(study.get_trials(deepcopy=False, states=states), key=lambda t: t.number)]
 
 
+def _rule_text(radius: float, floor: float | None) -> str:
+    text = "at least as fast as the robot's own values on every track without more damage"
+    if radius > 0:
+        text += f", as were the trials within {100 * radius:g} % of each range around it"
+    if floor is not None:
+        text += f", by more than the study's noise floor ({100 * floor:.2f} %)"
+    return text
+
+
 def pick_best(study: Any, cfg: TuneConfig, how: str = "robust", radius: float = RADIUS, noise: bool = True) -> Pick:
     import optuna
 
@@ -199,9 +208,7 @@ def pick_best(study: Any, cfg: TuneConfig, how: str = "robust", radius: float = 
     floor = (noise_floor(found, cfg.tracks, radius) or 0.0) if noise else 0.0
     chosen, gain, around = robust_choice(found, next(s for s in found if s.number == ref.number), cfg.tracks,
                                          radius, floor)
-    rule = (f"at least as fast as the robot's own values on every track without more damage, with the trials "
-            f"within {100 * radius:g} % of each range around it, by more than the study's noise floor "
-            f"({100 * floor:.2f} %)")
+    rule = _rule_text(radius, floor if noise else None)
     if chosen.number == ref.number:
         return Pick(ref, True, f"no trial was {rule}: they stay the best")
     best = next(t for t in complete if t.number == chosen.number)
