@@ -76,7 +76,8 @@ class StorageURL(click.ParamType):
 @click.option("--no-compare", is_flag=True, help="Do not race the robot's own values at the end.")
 @click.option("--pick", type=click.Choice(["robust", "fastest"]), default="robust", show_default=True,
               help="The best trial: robust = at least as fast as the robot's own values on every track without "
-                   "more damage, the most gained on its worst track; fastest = the smallest total.")
+                   "more damage, as are the trials around it, by more than the study's noise floor, the most "
+                   "gained on its worst track; fastest = the smallest total.")
 @click.option("--pick-radius", type=click.FloatRange(0.0, 100.0), default=100 * RADIUS, show_default=True,
               metavar="PERCENT", help="robust: the trials with each value within this share of its range are "
                                       "around a trial; they must not lose either, and their differences make the "
