@@ -146,3 +146,10 @@ def test_noise_floor_is_the_median_difference_of_near_trials():
     assert noise_floor([a, far], ["a", "b"], 0.03) == pytest.approx(0.5)  # no near pair: the closest one
     crashed = Sample(5, {"x": 0.5}, {"a": {"score_s": 3000.0, "damage": 0, "problem": "did not finish"}}, True)
     assert noise_floor([a, crashed], ["a"], 0.03) is None
+
+
+def test_values_next_to_the_robots_own_are_not_handed_out():
+    ref = sample(0, {"x": 0.50}, (100.0, 200.0))
+    close = sample(1, {"x": 0.52}, (95.0, 190.0))  # 5 %, but the robot's own values are around it
+    assert robust_choice([ref, close], ref, ["a", "b"], 0.03)[0] is ref
+    assert robust_choice([ref, close], ref, ["a", "b"], 0.01)[0] is close

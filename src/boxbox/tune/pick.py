@@ -12,8 +12,10 @@ other); else the robot's own values.  Why (docs/tuning.md, "The best trial" and
 "Generalisation"): a total hides a loss on one track behind a gain on another, and an unseen track
 is like one of the study's own with a slightly different grip, so the values must win on every
 track, by more than a small change of the values moves the time, and their neighbours must not
-lose or touch a wall (a threshold close by: mu_scale 1.056 chosen on three tracks gained 0.15 % on
-each of them, under that study's floor of 0.18 %, and lost 6.3 s on g-track-1).
+lose or touch a wall (a threshold close by: mu_scale 1.055 chosen on three tracks gained 0.15 % or
+more on each of them, under that study's floor of 0.18 %, and lost 8.9 s on g-track-1).  The robot's
+own values are a neighbour like any other, with a gain of 0: values within `radius` of them are
+never handed out (as far as the study can tell they are the same values).
 """
 
 from __future__ import annotations
