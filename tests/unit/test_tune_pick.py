@@ -39,7 +39,7 @@ def test_robust_pick_wants_every_track_and_no_more_damage(study):
     add(study, MU + 0.15, (99.0, 199.0), (5, 12))  # faster on both, but touches a wall on a
     steady = add(study, MU + 0.1, (99.5, 199.5), (0, 12))  # 0.25 % on its worst track (b)
     add(study, MU + 0.08, (98.0, 199.9), (0, 10))  # more on a, only 0.05 % on b
-    robust = pick_best(study, CFG, radius=0.0, noise=False)  # each trial on its own
+    robust = pick_best(study, CFG, radius=0.0, noise=False, min_neighbours=0)  # each trial on its own
     assert robust.trial.number == steady and not robust.is_defaults and "0.25 %" in robust.why
     assert pick_best(study, CFG, "fastest").trial.number == fastest
 
@@ -47,7 +47,7 @@ def test_robust_pick_wants_every_track_and_no_more_damage(study):
 def test_robust_pick_keeps_the_defaults_when_nothing_beats_them_everywhere(study):
     add(study, MU + 0.2, (90.0, 200.5), (0, 12))
     add(study, MU - 0.05, (100.0, 199.0), (1, 12))
-    chosen = pick_best(study, CFG, radius=0.0, noise=False)
+    chosen = pick_best(study, CFG, radius=0.0, noise=False, min_neighbours=0)
     assert chosen.trial.number == 0 and chosen.is_defaults and "stay the best" in chosen.why
 
 
@@ -59,7 +59,7 @@ def test_robust_pick_wants_the_trials_around_it_to_win_too(study):
     add(study, MU + 0.11, (99.7, 199.0), (0, 12))
     chosen = pick_best(study, CFG, noise=False)  # within 3 % of the range (0.036 of mu_scale)
     assert chosen.trial.number == steady and "0.30 %" in chosen.why and "1 neighbour" in chosen.why
-    assert pick_best(study, CFG, radius=0.0, noise=False).trial.number == cliff
+    assert pick_best(study, CFG, radius=0.0, noise=False, min_neighbours=0).trial.number == cliff
 
 
 def test_robust_pick_wants_more_than_the_noise_of_near_trials(study):
@@ -67,8 +67,10 @@ def test_robust_pick_wants_more_than_the_noise_of_near_trials(study):
     add(study, MU + 0.11, (99.5, 199.0), (0, 12))  # 0.1 from the first: 0.3 % and 0.3 % apart
     kept = pick_best(study, CFG)  # the floor: 0.3 %, the best region's worst 0.2 %
     assert kept.trial.number == 0 and kept.is_defaults and "(0.30 %)" in kept.why
-    far = add(study, MU + 0.3, (97.0, 194.0), (0, 12))  # 3 %, alone
-    assert pick_best(study, CFG).trial.number == far
+    far = add(study, MU + 0.3, (97.0, 194.0), (0, 12))  # 3 %
+    assert pick_best(study, CFG).is_defaults  # but alone: a single sample
+    add(study, MU + 0.31, (97.2, 194.2), (0, 12))
+    assert pick_best(study, CFG).trial.number == far  # 2.9 % at worst with its neighbour, floor 0.25 %
 
 
 def test_no_complete_trial():
@@ -135,7 +137,8 @@ def test_robust_choice_takes_the_best_worst_region_above_the_floor():
     chosen, gain, around = robust_choice([ref, *good], ref, ["a", "b"], 0.03)
     assert chosen.number == 2 and gain == pytest.approx(0.005) and around == 1
     assert robust_choice([ref, *good], ref, ["a", "b"], 0.03, floor=0.006)[0] is ref  # under it
-    assert robust_choice([ref, lone, *good], ref, ["a", "b"], 0.03, floor=0.02)[0] is lone
+    assert robust_choice([ref, lone, *good], ref, ["a", "b"], 0.03, floor=0.02)[0] is ref  # lone: no neighbour
+    assert robust_choice([ref, lone, *good], ref, ["a", "b"], 0.03, floor=0.02, min_neighbours=0)[0] is lone
 
 
 def test_noise_floor_is_the_median_difference_of_near_trials():
@@ -152,4 +155,4 @@ def test_values_next_to_the_robots_own_are_not_handed_out():
     ref = sample(0, {"x": 0.50}, (100.0, 200.0))
     close = sample(1, {"x": 0.52}, (95.0, 190.0))  # 5 %, but the robot's own values are around it
     assert robust_choice([ref, close], ref, ["a", "b"], 0.03)[0] is ref
-    assert robust_choice([ref, close], ref, ["a", "b"], 0.01)[0] is close
+    assert robust_choice([ref, close], ref, ["a", "b"], 0.01, min_neighbours=0)[0] is close
