@@ -78,7 +78,8 @@ class StorageURL(click.ParamType):
               help="The best trial: robust = at least as fast as the robot's own values on every track without "
                    "more damage, as are the trials around it, by more than the study's noise floor, the most "
                    "gained on its worst track; fastest = the smallest total.")
-@click.option("--pick-radius", type=click.FloatRange(0.0, 100.0), default=100 * RADIUS, show_default=True,
+@click.option("--pick-radius", type=click.FloatRange(0.0, 100.0, min_open=True), default=100 * RADIUS,
+              show_default=True,
               metavar="PERCENT", help="robust: the trials with each value within this share of its range are "
                                       "around a trial; they must not lose either, and their differences make the "
                                       "noise floor a gain must pass.")
