@@ -2,10 +2,11 @@
 
 `fastest`: the smallest total time, what Optuna calls the best trial.
 
-`robust` (the default): a complete trial is a candidate when it and every trial around it (each
-searched number within `radius` of its range, the same choices; pruned trials count with the
-tracks they raced) are at least as fast as the robot's own values (the study's first trial) on
-every track they raced, with no more damage.  The candidate whose neighbourhood's worst track gains
+`robust` (the default): a complete trial is a candidate when it has at least `min_neighbours`
+trials around it (each searched number within `radius` of its range, the same choices; pruned
+trials count with the tracks they raced) and it and all of them are at least as fast as the
+robot's own values (the study's first trial) on every track they raced, with no more damage (a
+lone trial is a single sample).  The candidate whose neighbourhood's worst track gains
 most (relative to the robot's own time there) is handed out if that gain is above the study's noise
 floor (noise_floor: how much the time of a track moves between trials within `radius` of each
 other); else the robot's own values.  Why (docs/tuning.md, "The best trial" and
