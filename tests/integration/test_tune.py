@@ -261,5 +261,25 @@ def test_a_users_robot_declares_its_own_parameters(overlay, tmp_path):
         p.unlink()
 
 
+def test_the_cautious_robot_of_the_docs_races_its_own_values(tmp_path):
+    """docs/tuning.md's poor-values robot (bench-tune's check that the pick still hands out real
+    gains): without settings it races its own 0.85 and 0.55, and a trial's values replace them."""
+    import re
+
+    from boxbox.torcs import checks
+    from boxbox.tune.objective import TuneConfig, run_race
+
+    doc = (Path(__file__).resolve().parents[2] / "docs" / "tuning.md").read_text()
+    code = re.search(r"<!-- example: cautious -->\s*```python\n(.*?)```", doc, re.S)
+    assert code, "docs/tuning.md has no cautious example"
+    (tmp_path / "cautious.py").write_text(code.group(1))
+    cfg = TuneConfig(study="cautious", robot=f"{tmp_path / 'cautious.py'}:Cautious", tracks=[TRACK], laps=1,
+                     categories=[checks.check_race(TRACK, "car1-trb1", 1, (), (), 1)[0]])
+    own = run_race(cfg, 0, {}, None)
+    assert own.problem is None
+    assert run_race(cfg, 0, {"mu_scale": 0.85, "brake_mu_scale": 0.55}, None).time_s == own.time_s
+    assert run_race(cfg, 0, {"mu_scale": 1.0, "brake_mu_scale": 0.7}, None).time_s < own.time_s
+
+
 def test_no_server_left(postgres):
     assert Path(postgres.folder, "data", "postmaster.pid").exists()

@@ -10,6 +10,7 @@ import click
 
 from boxbox.cli.common import err, out, ready
 from boxbox.cli.types import LAPS, CommaList, FiniteFloatRange, OutputDir, OutputFile, skill_level_option
+from boxbox.tune.pick import RADIUS, PickRule
 
 
 class StudyName(click.ParamType):
@@ -75,11 +76,17 @@ class StorageURL(click.ParamType):
 @click.option("--no-compare", is_flag=True, help="Do not race the robot's own values at the end.")
 @click.option("--pick", type=click.Choice(["robust", "fastest"]), default="robust", show_default=True,
               help="The best trial: robust = at least as fast as the robot's own values on every track without "
-                   "more damage, the most gained on its worst track; fastest = the smallest total.")
+                   "more damage, as are the trials around it, by more than the study's noise floor, the most "
+                   "gained on its worst track; fastest = the smallest total.")
+@click.option("--pick-radius", type=click.FloatRange(0.0, 100.0, min_open=True), default=100 * RADIUS,
+              show_default=True,
+              metavar="PERCENT", help="robust: the trials with each value within this share of its range are "
+                                      "around a trial; they must not lose either, and their differences make the "
+                                      "noise floor a gain must pass.")
 @skill_level_option
 @click.option("--quiet", is_flag=True, help="No progress bar.")
 def tune(robot, tracks, param_names, trials, laps, car, study_name, storage, workers, grace_s, damage_limit, seed,
-         no_prune, setup_out, report_dir, no_compare, pick, skill_level, quiet) -> None:
+         no_prune, setup_out, report_dir, no_compare, pick, pick_radius, skill_level, quiet) -> None:
     """Tune a robot's parameters with Optuna: each trial races the tracks; the value is the total time.
 
     \b
@@ -114,7 +121,8 @@ def tune(robot, tracks, param_names, trials, laps, car, study_name, storage, wor
     stop = studies.StopFlag()
     stop.install()
     study = _run_with_progress(cfg, workers, stop, quiet)
-    _summary(cfg, study, setup_out, report_dir, compare=not (no_compare or stop.set), pick=pick)
+    _summary(cfg, study, setup_out, report_dir, compare=not (no_compare or stop.set),
+             pick=PickRule(pick, pick_radius / 100.0))
     if stop.set:
         raise Interrupted(f"tune stopped by a signal; the study keeps its finished trials: resume with --study {name}")
 
@@ -145,25 +153,24 @@ def _run_with_progress(cfg, workers: int, stop, quiet: bool):
         return studies.run(cfg, workers, tick, stop)
 
 
-def _summary(cfg, study, setup_out: Path | None, report_dir: Path | None, compare: bool, pick: str) -> None:
+def _summary(cfg, study, setup_out: Path | None, report_dir: Path | None, compare: bool, pick: PickRule) -> None:
     from rich.table import Table
 
     from boxbox.robot.loader import load_robot_class
     from boxbox.robot.tunable import param_space, write_setup
     from boxbox.tune import study as studies
-    from boxbox.tune.pick import pick_best
     from boxbox.tune.storage import journal_path
 
     p = studies.progress(study)
     skipped, run, saved_s = studies.pruning_savings(study, len(cfg.tracks))
     err.print(f"{p.complete} complete, {p.pruned} pruned, {p.failed} failed trials; pruning skipped {skipped} of "
               f"{skipped + run} races (about {saved_s:.0f} s of racing saved)")
-    chosen = pick_best(study, cfg, pick)
+    chosen = pick.choose(study, cfg)
     if chosen.trial is None:
         err.print("[yellow]no complete trial yet: nothing to compare or write[/]")
         return
     best = chosen.trial
-    err.print(f"best ({pick}): trial #{best.number}, {chosen.why}")
+    err.print(f"best ({pick.how}): trial #{best.number}, {chosen.why}")
     space = param_space(load_robot_class(cfg.robot))
     params = Table("parameter", "declared default", "best", title=f"study {cfg.study}: best trial #{best.number}")
     for key, value in best.params.items():
@@ -173,7 +180,8 @@ def _summary(cfg, study, setup_out: Path | None, report_dir: Path | None, compar
         _compare_table(cfg, best.params)
     target = setup_out or journal_path(cfg.study).with_suffix(".toml")
     target.parent.mkdir(parents=True, exist_ok=True)
-    write_setup(target, best.params, [f"boxbox tune study {cfg.study}: best ({pick}) of {p.complete} complete trials",
+    write_setup(target, best.params, [f"boxbox tune study {cfg.study}: best ({pick.label}) of {p.complete} "
+                                      "complete trials",
                                       f"robot {cfg.robot}, tracks {', '.join(cfg.tracks)}, {cfg.laps} laps, "
                                       f"{cfg.car}: total {best.value:.3f} s",
                                       f"race with it: boxbox race --setup {target}"])
@@ -236,9 +244,11 @@ GENERAL_B = "e-track-4,g-track-2,ruudskogen"  # road tracks of similar kind the 
               show_default=True, help="The two sets of tracks: tune on each, race the best on both.")
 @click.option("--rounds", type=click.IntRange(1, 100), default=3, show_default=True,
               help="Times each measure is taken, in turn; the median is shown (the machine's load moves).")
+@click.option("--general-only", is_flag=True,
+              help="Only the generalisation studies (no trials per hour, no storage measure).")
 @click.option("--json", "json_file", type=OutputFile(), help="Write the figures as JSON.")
 def bench_tune(robot, tracks, param_names, laps, trials, storage_trials, storage, no_postgres, general_trials,
-               general_tracks, rounds, json_file) -> None:
+               general_tracks, rounds, general_only, json_file) -> None:
     """Measure boxbox tune: trials per hour with 1 and 2 workers, the storage's cost per trial
     (journal file against PostgreSQL) and, with --general-trials, tuned parameters on unseen tracks.
 
@@ -246,6 +256,7 @@ def bench_tune(robot, tracks, param_names, laps, trials, storage_trials, storage
     Examples:
       boxbox bench-tune
       boxbox bench-tune --general-trials 50 --json bench-tune.json
+      boxbox bench-tune --general-trials 50 --general-only
     """
     import contextlib
     import dataclasses
@@ -262,6 +273,8 @@ def bench_tune(robot, tracks, param_names, laps, trials, storage_trials, storage
     from boxbox.tune.space import distributions
 
     distributions(param_space(load_robot_class(robot)), param_names)
+    if general_only and not general_trials:
+        raise click.UsageError("--general-only needs --general-trials N (the issue asks 50)")
     ready()
     for t in [*tracks, *general_tracks[0], *general_tracks[1]]:
         checks.check_race(t, "car1-trb1", 1, (), (), laps)
@@ -273,14 +286,16 @@ def bench_tune(robot, tracks, param_names, laps, trials, storage_trials, storage
             err.print(f"[dim]bench-tune:[/] {msg}")
 
         url = storage
-        if url is None and not no_postgres:
+        if url is None and not (no_postgres or general_only):
             url = stack.enter_context(TempServer(report)).url
-        result = run_bench(base, storage_trials, url, general_trials, tuple(general_tracks), report, rounds)
+        result = run_bench(base, storage_trials, url, general_trials, tuple(general_tracks), report, rounds,
+                           costs=not general_only)
     table = Table("measure", "value", title=f"bench-tune: {robot}, {', '.join(tracks)}, {laps} lap(s), "
                                              f"{', '.join(param_names)}")
     for row in summary_rows(result):
         table.add_row(*row)
-    out.print(table)
+    if table.rows:
+        out.print(table)
     if result.general:
         _general_table(result.general, laps)
     if json_file:
@@ -291,7 +306,7 @@ def _general_table(rows: list[dict], laps: int) -> None:
     from rich.table import Table
 
     from boxbox.report.tables import fmt_time
-    from boxbox.tune.pick import PICKS
+    from boxbox.tune.pick import GENERAL_PICKS as PICKS
 
     table = Table("tuned on", "track", "", "robot's own values (s)", *(f"{h} pick (s), gain" for h in PICKS),
                   title=f"generalisation: {laps} lap(s) a race, the best of each study by each pick")

@@ -132,11 +132,11 @@ def time_storage(base: TuneConfig, url: str | None, trials: int) -> tuple[float,
 
 def generalisation(base: TuneConfig, train: list[str], test: list[str], trials: int, workers: int,
                    report: Report) -> list[dict]:
-    """Tune on `train`, then race the robot's own values and the best of each pick (tune.pick) on
-    train and test tracks."""
+    """Tune on `train`, then race the robot's own values and the best of each pick (tune.pick,
+    GENERAL_PICKS) on train and test tracks."""
     from boxbox.torcs import checks
     from boxbox.tune import study as studies
-    from boxbox.tune.pick import PICKS, pick_best
+    from boxbox.tune.pick import GENERAL_PICKS
 
     cats = [checks.check_race(t, base.car, 1, (), (), base.laps)[0] for t in train]
     cfg = dataclasses.replace(base, study=f"bench-general-{uuid.uuid4().hex[:8]}", tracks=train, categories=cats,
@@ -144,7 +144,7 @@ def generalisation(base: TuneConfig, train: list[str], test: list[str], trials: 
     try:
         report(f"generalisation: {trials} trials on {', '.join(train)}")
         study = studies.run(cfg, workers, lambda s: None, studies.StopFlag())
-        picks = {how: pick_best(study, cfg, how) for how in PICKS}
+        picks = {label: rule.choose(study, cfg) for label, rule in GENERAL_PICKS.items()}
         best = {how: p.trial.params for how, p in picks.items() if p.trial is not None}
         rows = []
         for label, tracks in (("tuned on", train), ("unseen", test)):
@@ -158,24 +158,38 @@ def generalisation(base: TuneConfig, train: list[str], test: list[str], trials: 
 
 
 def run_bench(base: TuneConfig, storage_trials: int, postgres_url: str | None, general_trials: int,
-              general_tracks: tuple[list[str], list[str]] | None, report: Report, rounds: int = 3) -> BenchTuneResult:
-    """The measures, each taken `rounds` times in turn (1 worker, 2 workers, journal, PostgreSQL,
-    again...) and the median kept: on a shared machine the load moves within minutes."""
+              general_tracks: tuple[list[str], list[str]] | None, report: Report, rounds: int = 3,
+              costs: bool = True) -> BenchTuneResult:
+    """The measures (without `costs`, the generalisation studies only), each taken `rounds` times in
+    turn (1 worker, 2 workers, journal, PostgreSQL, again...) and the median kept: on a shared
+    machine the load moves within minutes."""
+    result = BenchTuneResult(trials=base.trials, rounds=rounds)
+    if costs:
+        measure_costs(base, storage_trials, postgres_url, report, result)
+    if general_trials and general_tracks:
+        a, b = general_tracks
+        result.general = (generalisation(base, a, b, general_trials, 2, report)
+                          + generalisation(base, b, a, general_trials, 2, report))
+    return result
+
+
+def measure_costs(base: TuneConfig, storage_trials: int, postgres_url: str | None, report: Report,
+                  result: BenchTuneResult) -> None:
+    """Trials per hour with 1 and 2 workers and the storage's calls of a trial, into `result`."""
     import statistics
 
     from boxbox.tune.objective import run_race
 
-    result = BenchTuneResult(trials=base.trials, rounds=rounds)
     report("a race on each track first (racing lines computed once and cached)")
     for i in range(len(base.tracks)):
         run_race(base, i, {}, None)
     walls: dict[int, list[tuple[float, float]]] = {1: [], 2: []}
     stores: dict[str, list[float]] = {"journal file": [], "PostgreSQL": []}
-    for r in range(rounds):
+    for r in range(result.rounds):
         for workers in (1, 2):
-            report(f"round {r + 1} of {rounds}: {base.trials} trials with {workers} worker(s)")
+            report(f"round {r + 1} of {result.rounds}: {base.trials} trials with {workers} worker(s)")
             walls[workers].append(time_workers(base, workers))
-        report(f"round {r + 1} of {rounds}: storage calls of a trial")
+        report(f"round {r + 1} of {result.rounds}: storage calls of a trial")
         stores["journal file"].append(time_storage(base, None, storage_trials)[0])
         if postgres_url is not None:
             ms, result.statements["PostgreSQL"] = time_storage(base, postgres_url, storage_trials)
@@ -187,14 +201,11 @@ def run_bench(base: TuneConfig, storage_trials: int, postgres_url: str | None, g
     result.storage_ms = {name: statistics.median(v) for name, v in stores.items() if v}
     if postgres_url is not None:
         result.round_trip_ms = round_trip_ms(postgres_url)
-    if general_trials and general_tracks:
-        a, b = general_tracks
-        result.general = (generalisation(base, a, b, general_trials, 2, report)
-                          + generalisation(base, b, a, general_trials, 2, report))
-    return result
 
 
 def summary_rows(result: BenchTuneResult) -> list[tuple[str, str]]:
+    if not result.trial_wall_s:
+        return []  # the generalisation studies only
     rows = [(f"trials per hour, {w} worker(s)", f"{result.per_hour(w):.0f} ({result.trials} trials in "
              f"{result.trial_wall_s[w]:.1f} s, median of {', '.join(f'{x:.1f}' for x in result.all_trial_wall_s[w])}; "
              f"{result.run_wall_s[w]:.1f} s with start-up)") for w in (1, 2)]

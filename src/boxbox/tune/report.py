@@ -13,6 +13,7 @@ from typing import Any
 
 from boxbox.report.race_report import CSS, _figure, _img, _num, _table
 from boxbox.tune.objective import PENALTY_S_PER_LAP, RESULT_ATTR, TuneConfig
+from boxbox.tune.pick import PickRule
 
 
 def _finished(study: Any) -> list:
@@ -110,9 +111,8 @@ def fig_slice(study: Any, name: str, penalty_s: float):
     return fig
 
 
-def build_report(study: Any, cfg: TuneConfig, pick: str = "robust") -> str:
+def build_report(study: Any, cfg: TuneConfig, pick: PickRule | None = None) -> str:
     from boxbox.report.tables import fmt_time
-    from boxbox.tune.pick import pick_best
     from boxbox.tune.study import progress, pruning_savings
 
     penalty = PENALTY_S_PER_LAP * cfg.laps
@@ -124,11 +124,12 @@ def build_report(study: Any, cfg: TuneConfig, pick: str = "robust") -> str:
              f"{html.escape(', '.join(cfg.params))}. {p.complete} complete, {p.pruned} pruned, {p.failed} failed "
              f"trials; pruning skipped {skipped} of {skipped + run} races (about {saved:.0f} s). A race that faults, "
              f"does not finish or ends with damage over {cfg.damage_limit:g} counts {penalty:g} s.</p>"]
-    chosen = pick_best(study, cfg, pick)
+    pick = pick or PickRule()
+    chosen = pick.choose(study, cfg)
     if chosen.trial is not None:
         best = chosen.trial
         rows = [[html.escape(k), html.escape(str(v))] for k, v in best.params.items()]
-        parts += [f"<h2>Best trial ({pick}): #{best.number}, {fmt_time(best.value)}</h2>",
+        parts += [f"<h2>Best trial ({pick.how}): #{best.number}, {fmt_time(best.value)}</h2>",
                   f"<p class='meta'>{html.escape(chosen.why)}</p>", _table(["parameter", "value"], rows)]
     parts += ["<h2>Optimisation history</h2>", _img(fig_history(study, penalty), "total time of each trial")]
     imp = fig_importances(study)
@@ -159,7 +160,7 @@ def _short(value: Any) -> str:
     return f"{value:.4g}" if isinstance(value, float) else str(value)
 
 
-def write_report(study: Any, cfg: TuneConfig, out: Path, pick: str = "robust") -> Path:
+def write_report(study: Any, cfg: TuneConfig, out: Path, pick: PickRule | None = None) -> Path:
     from boxbox.files import write_text_atomic
 
     out.parent.mkdir(parents=True, exist_ok=True)
