@@ -15,7 +15,10 @@ exactly as without it.  Per step:
   line's: off it the radius is another), and inside the band that cars alongside leave us (room
   side by side).  plan_passes=True plans passes instead (the inside of the coming turn when it has
   room, no further aside than needed, only when the pass completes before the braking zone or is
-  on the inside, given up after abort_s); it measured worse in the field.
+  on the inside, given up after abort_s); it measured worse in the field.  A pass under way on the
+  inside of the coming turn (a car within commit_lengths ahead, moved aside towards the inside) is
+  not called back to the line (keep_inside), and drives at the speed of the inside's tighter radius
+  (inside_speed): without it a faster car never got by a slower one in a turn.
 - `brake`: a touch of brake for a car touching ahead in our lane, faster or not; with
   brake_mode "ttc" or "both" also braking from the predicted closest gap (we brake after a
   reaction time, it slows towards the speed our own profile needs where it is going), softer in
@@ -27,10 +30,8 @@ exactly as without it.  Per step:
   in our lane that brakes hard, its deceleration measured over the last steps: the fixed-gap filter
   takes its speed of now, and a car braking earlier than our profile was run into),
   `inward_grip_share` (a move towards a turn's
-  inside only with grip to spare), `inside_speed` (the speed of the tighter radius of an inside
-  offset), `yield_inside` (brake to fall in behind a car alongside on the outside of the coming
-  turn), `next_turn_s` / `keep_inside` (the first turn ahead is the inside to pass on, and an inside
-  pass is not called back to the line).
+  inside only with grip to spare), `yield_inside` (brake to fall in behind a car alongside on the
+  outside of the coming turn), `next_turn_s` (the first turn ahead is the inside to pass on).
 - `spoiled` / `tainted`: whether traffic shaped the last steps (a car close, the line moved aside,
   a brake for a car), so the learner drops the whole turn for this lap.
 """
@@ -57,7 +58,9 @@ class RacecraftParams:
     margin_m: float = 2.0  # bumper gap kept to the car ahead
     close_brake: float = 0.5  # the brake with a car ahead in our lane touching (less as the gap grows)
     band_m: float = 4.0  # the brake rises from 0 to 1 as the predicted gap falls this much to the margin
-    side_gap_m: float = 1.0  # lateral gap kept to a car alongside
+    # lateral gap kept to a car alongside: with the inside pass kept through the turn, 1 m let boxbox
+    # touch bt:2 passing it on g-track-1's first lap (third of three, 931 damage; 1.5 m: first, none)
+    side_gap_m: float = 1.5
     pass_gap_m: float = 1.5  # lateral gap aimed at passing a car
     lane_m: float = 1.0  # a car ahead overlapping our width plus this is in our lane (brake for it)
     edge_m: float = 1.0  # our centre this far inside the track's edge beyond half our width
