@@ -172,3 +172,16 @@ def test_racecraft_falls_in_behind_a_car_turning_in_from_the_outside():
     assert craft.brake(0.0, 0.0, 30.0, [beside], lambda c: c.speed_mps, predict=False) == 1.0
     craft.offset(0.0, 30.0, 0.0, [], 0.0, 0.0, (6.0, -6.0), 1.0, 400.0, 0.1)  # left turn: we are outside
     assert craft.brake(0.0, 0.0, 30.0, [beside], lambda c: c.speed_mps, predict=False) == 0.0
+
+
+def test_a_pass_under_way_on_the_inside_is_not_called_back_to_the_line():
+    craft = _craft()  # keep_inside, commit_lengths 2.5 (11.25 m here)
+    near, far = _car(8.0, 0.5, 25.0), _car(20.0, 0.5, 25.0)
+    # right turn ahead (inside -1) sharp enough at 30 m/s for the hold-line rule; the tutorial moved us right
+    def step(car, inside):
+        return craft.offset(0.0, 30.0, 0.0, [car], -0.5, 0.0, (6.0, -6.0), inside, 400.0, 0.1, -0.6, 0.01)
+    assert step(near, -1.0) == pytest.approx(-0.6) and craft.pass_side == -1.0  # under way on the inside: kept
+    assert step(far, -1.0) == pytest.approx(-0.4) and craft.pass_side == 0.0  # not under way: back to the line
+    assert step(near, 1.0) == pytest.approx(-0.4)  # under way on the outside: back to the line
+    assert _craft(keep_inside=False).offset(0.0, 30.0, 0.0, [near], -0.5, 0.0, (6.0, -6.0), -1.0, 400.0, 0.1,
+                                            -0.6, 0.01) == pytest.approx(-0.4)

@@ -37,7 +37,7 @@ from boxbox.model.constants import G_MPS2
 from boxbox.robot.base import FUEL_L_PER_M_ESTIMATE, RaceOptions
 from boxbox.robot.pitpath import PitPath
 from boxbox.robot.racingline import middle_line
-from boxbox.robot.strategy import PitStrategy, plan_stops
+from boxbox.robot.strategy import PitStrategy, laps_after_box, plan_stops
 
 PIT_HOLD_GAIN_PER_MPS = 1.0  # throttle per m/s below the pit lane's target speed
 DECIDE_BEFORE_ENTRY_M = 600.0  # a stop is decided once per lap, this far before the pit entry
@@ -172,7 +172,8 @@ class PitStops:
         """Once per lap, a few hundred metres before the entry: stop this lap or not."""
         if not on_path and pos > -DECIDE_BEFORE_ENTRY_M and self.decided_lap != s.laps:
             self.decided_lap = int(s.laps)
-            remaining = self.remaining_after_box(s)
+            remaining = laps_after_box(s.remaining_laps, s.dist_from_start_m, self._box_from_start_m,
+                                       self.track.length_m)
             self.wanted = (self.retry and remaining > 0) or \
                 self.strategy.wants_stop(laps_done, remaining, s.fuel_l, s.damage)
 
@@ -225,7 +226,7 @@ class PitStops:
         self.event = None
 
     def remaining_after_box(self, s: State) -> float:
-        """Laps still to drive after passing the box in this lap (TORCS's remaining laps exclude it)."""
+        """Laps still to drive after the box, standing in it (TORCS's remaining laps exclude this lap)."""
         length = self.track.length_m
         return s.remaining_laps + (length - self._box_from_start_m % length) / length
 

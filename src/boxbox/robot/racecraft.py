@@ -15,7 +15,10 @@ exactly as without it.  Per step:
   line's: off it the radius is another), and inside the band that cars alongside leave us (room
   side by side).  plan_passes=True plans passes instead (the inside of the coming turn when it has
   room, no further aside than needed, only when the pass completes before the braking zone or is
-  on the inside, given up after abort_s); it measured worse in the field.
+  on the inside, given up after abort_s); it measured worse in the field.  A pass under way on the
+  inside of the coming turn (a car within commit_lengths ahead, moved aside towards the inside) is
+  not called back to the line (keep_inside), and drives at the speed of the inside's tighter radius
+  (inside_speed): without it a faster car never got by a slower one in a turn.
 - `brake`: a touch of brake for a car touching ahead in our lane, faster or not; with
   brake_mode "ttc" or "both" also braking from the predicted closest gap (we brake after a
   reaction time, it slows towards the speed our own profile needs where it is going), softer in
@@ -27,10 +30,8 @@ exactly as without it.  Per step:
   in our lane that brakes hard, its deceleration measured over the last steps: the fixed-gap filter
   takes its speed of now, and a car braking earlier than our profile was run into),
   `inward_grip_share` (a move towards a turn's
-  inside only with grip to spare), `inside_speed` (the speed of the tighter radius of an inside
-  offset), `yield_inside` (brake to fall in behind a car alongside on the outside of the coming
-  turn), `next_turn_s` / `keep_inside` (the first turn ahead is the inside to pass on, and an inside
-  pass is not called back to the line).
+  inside only with grip to spare), `yield_inside` (brake to fall in behind a car alongside on the
+  outside of the coming turn), `next_turn_s` (the first turn ahead is the inside to pass on).
 - `spoiled` / `tainted`: whether traffic shaped the last steps (a car close, the line moved aside,
   a brake for a car), so the learner drops the whole turn for this lap.
 """
@@ -57,7 +58,9 @@ class RacecraftParams:
     margin_m: float = 2.0  # bumper gap kept to the car ahead
     close_brake: float = 0.5  # the brake with a car ahead in our lane touching (less as the gap grows)
     band_m: float = 4.0  # the brake rises from 0 to 1 as the predicted gap falls this much to the margin
-    side_gap_m: float = 1.0  # lateral gap kept to a car alongside
+    # lateral gap kept to a car alongside: with the inside pass kept through the turn, 1 m let boxbox
+    # touch bt:2 passing it on g-track-1's first lap (third of three, 931 damage; 1.5 m: first, none)
+    side_gap_m: float = 1.5
     pass_gap_m: float = 1.5  # lateral gap aimed at passing a car
     lane_m: float = 1.0  # a car ahead overlapping our width plus this is in our lane (brake for it)
     edge_m: float = 1.0  # our centre this far inside the track's edge beyond half our width
@@ -79,11 +82,14 @@ class RacecraftParams:
     yield_side_m: float = 1.5  # ... that close sideways (beyond our width)
     braking_ahead_mps2: float = 0.0  # a car ahead braking harder than this is predicted braking on (0: off)
     next_turn_s: float = 0.0  # the turn whose inside counts: the first within this many s (0: horizon_s ahead)
-    keep_inside: bool = False  # a pass on the inside of the coming turn is not called back to the line
+    # a pass on the inside of the coming turn is not called back to the line: without it a faster
+    # car never got by (boxbox from behind inferno:4 alone, 5 laps: stuck behind on 4 of 6 tracks)
+    keep_inside: bool = True
+    commit_lengths: float = 2.5  # a pass aside for a car within this many car lengths ahead is under way
     # lift off the throttle this far before the fixed-gap brake would brake (0: off; 5 m cost 3.2 s of
     # passing two cars on g-track-1 for the same places over 8-12 lap fields: docs/racecraft.md)
     lift_m: float = 0.0
-    inside_speed: bool = False  # an offset towards a turn's inside caps the speed to its tighter radius
+    inside_speed: bool = True  # an offset towards a turn's inside caps the speed to its tighter radius
 
 
 def converging(cars: list[Nearby], rates_mps: list[float], ahead_s: float) -> list[Nearby]:
@@ -205,6 +211,7 @@ class Racecraft:
                 want = blocked - line_off_m
                 base_offset_m = min(want, offset_m + step_m) if offset_m < want else max(want, offset_m - step_m)
             new = base_offset_m  # moved aside, but never further out than the track allows (or the line is)
+            self.pass_side = self._committed_side(cars, base_offset_m)
             if new > 0.0:
                 new = max(0.0, min(new, left - line_off_m))
             elif new < 0.0:
@@ -255,6 +262,18 @@ class Racecraft:
             return None  # would end side by side on the outside of a turn: wait behind
         self.pass_side = side
         return target
+
+    def _committed_side(self, cars: list[Nearby], base_offset_m: float) -> float:
+        """The side of a pass under way on the tutorial's overtaking offset (+1 left, -1 right, 0
+        none): moved aside with a car we are not lapped by within commit_lengths car lengths ahead.
+        Farther back the pass is not under way: holding an inside offset through a turn then only
+        costs time behind the car (g-track-1, 3 lengths: stuck behind inferno:4 for 5 laps)."""
+        if not base_offset_m:
+            return 0.0
+        reach = self.p.commit_lengths * self.length_m
+        if any(0.0 < c.dist_m < reach and c.laps_ahead <= 0 for c in cars):
+            return math.copysign(1.0, base_offset_m)
+        return 0.0
 
     def _round_stopped(self, cars: list[Nearby], left: float, right: float, inside_sign: float) -> float | None:
         """Our lateral target round a car stopped (a crash) close ahead in our way, or None: the

@@ -98,6 +98,17 @@ def plan_stops(race_laps: float, fuel_per_lap_l: float, tank_l: float, *, pit_lo
     return StopPlan(len(stints) - 1, tuple(stints), tuple(fuel), c)
 
 
+def laps_after_box(remaining_laps: float, dist_m: float, box_m: float, length_m: float) -> float:
+    """Laps still to drive after the box, seen from dist_m (from the start line) before reaching it:
+    remaining_laps (TORCS's: the laps after this one) plus the rest of a lap from the box.  A box
+    behind us in this lap's distance is reached after the line, in the next lap: one lap fewer (on
+    aalborg the box is just past the line, and a stop decided late in the last lap asked for one in
+    a lap the race does not have)."""
+    box = box_m % length_m
+    beyond_line = box < dist_m % length_m
+    return remaining_laps - (1.0 if beyond_line else 0.0) + (length_m - box) / length_m
+
+
 def pit_lane_loss_s(lane_length_m: float, speed_limit_mps: float, race_speed_mps: float,
                     decel_mps2: float = 8.0, accel_mps2: float = 4.0) -> float:
     """Rough time lost by a pit stop's drive (not the standing): the lane at the limit instead of the

@@ -13,6 +13,7 @@ from boxbox.robot.strategy import (
     REPAIR_S_PER_POINT,
     STOP_BASE_S,
     PitStrategy,
+    laps_after_box,
     pit_lane_loss_s,
     plan_stops,
 )
@@ -215,3 +216,20 @@ def test_part_lap_left_is_fuelled_as_a_part():
     st.on_lap(1, 90.0, 0.0)  # 4 l/lap
     fuel, _ = st.order(remaining_laps=12.4, fuel_l=3.0, damage=0.0, tank_l=TANK_L)
     assert fuel == pytest.approx(12.7 * 4.0 - 3.0)
+
+
+def test_laps_after_box_counts_the_rest_of_the_lap_from_a_box_ahead():
+    # box at 1000 m of a 5000 m lap, car at 400 m with 3 laps after this one
+    assert laps_after_box(3, 400.0, 1000.0, 5000.0) == pytest.approx(3.8)
+
+
+def test_no_stop_on_the_last_lap_for_a_box_beyond_the_line():
+    # aalborg: the box just past the line; deciding 300 m before the line on the last lap, the box
+    # would come in a lap the race does not have
+    left = laps_after_box(0, 3500.0, 100.0, 3800.0)
+    assert left < 0.0
+    st = strat()
+    st.on_lap(9, 1.0, 0.0)  # 1 l left, far less than a lap: still no stop, the race ends first
+    assert not st.wants_stop(9, left, 1.0, 0.0)
+    # the lap before, the same place: the box comes on the last lap, with most of that lap after it
+    assert laps_after_box(1, 3500.0, 100.0, 3800.0) == pytest.approx(1.0 - 100.0 / 3800.0)
