@@ -291,7 +291,9 @@ class TutorialRobot(Robot):
         limits = self._limits(factors, model)
         brake_mu = [model.mu * f * p.brake_mu_scale for f in self._friction]
         corner_mu = [model.mu * f * p.mu_scale * g for f, g in zip(self._friction, factors, strict=False)]
-        self._corner_mu = corner_mu  # per sample, for traction control's share of grip the turn takes
+        # per sample, for traction control: the line's curvature over the corner grip (a turn's share
+        # of the grip at speed v is v^2 k / (mu (g + CA v^2 / m)))
+        self._k_per_mu = [k / mu for k, mu in zip(self._curv, corner_mu, strict=False)]
         self._ca_per_kg = model.ca_corner / model.mass_kg
         self.profile = SpeedProfile(limits, brake_mu, model, self.step_m, max_speed_mps=p.max_speed_mps,
                                     curvature_1pm=self._curv if p.friction_circle else None, corner_mu=corner_mu,
@@ -485,10 +487,10 @@ class TutorialRobot(Robot):
             # off the line among cars the turn's share is not the line's: the tutorial's 2 m/s (in
             # 10-car fields the slip ratio doubled the places lost in contact: docs/racecraft.md)
             return 0.0, tcl_filter(accel, v, spins, self.radii, self.car.drivetrain, self.slip, 0.0)
-        i = int(s.dist_from_start_m / self.step_m) % self.n
-        share = min(1.0, v * v * self._curv[i] / (self._corner_mu[i] * (G_MPS2 + v * v * self._ca_per_kg)))
-        spare = spare_slip_ratio(self._peak_slip, share)
-        return 0.0, tcl_filter(accel, v, spins, self.radii, self.car.drivetrain, self.slip, spare)
+        v2 = v * v
+        share = v2 * self._k_per_mu[int(s.dist_from_start_m / self.step_m) % self.n] / (G_MPS2 + v2 * self._ca_per_kg)
+        return 0.0, tcl_filter(accel, v, spins, self.radii, self.car.drivetrain, self.slip,
+                               spare_slip_ratio(self._peak_slip, share))
 
     def _guard_throttle(self, s: State, v: float, steer: float, accel: float) -> float:
         """Less throttle when the tyres have no grip to spare: at the steering lock (lock guard) and
