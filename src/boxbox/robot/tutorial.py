@@ -135,7 +135,10 @@ class TutorialRobot(Robot):
                                tcl_range_mps=p.tcl_range_mps,
                                abs_min_speed_mps=p.slip_min_speed_mps, tcl_min_speed_mps=p.slip_min_speed_mps)
         self.radii = (car.wheel_radius_fr_m, car.wheel_radius_fl_m, car.wheel_radius_rr_m, car.wheel_radius_rl_m)
-        self._peak_slip = tyre.peak_slip(car.tyre_stiffness_rr, car.tyre_dynamic_friction_rr, car.tyre_elasticity_rr)
+        peak = tyre.peak_slip(car.tyre_stiffness_rr, car.tyre_dynamic_friction_rr, car.tyre_elasticity_rr)
+        # a tyre whose force never peaks (dynamic friction 1: the buggy's) gives no slip ratio to aim
+        # for: the tutorial's fixed slip (with the ratio the buggy hit g-track-1's wall every lap)
+        self._peak_slip = peak if peak < tyre.MAX_SLIP else 0.0
         self.opp = OpponentParams(front_range_m=p.front_range_m, back_range_m=p.back_range_m,
                                   length_margin_m=p.length_margin_m, side_margin_m=p.side_margin_m,
                                   overtake_step_m=p.overtake_step_m)
