@@ -70,7 +70,7 @@ class TutorialParams:
     max_speed_mps: float = 100.0
     speed_lookahead_s: float = 0.06  # compare speed with the profile this far ahead (latency)
     full_accel_margin_mps: float = 1.0
-    brake_band_mps: float = 3.0  # brake fully this far above the target speed (in proportion below it)
+    brake_band_mps: float = 2.0  # brake fully this far above the target speed (in proportion below it)
     # clutch at the start (1 = open): slips from clutch_start down to closed at clutch_release_mps
     clutch_start: float = 0.7
     clutch_release_mps: float = 15.0

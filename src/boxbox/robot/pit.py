@@ -83,7 +83,8 @@ class PitStops:
     step, `pit_stop` when TORCS calls. Inactive on tracks without a pit lane or a box."""
 
     def __init__(self, track: Track, car: Car, options: RaceOptions, params: PitParams | None = None,
-                 model: CarModel | None = None, entry_offset_m: float = 0.0, exit_offset_m: float = 0.0) -> None:
+                 model: CarModel | None = None, entry_offset_m: float = 0.0, exit_offset_m: float = 0.0,
+                 entry_slope: float = 0.0, exit_slope: float = 0.0) -> None:
         self.track, self.car, self.options = track, car, options
         self.params = params or PitParams()
         self.model = model or CarModel.from_car(car, fuel_l=car.initial_fuel_l)
@@ -102,11 +103,12 @@ class PitStops:
             self.plan = {"stops": plan.stops, "stint_laps": list(plan.stint_laps)}
         self.path: PitPath | None = None
         if track.pit is not None and car.pit_seg >= 0:
-            self._setup_path(entry_offset_m, exit_offset_m)
+            self._setup_path(entry_offset_m, exit_offset_m, entry_slope, exit_slope)
 
-    def _setup_path(self, entry_offset_m: float, exit_offset_m: float) -> None:
+    def _setup_path(self, entry_offset_m: float, exit_offset_m: float, entry_slope: float, exit_slope: float) -> None:
         p, model, track, car = self.params, self.model, self.track, self.car
-        path = PitPath(track, car, entry_offset_m=entry_offset_m, exit_offset_m=exit_offset_m)
+        path = PitPath(track, car, entry_offset_m=entry_offset_m, exit_offset_m=exit_offset_m,
+                       entry_slope=entry_slope, exit_slope=exit_slope)
         lane_mu = path.surface_friction * model.mu
         self.path = path
         self._coast_decel = 2.0 * 0.5 * lane_mu * G_MPS2  # v^2 = 2 a d with a = half the lane's grip

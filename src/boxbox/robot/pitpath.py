@@ -5,9 +5,10 @@ lane offset), one box length before the own box, the box, one box length after, 
 (speed limit end), exit (back on the line).  Distances are along the track from the pit entry
 ("spline coordinates"); the start line may lie anywhere between entry and exit.
 
-The curve is scipy's cubic Hermite spline with zero slope at every point (kind="hermite"): it is
-monotone between the points, so it never leaves the band between the line and the box, and it joins
-the line tangentially.  A C2 `CubicSpline` through the same points (kind="cubic") swings up to ~10 m
+The curve is scipy's cubic Hermite spline with zero slope at every point but the first and last
+(kind="hermite"), where it takes the line's own slope (`entry_slope`, `exit_slope`): it joins the
+line tangentially, and between the inner points it is monotone, so it never leaves the band between
+the lane and the box.  A C2 `CubicSpline` through the same points (kind="cubic") swings up to ~10 m
 across the track middle on the recorded tracks (the 5 m box bump over 15 m excites the long spans),
 so it is kept only for comparison.
 
@@ -56,7 +57,8 @@ class PitPath:
         return x
 
     def __init__(self, track: Track, car: Car, *, entry_offset_m: float = 0.0, exit_offset_m: float = 0.0,
-                 lane_offset_m: float | None = None, kind: str = "hermite", grid_m: float = 1.0) -> None:
+                 lane_offset_m: float | None = None, kind: str = "hermite", grid_m: float = 1.0,
+                 entry_slope: float = 0.0, exit_slope: float = 0.0) -> None:
         pit = track.pit
         if pit is None or car.pit_seg < 0:
             raise ValueError(f"{track.name}: no pit lane or no box for this car")
@@ -92,6 +94,12 @@ class PitPath:
         y = [float(entry_offset_m), lane, lane, self.box_offset_m, lane, lane, float(exit_offset_m)]
         self.knots_m: tuple[float, ...] = tuple(x)
         self.knot_offsets_m: tuple[float, ...] = tuple(y)
+        # the line's own lateral slope (d offset / d s) where the path leaves and rejoins it: a path
+        # joining a line that crosses the track (aalborg's pit exit in a chicane) with zero slope
+        # kinks it, and the car spun out of the pit lane at 33 m/s
+        if not (math.isfinite(entry_slope) and math.isfinite(exit_slope)):
+            raise ValueError("entry_slope and exit_slope must be finite")
+        self.knot_slopes: tuple[float, ...] = (float(entry_slope), 0.0, 0.0, 0.0, 0.0, 0.0, float(exit_slope))
         self.kind = kind
         self.exit_m = x[6]
 
@@ -105,8 +113,8 @@ class PitPath:
             sp = self.spline
             return np.vstack([sp(self._grid_s), sp(self._grid_s, 1), sp(self._grid_s, 2)])
 
-        table = cached_array("pit-paths", [Path(__file__).read_bytes(), repr((kind, self.grid_m, x, y)).encode()],
-                             tables)
+        table = cached_array("pit-paths", [Path(__file__).read_bytes(),
+                                           repr((kind, self.grid_m, x, y, self.knot_slopes)).encode()], tables)
         self._offsets: list[float] = table[0].tolist()
         self._slopes: list[float] = table[1].tolist()  # d offset / d s
         self._bends = table[2]  # d2 offset / d s2
@@ -173,7 +181,7 @@ class PitPath:
 
         x, y = self.knots_m, self.knot_offsets_m
         if self.kind == "hermite":
-            return CubicHermiteSpline(x, y, np.zeros(len(x)))
+            return CubicHermiteSpline(x, y, np.asarray(self.knot_slopes))
         return CubicSpline(x, y, bc_type="clamped")
 
     def _lane_friction(self, track: Track, car: Car) -> float:

@@ -236,18 +236,26 @@ class TutorialRobot(Robot):
 
     def _setup_pit(self, track: Track, car: Car, p: TutorialParams) -> None:
         """The pit part (robot/pit.py), joining the racing line at the pit entry and exit."""
-        entry_offset_m = exit_offset_m = 0.0
+        entry_offset_m = exit_offset_m = entry_slope = exit_slope = 0.0
         if track.pit is not None:
             seg = track.seg
-            entry_offset_m = self.line.offset_at(float(seg["start_dist_m"][track.pit.entry_seg]))
-            exit_offset_m = self.line.offset_at(float(seg["start_dist_m"][track.pit.exit_seg]
-                                                      + seg["length_m"][track.pit.exit_seg]))
+            entry_m = float(seg["start_dist_m"][track.pit.entry_seg])
+            exit_m = float(seg["start_dist_m"][track.pit.exit_seg] + seg["length_m"][track.pit.exit_seg])
+            line = self.line
+            entry_offset_m, exit_offset_m = line.offset_at(entry_m), line.offset_at(exit_m)
+            step = self.step_m
+
+            def slope(d: float) -> float:  # the line's lateral slope, d offset / d s
+                return (line.offset_at(d + step) - line.offset_at(d - step)) / (2.0 * step)
+
+            entry_slope, exit_slope = slope(entry_m), slope(exit_m)
         params = PitParams(lookahead_m=p.pit_lookahead_m, mu_source=p.pit_mu_source, mu=p.pit_mu,
                            brake_mu_scale=p.pit_brake_mu_scale, entry_braking=p.pit_entry_braking,
                            brake_ahead_m=p.pit_brake_ahead_m, give_up_s=p.pit_give_up_s,
                            stop_threshold_m=p.pit_stop_threshold_m, stop_grip_share=p.pit_stop_grip_share,
                            brake_method=p.brake_method)
-        self.pits = PitStops(track, car, self.options, params, self.tyre_model, entry_offset_m, exit_offset_m)
+        self.pits = PitStops(track, car, self.options, params, self.tyre_model, entry_offset_m, exit_offset_m,
+                             entry_slope, exit_slope)
 
     def _apex_signs(self) -> tuple[list[float], list[float]]:
         """Per sample: the turn direction (+1 left, -1 right) where the line curves at least half as
