@@ -147,9 +147,10 @@ class PitPath:
         i = int(f)
         if i >= self._n - 1:
             return self._offsets[-1]
-        t = f - i
+        h = self.grid_m if i < self._n - 2 else self.exit_m - i * self.grid_m  # the last cell is shorter
+        t = (s_m - i * self.grid_m) / h if h > 0.0 else 1.0
         y0, y1 = self._offsets[i], self._offsets[i + 1]
-        m0, m1 = self._slopes[i] * self.grid_m, self._slopes[i + 1] * self.grid_m
+        m0, m1 = self._slopes[i] * h, self._slopes[i + 1] * h
         t2 = t * t
         t3 = t2 * t
         return (y0 * (2.0 * t3 - 3.0 * t2 + 1.0) + m0 * (t3 - 2.0 * t2 + t)
@@ -164,7 +165,8 @@ class PitPath:
         if i >= self._n - 1:
             return self._slopes[-1]
         a = self._slopes[i]
-        return a + (self._slopes[i + 1] - a) * (f - i)
+        h = self.grid_m if i < self._n - 2 else self.exit_m - i * self.grid_m  # the last cell is shorter
+        return a + (self._slopes[i + 1] - a) * ((s_m - i * self.grid_m) / h if h > 0.0 else 1.0)
 
     def offset_at(self, dist_from_start_m: float, default_m: float = 0.0) -> float:
         """Offset of the path at a distance from the start line; default_m when off the path."""

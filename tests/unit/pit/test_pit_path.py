@@ -170,3 +170,20 @@ def test_filter_on_e_track_2_geometry_stops_at_the_box():
             v = max(0.0, v - r.brake * 10.0 * 0.02)
         d = (d + v * 0.02) % track.length_m
     assert abs(p.signed_coord(d) - p.box_m) < 0.5 and v < 1.0
+
+
+def test_joins_the_line_with_its_slope():
+    track, car = load("aalborg")
+    flat = PitPath(track, car, entry_offset_m=-0.5, exit_offset_m=-3.7)
+    sloped = PitPath(track, car, entry_offset_m=-0.5, exit_offset_m=-3.7, entry_slope=-0.18, exit_slope=-0.48)
+    # the same offsets at the ends, the line's slope there (not the track's direction)
+    for p in (flat, sloped):
+        assert p.offset_at_s(0.0) == pytest.approx(-0.5) and p.offset_at_s(p.exit_m) == pytest.approx(-3.7, abs=1e-3)
+    assert flat.slope_at_s(flat.exit_m - 0.01) == pytest.approx(0.0, abs=5e-3)
+    assert sloped.slope_at_s(0.01) == pytest.approx(-0.18, abs=5e-3)
+    assert sloped.slope_at_s(sloped.exit_m - 0.01) == pytest.approx(-0.48, abs=5e-3)
+    # between the lane and the box nothing changes
+    s = 0.5 * (sloped.knots_m[2] + sloped.knots_m[4])
+    assert sloped.offset_at_s(s) == pytest.approx(flat.offset_at_s(s))
+    with pytest.raises(ValueError):
+        PitPath(track, car, exit_slope=float("nan"))
