@@ -499,6 +499,8 @@ class TutorialRobot(Robot):
             # off the line among cars the turn's share is not the line's: the tutorial's 2 m/s (with
             # the slip ratio, 30 field races lost 35 places and took 85k damage, not 46k: racecraft.md)
             return 0.0, tcl_filter(accel, v, spins, self.radii, self.car.drivetrain, self.slip, 0.0)
+        if accel == 0.0:
+            return 0.0, 0.0
         v2 = v * v
         share = v2 * self._k_per_mu[int(s.dist_from_start_m / self.step_m) % self.n] / (G_MPS2 + v2 * self._ca_per_kg)
         return 0.0, tcl_filter(accel, v, spins, self.radii, self.car.drivetrain, self.slip,
