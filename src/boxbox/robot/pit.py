@@ -229,8 +229,8 @@ class PitStops:
 
     def remaining_after_box(self, s: State) -> float:
         """Laps still to drive after the box, standing in it (TORCS's remaining laps exclude this lap)."""
-        length = self.track.length_m
-        return s.remaining_laps + (length - self._box_from_start_m % length) / length
+        box = self._box_from_start_m
+        return laps_after_box(s.remaining_laps, box, box, self.track.length_m)  # at the box: not behind us
 
     # --- TORCS's pit call and the race report -------------------------------------------------------
     def pit_stop(self, state: State) -> PitOrder:
