@@ -541,3 +541,18 @@ def test_understeer_steer_falls_with_downforce_load(speed_mps):
     want = 0.003 * speed_mps ** 2 * k / (1.0 + m.ca * speed_mps ** 2 / (m.mass_kg * 9.81)) / robot.car.steer_lock_rad
     got = robot._steer_line(s, speed_mps) - plain._steer_line(s, speed_mps)
     assert got == pytest.approx(want, rel=1e-6)
+
+
+def test_packer_caps_slow_only_where_the_suspension_model_hits():
+    """Where the suspension model (robot/bottoming.py) has a wheel hit its packers faster than
+    packer_impact_mps, the profile is capped there and nowhere faster; without the limit (100) it
+    is the plain profile.  e-track-4's dips at 60-80 m/s nearly bottom the car out."""
+    free, _ = build("e-track-4", robot_args={"set": {"packer_impact_mps": 100.0}})
+    strict, _ = build("e-track-4", robot_args={"set": {"packer_impact_mps": 0.05}})
+    assert free._packer_caps is None
+    caps = np.asarray(strict._packer_caps)
+    capped = np.isfinite(caps)
+    assert 0 < capped.sum() < 0.2 * strict.n
+    slow, fast = strict.profile.target_speeds, free.profile.target_speeds
+    assert np.all(slow <= fast + 1e-9) and np.any(slow[capped] < fast[capped] - 0.5)
+    assert np.all(slow[capped] <= caps[capped] + 1e-9)

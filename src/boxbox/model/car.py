@@ -67,6 +67,52 @@ class Car:
     tyre_operating_load_fl_n: float = 0.0
     tyre_operating_load_rr_n: float = 0.0
     tyre_operating_load_rl_n: float = 0.0
+    # the suspension (simuv2 suspension.cpp; its defaults): the CG's height, the axles' x (m, + forward
+    # of the CG), per wheel its y (m, + left), spring (N/m), bellcrank, packers (m), the dampers'
+    # slow and fast rates (N s/m) and the damper speed (m/s) where the fast rate takes over
+    gc_height_m: float = 0.5
+    front_axle_x_m: float = 1.3
+    rear_axle_x_m: float = -1.3
+    wheel_y_fr_m: float = -0.8
+    spring_fr_npm: float = 175000.0
+    bellcrank_fr: float = 1.0
+    packers_fr_m: float = 0.0
+    slow_bump_fr_nspm: float = 0.0
+    slow_rebound_fr_nspm: float = 0.0
+    fast_bump_fr_nspm: float = 0.0
+    fast_rebound_fr_nspm: float = 0.0
+    bump_threshold_fr_mps: float = 0.5
+    rebound_threshold_fr_mps: float = 0.5
+    wheel_y_fl_m: float = 0.8
+    spring_fl_npm: float = 175000.0
+    bellcrank_fl: float = 1.0
+    packers_fl_m: float = 0.0
+    slow_bump_fl_nspm: float = 0.0
+    slow_rebound_fl_nspm: float = 0.0
+    fast_bump_fl_nspm: float = 0.0
+    fast_rebound_fl_nspm: float = 0.0
+    bump_threshold_fl_mps: float = 0.5
+    rebound_threshold_fl_mps: float = 0.5
+    wheel_y_rr_m: float = -0.8
+    spring_rr_npm: float = 175000.0
+    bellcrank_rr: float = 1.0
+    packers_rr_m: float = 0.0
+    slow_bump_rr_nspm: float = 0.0
+    slow_rebound_rr_nspm: float = 0.0
+    fast_bump_rr_nspm: float = 0.0
+    fast_rebound_rr_nspm: float = 0.0
+    bump_threshold_rr_mps: float = 0.5
+    rebound_threshold_rr_mps: float = 0.5
+    wheel_y_rl_m: float = 0.8
+    spring_rl_npm: float = 175000.0
+    bellcrank_rl: float = 1.0
+    packers_rl_m: float = 0.0
+    slow_bump_rl_nspm: float = 0.0
+    slow_rebound_rl_nspm: float = 0.0
+    fast_bump_rl_nspm: float = 0.0
+    fast_rebound_rl_nspm: float = 0.0
+    bump_threshold_rl_mps: float = 0.5
+    rebound_threshold_rl_mps: float = 0.5
     # the engine's torque curve from the car file: engine speed (rad/s) and torque (N m) per point
     torque_curve_radps: tuple[float, ...] = field(default_factory=tuple)
     torque_curve_nm: tuple[float, ...] = field(default_factory=tuple)

@@ -18,7 +18,8 @@ from boxbox.model import Car, Controls, Opponent, PitOrder, State, Track
 CLASSES = (Track, Car, State, Opponent, Controls, PitOrder)
 
 # unit by name suffix, longest first
-UNITS = (("_mps2", "m/s²"), ("_radps", "rad/s"), ("_rps", "rad/s"), ("_mps", "m/s"), ("_1pm", "1/m"),
+UNITS = (("_nspm", "N s/m"), ("_npm", "N/m"),
+         ("_mps2", "m/s²"), ("_radps", "rad/s"), ("_rps", "rad/s"), ("_mps", "m/s"), ("_1pm", "1/m"),
          ("_m2", "m²"), ("_kg", "kg"), ("_nm", "N m"), ("_rad", "rad"), ("_l", "l"), ("_m", "m"), ("_s", "s"),
          ("_w", "W"))
 
@@ -73,6 +74,16 @@ PREFIXES = (
     ("tyre_load_factor_min_", "tyre load sensitivity per wheel: grip factor at high load (simuv2)"),
     ("tyre_operating_load_", "tyre load sensitivity per wheel: operating load (0: 1.2 x static)"),
     ("roll_rad", "the car's roll"), ("pitch_rad", "the car's pitch"),
+    ("gc_height_m", "the CG's height"), ("front_axle_x_m", "front axle's place ahead of the CG"),
+    ("rear_axle_x_m", "rear axle's place ahead of the CG (< 0)"), ("wheel_y_", "wheel's place left of the CG"),
+    ("spring_", "suspension spring per wheel"), ("bellcrank_", "suspension bellcrank per wheel"),
+    ("packers_", "suspension packers per wheel (travel where the body sits on them)"),
+    ("slow_bump_", "damper's slow rate in compression per wheel"), ("slow_rebound_", "damper's slow rate in "
+    "extension per wheel"), ("fast_bump_", "damper's fast rate in compression per wheel"),
+    ("fast_rebound_", "damper's fast rate in extension per wheel"),
+    ("bump_threshold_", "damper speed where the fast bump rate takes over"),
+    ("rebound_threshold_", "damper speed where the fast rebound rate takes over"),
+    ("travel_", "suspension travel per wheel: the ride height at rest, 0 on the packers"),
     ("max_power_w", "most engine power"), ("height_m", "height"), ("skill_level", "TORCS's skill level, 0 rookie .. "
     "3 pro (model.skill.SkillLevel; docs/rules.md)"), ("gear_count", "TORCS's _gearNb: the top gear + 1"),
 )

@@ -79,6 +79,12 @@ class State(NamedTuple):
     penalty_time_s: float
     top_speed_mps: float
     n_opponents: float
+    # each wheel's suspension travel (m): the car file's ride height at rest, less under load, 0 on
+    # the packers (where TORCS counts damage for the speed the body hits them with)
+    travel_fr_m: float = 0.0
+    travel_fl_m: float = 0.0
+    travel_rr_m: float = 0.0
+    travel_rl_m: float = 0.0
     opponents: tuple[Opponent, ...] = ()
 
     @property

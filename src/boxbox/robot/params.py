@@ -67,6 +67,7 @@ class TutorialParams:
     crest_load_share: float = 0.5  # over a crest keep at least this share of the car's weight on the tyres
     bump_accel_mps2: float = 4.0  # over short bumps (a washboard) keep v^2 x their curvature below this
     kink_accel_mps2: float = 12.0  # ... and over a single rough kink (a jump's lip) below this
+    packer_impact_mps: float = 1.5  # slow where a wheel would hit its packers faster than this (100: never)
     max_speed_mps: float = 100.0
     speed_lookahead_s: float = 0.06  # compare speed with the profile this far ahead (latency)
     full_accel_margin_mps: float = 1.0
@@ -133,7 +134,8 @@ BOUNDS = {
     "line_lateral_gain": Bound(0.1, 10.0, log=True), "line_yaw_damping_s": Bound(0.0, 1.0),
     "line_understeer_rad_per_mps2": Bound(0.0, 0.02), "crest_load_share": Bound(0.0, 1.0),
     "bump_accel_mps2": Bound(0.5, 50.0, log=True),
-    "kink_accel_mps2": Bound(0.5, 50.0, log=True), "max_speed_mps": Bound(10.0, 150.0),
+    "kink_accel_mps2": Bound(0.5, 50.0, log=True),
+    "packer_impact_mps": Bound(0.01, 100.0, log=True), "max_speed_mps": Bound(10.0, 150.0),
     "brake_band_mps": Bound(0.1, 10.0, log=True), "full_accel_margin_mps": Bound(0.1, 10.0, log=True),
     "clutch_start": Bound(0.0, 1.0), "shift": Bound(0.5, 0.999), "shift_margin_mps": Bound(0.0, 20.0),
     "abs_slip_mps": Bound(0.1, 20.0, log=True), "tcl_slip_mps": Bound(0.1, 20.0, log=True),

@@ -111,6 +111,28 @@ def middle_line(track: Track, step_m: float = 2.0, margin_m: float = 0.0) -> Mid
                       z_m=z0 + frac * (seg["end_z_m"].astype(float)[ids] - z0), bank_rad=b0 + frac * (b1 - b0))
 
 
+def road_height_m(track: Track, dist_m: np.ndarray, to_middle_m: np.ndarray) -> np.ndarray:
+    """The road's height (m) at distances from the start line and offsets from the middle (+ left),
+    as TORCS computes it (RtTrackHeightL, without a surface's roughness): the right edge rises
+    linearly along each segment, and across it the road climbs by tan(banking), the banking
+    itself linear along the segment.  So the height's slope jumps where segments meet."""
+    seg = track.seg
+    starts = seg["start_dist_m"].astype(float)
+    d = np.asarray(dist_m, dtype=float) % track.length_m
+    ids = np.clip(np.searchsorted(starts, d, side="right") - 1, 0, len(starts) - 1)
+    length = seg["length_m"].astype(float)[ids]
+    frac = np.clip((d - starts[ids]) / np.where(length > 0, length, 1.0), 0.0, 1.0)
+    no_bank = np.zeros(len(starts))
+    b0 = seg.get("banking_start_rad", no_bank).astype(float)[ids]
+    b1 = seg.get("banking_end_rad", no_bank).astype(float)[ids]
+    w0, w1 = seg["start_width_m"].astype(float)[ids], seg["end_width_m"].astype(float)[ids]
+    right0 = seg["start_z_m"].astype(float)[ids] - 0.5 * w0 * np.tan(b0)
+    right1 = seg["end_z_m"].astype(float)[ids] - 0.5 * w1 * np.tan(b1)
+    width = w0 + frac * (w1 - w0)
+    bank = b0 + frac * (b1 - b0)
+    return right0 + frac * (right1 - right0) + (0.5 * width + np.asarray(to_middle_m, dtype=float)) * np.tan(bank)
+
+
 def _closed_curvature(x_m: np.ndarray, y_m: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Signed curvature (+ left, the circle through each point and its two neighbours: exact on
     sampled arcs, where an interpolating spline rings at every turn entry), heading (unwrapped) and

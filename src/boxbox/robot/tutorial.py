@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from boxbox.cache import cached_array
-from boxbox.control import carmodel, lapsim, speed, tyre
+from boxbox.control import carmodel, lapsim, speed, suspension, tyre
 from boxbox.control.braking import brake_distance
 from boxbox.control.carmodel import CarModel
 from boxbox.control.gears import GearBox
@@ -33,8 +33,9 @@ from boxbox.control.trackwidth import CUT_LIMIT_CAR_WIDTHS
 from boxbox.control.traction import SlipParams, abs_filter, spare_slip_ratio, tcl_filter
 from boxbox.model import Car, CarSetup, Controls, PitOrder, State, Track
 from boxbox.model.constants import DRIVE_STEP_S, G_MPS2
-from boxbox.robot import carsetup
+from boxbox.robot import bottoming, carsetup
 from boxbox.robot.base import FUEL_L_PER_M_ESTIMATE, RaceOptions, Robot
+from boxbox.robot.bottoming import NO_PACKER_LIMIT_MPS, packer_speed_caps
 from boxbox.robot.carsetup import best_rear_wing_rad
 from boxbox.robot.drivable import centre_room
 from boxbox.robot.learning import TurnLearner
@@ -128,7 +129,11 @@ class TutorialRobot(Robot):
             self.learner.load(self.learning_file)
         self._learning_saved: list[tuple[float, float, bool]] | None = None  # what the file holds
         self.fuel_l = car.initial_fuel_l
+        self._packer_caps: list[float] | None = None
         self._build_profile()
+        if p.elevation and p.packer_impact_mps < NO_PACKER_LIMIT_MPS:
+            self._packer_caps = self._packer_speed_caps(car).tolist()
+            self._build_profile()
         self.gears = GearBox(car, shift=p.shift, shift_margin_mps=p.shift_margin_mps)
         self.slip = SlipParams(abs_slip_mps=p.abs_slip_mps, abs_range_mps=p.abs_range_mps,
                                tcl_slip_mps=p.tcl_slip_mps, tcl_slip_ratio=p.tcl_slip_ratio,
@@ -295,12 +300,38 @@ class TutorialRobot(Robot):
             out.append(v)
         return out
 
+    def _packer_speed_caps(self, car: Car) -> np.ndarray:
+        """Speed caps that keep the wheels off their packers (robot/bottoming.py), at the start's
+        fuel; cached, as the same track, line, car and profile give the same caps (~0.2 s)."""
+        def speeds_with(caps: np.ndarray) -> np.ndarray:
+            self._packer_caps = caps.tolist()
+            self._build_profile()
+            return np.asarray(self.profile.target_speeds)
+
+        def compute() -> np.ndarray:
+            return packer_speed_caps(self.track, self.line, car, carsetup.ideal_gearbox_car(car, self.model),
+                                     self.params.packer_impact_mps, speeds_with)
+
+        seg = self.track.seg
+        flat = np.zeros(len(seg["start_z_m"]))
+        key = [Path(str(bottoming.__file__)).read_bytes(), Path(str(suspension.__file__)).read_bytes(),
+               repr(dataclasses.astuple(car)).encode(), repr(self.params.packer_impact_mps).encode(),
+               *(np.ascontiguousarray(a).tobytes() for a in (
+                   self.line.offset_m, self.profile.target_speeds, self.learner.factors_per_sample(),
+                   seg["start_z_m"], seg["end_z_m"], seg["start_dist_m"], seg["start_width_m"],
+                   seg.get("banking_start_rad", flat), seg.get("banking_end_rad", flat)))]
+        caps = cached_array("packer-caps", key, compute)
+        self._packer_caps = caps.tolist()
+        return caps
+
     def _build_profile(self) -> None:
         """The speed profile for the current fuel load and learned turn factors."""
         p = self.params
         model = self.tyre_model.with_fuel(self.fuel_l)
         factors = self.learner.factors_per_sample()
         limits = self._limits(factors, model)
+        if self._packer_caps is not None:
+            limits = [min(v, cap) for v, cap in zip(limits, self._packer_caps, strict=True)]
         brake_mu = [model.mu * f * p.brake_mu_scale for f in self._friction]
         corner_mu = [model.mu * f * p.mu_scale * g for f, g in zip(self._friction, factors, strict=False)]
         # per sample, for traction control: the line's curvature over the corner grip (a turn's share

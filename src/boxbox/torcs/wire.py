@@ -64,6 +64,12 @@ SEGMENT_FIELDS = [
     *[f"{side}_{name}" for side in ("left", "right") for name in SIDE_PART_FIELDS],
 ]
 
+SUSPENSION_FIELDS = [
+    ("wheel_y", "_m"), ("spring", "_npm"), ("bellcrank", ""), ("packers", "_m"),
+    ("slow_bump", "_nspm"), ("slow_rebound", "_nspm"), ("fast_bump", "_nspm"), ("fast_rebound", "_nspm"),
+    ("bump_threshold", "_mps"), ("rebound_threshold", "_mps"),
+]
+
 # car constants readable from the car's parameter file at NEW_TRACK time
 HANDLE_FIELDS = [
     "mass_kg", "tank_l", "initial_fuel_l",
@@ -83,6 +89,11 @@ HANDLE_FIELDS = [
     "tyre_load_factor_max_fr", "tyre_load_factor_max_fl", "tyre_load_factor_max_rr", "tyre_load_factor_max_rl",
     "tyre_load_factor_min_fr", "tyre_load_factor_min_fl", "tyre_load_factor_min_rr", "tyre_load_factor_min_rl",
     "tyre_operating_load_fr_n", "tyre_operating_load_fl_n", "tyre_operating_load_rr_n", "tyre_operating_load_rl_n",
+    # the suspension (simuv2 suspension.cpp, wheel.cpp): the CG's height, the axles' and wheels'
+    # places, and per wheel the spring (N/m as TORCS converts the file's unit), bellcrank, packers
+    # (m) and the dampers' slow and fast rates (N s/m) with the speed (m/s) where fast takes over
+    "gc_height_m", "front_axle_x_m", "rear_axle_x_m",
+    *[f"{name}_{w}{unit}" for w in ("fr", "fl", "rr", "rl") for name, unit in SUSPENSION_FIELDS],
     # the engine's torque curve (rad/s, N m), torque_points of them
     "torque_points",
     *[f"torque_rpm_{i}" for i in range(MAX_TORQUE_POINTS)],
@@ -110,6 +121,7 @@ STATE_FIELDS = [
     "fuel_l", "damage", "laps", "remaining_laps", "total_laps", "position",
     "cur_lap_time_s", "last_lap_time_s", "best_lap_time_s", "race_time_s",
     "car_state", "pit_stops", "penalty_time_s", "top_speed_mps", "n_opponents",
+    "travel_fr_m", "travel_fl_m", "travel_rr_m", "travel_rl_m",
 ]
 
 OPPONENT_FIELDS = [

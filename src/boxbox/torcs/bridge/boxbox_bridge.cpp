@@ -204,6 +204,28 @@ static void fill_torque_curve(bb_handle *r, void *h) {
     r->torque_points = n;
 }
 
+// The suspension as simuv2 reads it (SimSuspConfig, SimAxleConfig, SimWheelConfig), with its defaults.
+static void fill_suspension(bb_handle *r, void *h) {
+    r->gc_height_m = GfParmGetNum(h, SECT_CAR, PRM_GCHEIGHT, NULL, 0.5);
+    r->front_axle_x_m = GfParmGetNum(h, SECT_FRNTAXLE, PRM_XPOS, NULL, 2.0);
+    r->rear_axle_x_m = GfParmGetNum(h, SECT_REARAXLE, PRM_XPOS, NULL, -2.0);
+    const char *wheels[4] = {SECT_FRNTRGTWHEEL, SECT_FRNTLFTWHEEL, SECT_REARRGTWHEEL, SECT_REARLFTWHEEL};
+    const char *susps[4] = {SECT_FRNTRGTSUSP, SECT_FRNTLFTSUSP, SECT_REARRGTSUSP, SECT_REARLFTSUSP};
+    double *out = &r->wheel_y_fr_m;  // 10 fields per wheel, in wire.SUSPENSION_FIELDS order
+    for (int i = 0; i < 4; i++, out += 10) {
+        out[0] = GfParmGetNum(h, wheels[i], PRM_YPOS, NULL, 0.0);
+        out[1] = GfParmGetNum(h, susps[i], PRM_SPR, NULL, 175000.0);
+        out[2] = GfParmGetNum(h, susps[i], PRM_BELLCRANK, NULL, 1.0);
+        out[3] = GfParmGetNum(h, susps[i], PRM_PACKERS, NULL, 0.0);
+        out[4] = GfParmGetNum(h, susps[i], PRM_SLOWBUMP, NULL, 0.0);
+        out[5] = GfParmGetNum(h, susps[i], PRM_SLOWREBOUND, NULL, 0.0);
+        out[6] = GfParmGetNum(h, susps[i], PRM_FASTBUMP, NULL, out[4]);
+        out[7] = GfParmGetNum(h, susps[i], PRM_FASTREBOUND, NULL, out[5]);
+        out[8] = GfParmGetNum(h, susps[i], PRM_BUMPTHRESHOLD, NULL, 0.5);
+        out[9] = GfParmGetNum(h, susps[i], PRM_REBOUNDTHRESHOLD, NULL, 0.5);
+    }
+}
+
 static void fill_handle(bb_handle *r, void *h) {
     r->mass_kg = GfParmGetNum(h, SECT_CAR, PRM_MASS, NULL, 1000.0);
     r->tank_l = GfParmGetNum(h, SECT_CAR, PRM_TANK, NULL, 100.0);
@@ -240,6 +262,7 @@ static void fill_handle(bb_handle *r, void *h) {
         op_load[i] = GfParmGetNum(h, wheels[i], PRM_OPLOAD, NULL, 0.0);
     }
     fill_torque_curve(r, h);
+    fill_suspension(r, h);
     const char *train = GfParmGetStr(h, SECT_DRIVETRAIN, PRM_TYPE, VAL_TRANS_RWD);
     r->drivetrain = strcmp(train, VAL_TRANS_FWD) == 0 ? 1 : (strcmp(train, VAL_TRANS_4WD) == 0 ? 2 : 0);
     r->fuel_cons_factor = GfParmGetNum(h, SECT_ENGINE, PRM_FUELCONS, NULL, 1.0);
@@ -350,6 +373,11 @@ static void fill_state(bb_state *r, tCarElt *car, tSituation *s) {
     r->car_state = car->_state; r->pit_stops = car->_nbPitStops; r->penalty_time_s = car->_penaltyTime;
     r->top_speed_mps = car->_topSpeed;
     r->n_opponents = s->_ncars - 1;
+    // simuv2 keeps the wheel's centre at its radius minus the travel below the CG's plane
+    // (wheel.cpp: relPos.z = radius - x): the travel, ride height at rest, 0 on the packers
+    double *travel = &r->travel_fr_m;
+    const int wheels[4] = {FRNT_RGT, FRNT_LFT, REAR_RGT, REAR_LFT};
+    for (int i = 0; i < 4; i++) travel[i] = car->_wheelRadius(wheels[i]) - car->_ride(wheels[i]);
 }
 
 static void fill_opponent(bb_opponent *r, tCarElt *o) {
