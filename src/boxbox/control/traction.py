@@ -79,6 +79,13 @@ def tcl_filter(
     if speed_mps < params.tcl_min_speed_mps:
         return accel
     slip_mps = driven_wheel_speed_mps(wheel_spin_rps, wheel_radii_m, drivetrain) - speed_mps
+    return tcl_from_slip(accel, speed_mps, slip_mps, params, max_ratio)
+
+
+def tcl_from_slip(accel: float, speed_mps: float, slip_mps: float, params: SlipParams = DEFAULT_SLIP,
+                  max_ratio: float = math.inf) -> float:
+    """tcl_filter for a known slip of the driven wheels (m/s) at a speed of at least
+    tcl_min_speed_mps: a slip at or below tcl_slip_mps never cuts, whatever `max_ratio`."""
     ratio = params.tcl_slip_ratio if params.tcl_slip_ratio < max_ratio else max_ratio
     allowed_mps = max(params.tcl_slip_mps, ratio * speed_mps)
     if slip_mps > allowed_mps:

@@ -30,7 +30,7 @@ from boxbox.control.pit_brake import ENTRY, EXIT, FREE, GAVE_UP, HOLD, LANE, LIM
 from boxbox.control.speed import SpeedProfile, allowed_speed, bump_speed, crest_speed
 from boxbox.control.steering import steer_to_line, steer_to_point
 from boxbox.control.trackwidth import CUT_LIMIT_CAR_WIDTHS
-from boxbox.control.traction import SlipParams, abs_filter, spare_slip_ratio, tcl_filter
+from boxbox.control.traction import SlipParams, abs_filter, driven_wheel_speed_mps, spare_slip_ratio, tcl_from_slip
 from boxbox.model import Car, CarSetup, Controls, PitOrder, State, Track
 from boxbox.model.constants import DRIVE_STEP_S, G_MPS2
 from boxbox.robot import bottoming, carsetup
@@ -526,16 +526,18 @@ class TutorialRobot(Robot):
         spins = (s.spin_fr_rps, s.spin_fl_rps, s.spin_rr_rps, s.spin_rl_rps)
         if brake > 0.0:
             return abs_filter(brake, v, spins, self.radii, self.slip), 0.0
+        if accel == 0.0 or v < self.slip.tcl_min_speed_mps:
+            return 0.0, accel
+        slip_mps = driven_wheel_speed_mps(spins, self.radii, self.car.drivetrain) - v
+        if slip_mps <= self.slip.tcl_slip_mps:  # within the least slip allowed: no turn share needed
+            return 0.0, accel
         if traffic:
             # off the line among cars the turn's share is not the line's: the tutorial's 2 m/s (with
             # the slip ratio, 30 field races lost 35 places and took 85k damage, not 46k: racecraft.md)
-            return 0.0, tcl_filter(accel, v, spins, self.radii, self.car.drivetrain, self.slip, 0.0)
-        if accel == 0.0:
-            return 0.0, 0.0
+            return 0.0, tcl_from_slip(accel, v, slip_mps, self.slip, 0.0)
         v2 = v * v
         share = v2 * self._k_per_mu[int(s.dist_from_start_m / self.step_m) % self.n] / (G_MPS2 + v2 * self._ca_per_kg)
-        return 0.0, tcl_filter(accel, v, spins, self.radii, self.car.drivetrain, self.slip,
-                               spare_slip_ratio(self._peak_slip, share))
+        return 0.0, tcl_from_slip(accel, v, slip_mps, self.slip, spare_slip_ratio(self._peak_slip, share))
 
     def _guard_throttle(self, s: State, v: float, steer: float, accel: float) -> float:
         """Less throttle when the tyres have no grip to spare: at the steering lock (lock guard) and
