@@ -22,9 +22,9 @@ from boxbox.model.car import Car
 from boxbox.model.track import Track
 from boxbox.robot.racingline import RacingLine, road_height_m
 
-LEAD_M = 30.0  # a hit is slowed from this far before it (a landing comes some way after its crest)
-SLOWER = 0.95  # each round takes this share of the speed there
-ROUNDS = 8
+LEAD_M = 45.0  # a hit is slowed from this far before it (a landing comes some way after its crest)
+SLOWER = 0.97  # each round takes this share of the speed there
+ROUNDS = 12
 FINE_STEP_M = 0.5
 NO_PACKER_LIMIT_MPS = 100.0  # packer_impact_mps at or above this: no caps
 
