@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import struct
 
-PROTOCOL_VERSION = 4
+PROTOCOL_VERSION = 5  # 5: the suspension in HANDLE, the wheels' travel in STATE
 
 # message kinds
 HELLO, NEW_TRACK, NEW_RACE, DRIVE, PIT_CMD, END_RACE, SHUTDOWN, FUEL, ACK, CONTROLS, PIT_ORDER = range(1, 12)
