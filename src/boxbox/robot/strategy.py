@@ -2,7 +2,10 @@
 
 Decision (the TORCS robot tutorial's pit strategy, chapter "Pit stops"): stop when the fuel will not
 reach the finish and
-less than 1.5 laps of fuel are left, when damage exceeds 5000, or in a requested lap.
+less than 1.5 laps of fuel are left, in a requested lap, or when damage exceeds 5000 and the damage
+taken per lap so far would carry it past OUT_DAMAGE - damage_reserve (8500) by the finish (the
+tutorial stops at 5000 whatever is left of the race: with two laps to go in a 10-car field on
+aalborg that stop repaired 5568 points, 39 s, and cost seven places).
 
 Order: enough fuel to finish plus a margin, split over as many stops as minimise the race time:
   each stop costs  pit_loss_s (driving the pit lane instead of the track) + 2 s + fuel / 8 l/s
@@ -16,8 +19,9 @@ one long one; `plan_stops` compares the numbers of stops.
 
 Repair: TORCS 1.3.7 puts a car out at 10000 damage; we assume damage does not slow the car
 otherwise (s_per_lap_per_damage = 0), so repairing costs time and buys only safety: repair down to
-repair_keep_damage (1000), or lower when the damage taken per lap so far would reach the damage
-limit again before the finish; everything when lap time lost to damage makes a full repair pay.
+repair_keep_damage (5000, where the next damage stop would come), or lower when 1.5 x the damage
+taken per lap so far would carry it past OUT_DAMAGE - damage_reserve before the finish; everything
+when lap time lost to damage makes a full repair pay.
 """
 
 from __future__ import annotations
@@ -32,7 +36,10 @@ FUEL_PER_M_L = FUEL_L_PER_M_ESTIMATE  # first guess before a lap is measured (x 
 STOP_BASE_S = 2.0  # TORCS: fixed part of a pit stop
 FUEL_RATE_LPS = 8.0  # TORCS: refuelling speed
 REPAIR_S_PER_POINT = 0.007  # TORCS: repair time per damage point
-DAMAGE_LIMIT = 5000.0  # stop for repair above this
+DAMAGE_LIMIT = 5000.0  # stop for repair above this (when the rest of the race needs it)
+OUT_DAMAGE = 10000.0  # TORCS 1.3.7 takes a car out of the race at this damage
+DAMAGE_RESERVE = 1500.0  # room kept below OUT_DAMAGE for one crash beyond the damage per lap so far
+REPAIR_TREND = 1.5  # a repair plans for this many times the damage per lap so far
 MIN_FUEL_LAPS = 1.5  # stop for fuel only when less than this many laps are left in the tank
 
 
@@ -132,8 +139,8 @@ class PitStrategy:
     def __init__(self, track_length_m: float, tank_l: float, *, fuel_per_m_l: float = FUEL_PER_M_L,
                  pit_laps: Iterable[int] = (), damage_limit: float = DAMAGE_LIMIT,
                  min_fuel_laps: float = MIN_FUEL_LAPS, margin_laps: float = 0.3, pit_loss_s: float = 15.0,
-                 s_per_lap_per_kg: float = 0.022, kg_per_l: float = 1.0, repair_keep_damage: float = 1000.0,
-                 s_per_lap_per_damage: float = 0.0) -> None:
+                 s_per_lap_per_kg: float = 0.022, kg_per_l: float = 1.0, repair_keep_damage: float = DAMAGE_LIMIT,
+                 s_per_lap_per_damage: float = 0.0, damage_reserve: float = DAMAGE_RESERVE) -> None:
         self.track_length_m = track_length_m
         self.tank_l = tank_l
         self.fuel_per_m_l = fuel_per_m_l
@@ -146,6 +153,7 @@ class PitStrategy:
         self.kg_per_l = kg_per_l
         self.repair_keep_damage = repair_keep_damage
         self.s_per_lap_per_damage = s_per_lap_per_damage
+        self.damage_reserve = damage_reserve
         self.measured_l: list[float] = []  # fuel used per lap, laps without a stop, from lap 2 on
         self.first_lap_l: float | None = None  # the first lap's use (the standing start burns more)
         self._laps_done: int | None = None
@@ -196,7 +204,8 @@ class PitStrategy:
             return False
         if self._stopped_in_lap == laps_done:  # stopped in this lap already
             return False
-        if damage > self.damage_limit:
+        if damage > self.damage_limit and \
+                damage + self.damage_per_lap * remaining_laps > OUT_DAMAGE - self.damage_reserve:
             return True
         if laps_done + 1 in self.pit_laps:
             return True
@@ -228,7 +237,8 @@ class PitStrategy:
         laps = max(0.0, remaining_laps)
         if self.s_per_lap_per_damage * laps > REPAIR_S_PER_POINT:
             return float(damage)  # damage costs more over the remaining laps than repairing it
-        # keep some damage (repairing costs time), but not so much that the damage taken per lap
-        # so far would force another stop before the finish
-        to_keep = min(self.repair_keep_damage, self.damage_limit - self.damage_per_lap * laps)
+        # keep damage (repairing costs time), but not so much that the damage taken per lap so far
+        # (with a margin) would bring the car near TORCS's limit before the finish
+        to_keep = min(self.repair_keep_damage,
+                      OUT_DAMAGE - self.damage_reserve - REPAIR_TREND * self.damage_per_lap * laps)
         return min(float(damage), max(0.0, float(damage) - to_keep))

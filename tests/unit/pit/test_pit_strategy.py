@@ -78,8 +78,13 @@ def test_wants_stop_for_fuel_needs_both_conditions():
 
 def test_wants_stop_for_damage_and_requested_laps():
     st = strat(pit_laps=[5])
-    assert st.wants_stop(3, 10, 80.0, 5001.0)
+    assert not st.wants_stop(3, 10, 80.0, 5001.0)  # no damage taken per lap so far: it reaches the end
+    assert st.wants_stop(3, 10, 80.0, 8501.0)  # too near TORCS's 10000 for one more crash
+    st.on_lap(0, 94.0, 0.0)
+    st.on_lap(1, 90.0, 600.0)  # 600 points a lap
+    assert st.wants_stop(3, 10, 80.0, 5001.0)  # 5001 + 10 x 600 > 8500
     assert not st.wants_stop(3, 10, 80.0, 5000.0)
+    assert not st.wants_stop(7, 2, 80.0, 6568.0)  # 6568 + 2 x 600 < 8500: finish without a stop
     assert st.wants_stop(4, 10, 80.0, 0.0)  # driving lap 5
     assert not st.wants_stop(5, 10, 80.0, 0.0)
 
@@ -118,7 +123,7 @@ def test_order_bounded_by_tank_and_split_over_stops():
 def test_repair():
     st = strat()
     assert st.order(5, 50.0, 800.0, TANK_L)[1] == 0.0  # below the level we keep: not worth 5.6 s
-    assert st.order(5, 50.0, 6000.0, TANK_L)[1] == pytest.approx(5000.0)  # down to 1000
+    assert st.order(5, 50.0, 6000.0, TANK_L)[1] == pytest.approx(1000.0)  # down to 5000
     # when damage costs lap time, repairing everything pays
     costly = strat(s_per_lap_per_damage=0.01)
     assert costly.order(5, 50.0, 6000.0, TANK_L)[1] == pytest.approx(6000.0)
@@ -130,11 +135,11 @@ def test_repair_enough_to_avoid_a_second_damage_stop():
     st.on_lap(1, 90.0, 400.0)
     st.on_lap(2, 86.0, 800.0)  # 400 points a lap
     assert st.damage_per_lap == pytest.approx(400.0)
-    # 20 laps to go: 8000 more expected -> repair everything (no damage may be kept)
+    # 20 laps to go: 1.5 x 8000 more expected -> repair everything (no damage may be kept)
     assert st.order(20, 50.0, 5500.0, TANK_L)[1] == pytest.approx(5500.0)
-    # 11 laps to go: 4400 more expected -> keep at most 600 (5000 - 4400), not the usual 1000
-    assert st.order(11, 50.0, 5500.0, TANK_L)[1] == pytest.approx(4900.0)
-    assert st.order(2, 50.0, 5500.0, TANK_L)[1] == pytest.approx(4500.0)  # few laps: keep 1000
+    # 11 laps to go: 1.5 x 4400 more expected -> keep at most 1900 (8500 - 6600), not the usual 5000
+    assert st.order(11, 50.0, 5500.0, TANK_L)[1] == pytest.approx(3600.0)
+    assert st.order(2, 50.0, 5500.0, TANK_L)[1] == pytest.approx(500.0)  # few laps: keep 5000
     # a lap with a repair does not count as damage taken
     st.on_lap(3, 82.0, 100.0)
     assert st.damage_per_lap == pytest.approx(400.0)
