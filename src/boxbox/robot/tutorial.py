@@ -132,7 +132,7 @@ class TutorialRobot(Robot):
         self._packer_caps: list[float] | None = None
         self._build_profile()
         if p.elevation and p.packer_impact_mps < NO_PACKER_LIMIT_MPS:
-            self._packer_caps = self._packer_speed_caps(car).tolist()
+            self._packer_caps = self._packer_speed_caps(car)
             self._build_profile()
         self.gears = GearBox(car, shift=p.shift, shift_margin_mps=p.shift_margin_mps)
         self.slip = SlipParams(abs_slip_mps=p.abs_slip_mps, abs_range_mps=p.abs_range_mps,
@@ -300,9 +300,10 @@ class TutorialRobot(Robot):
             out.append(v)
         return out
 
-    def _packer_speed_caps(self, car: Car) -> np.ndarray:
-        """Speed caps that keep the wheels off their packers (robot/bottoming.py), at the start's
-        fuel; cached, as the same track, line, car and profile give the same caps (~0.2 s)."""
+    def _packer_speed_caps(self, car: Car) -> list[float]:
+        """Speed caps per sample that keep the wheels off their packers (robot/bottoming.py), at the
+        start's fuel; cached, as the same track, line, car and profile give the same caps (the
+        search takes up to a second)."""
         def speeds_with(caps: np.ndarray) -> np.ndarray:
             self._packer_caps = caps.tolist()
             self._build_profile()
@@ -320,9 +321,7 @@ class TutorialRobot(Robot):
                    self.line.offset_m, self.profile.target_speeds, self.learner.factors_per_sample(),
                    seg["start_z_m"], seg["end_z_m"], seg["start_dist_m"], seg["start_width_m"],
                    seg.get("banking_start_rad", flat), seg.get("banking_end_rad", flat)))]
-        caps = cached_array("packer-caps", key, compute)
-        self._packer_caps = caps.tolist()
-        return caps
+        return cached_array("packer-caps", key, compute).tolist()
 
     def _build_profile(self) -> None:
         """The speed profile for the current fuel load and learned turn factors."""
