@@ -556,3 +556,12 @@ def test_packer_caps_slow_only_where_the_suspension_model_hits():
     slow, fast = strict.profile.target_speeds, free.profile.target_speeds
     assert np.all(slow <= fast + 1e-9) and np.any(slow[capped] < fast[capped] - 0.5)
     assert np.all(slow[capped] <= caps[capped] + 1e-9)
+
+
+def test_damage_is_priced_by_the_drag_it_adds():
+    """TORCS 1.3.7 multiplies the drag by 1 + damage / 10000: the robot's pit strategy gets what a
+    damage point costs a lap from the lap simulation, most where the straights are long."""
+    fast, twisty = robot_for("e-track-4"), robot_for("aalborg")
+    per_point = fast.pits.strategy.s_per_lap_per_damage, twisty.pits.strategy.s_per_lap_per_damage
+    assert per_point[0] > 5.0 * per_point[1] > 0.0
+    assert 2.0 < per_point[0] * 5000.0 < 15.0  # seconds a lap at 5000 damage

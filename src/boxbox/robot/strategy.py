@@ -5,7 +5,9 @@ reach the finish and
 less than 1.5 laps of fuel are left, in a requested lap, or when damage exceeds 5000 and the damage
 taken per lap so far would carry it past OUT_DAMAGE - damage_reserve (8500) by the finish (the
 tutorial stops at 5000 whatever is left of the race: with two laps to go in a 10-car field on
-aalborg that stop repaired 5568 points, 39 s, and cost seven places).
+aalborg that stop repaired 5568 points, 39 s, and cost seven places), or when the lap time the damage
+costs (s_per_lap_per_damage: TORCS 1.3.7 raises the drag by damage / 10000) over the rest of the race
+is more than a stop that repairs it.
 
 Order: enough fuel to finish plus a margin, split over as many stops as minimise the race time:
   each stop costs  pit_loss_s (driving the pit lane instead of the track) + 2 s + fuel / 8 l/s
@@ -17,11 +19,12 @@ litres == kilograms (kg_per_l = 1).
 More stops carry less fuel, so with a cheap pit lane and a heavy fuel load two short stints can beat
 one long one; `plan_stops` compares the numbers of stops.
 
-Repair: TORCS 1.3.7 puts a car out at 10000 damage; we assume damage does not slow the car
-otherwise (s_per_lap_per_damage = 0), so repairing costs time and buys only safety: repair down to
-repair_keep_damage (5000, where the next damage stop would come), or lower when 1.5 x the damage
-taken per lap so far would carry it past OUT_DAMAGE - damage_reserve before the finish; everything
-when lap time lost to damage makes a full repair pay.
+Repair: TORCS 1.3.7 puts a car out at 10000 damage and multiplies the drag by 1 + damage / 10000
+(the robot measures what that costs a lap with its lap simulation; 0 by default here), so where
+the lap time lost over the rest of the race is less than the repair's 0.007 s a point, repairing
+buys only safety: repair down to repair_keep_damage (5000, where the next damage stop would come),
+or lower when 1.5 x the damage taken per lap so far would carry it past OUT_DAMAGE -
+damage_reserve before the finish; everything when lap time lost to damage makes a full repair pay.
 """
 
 from __future__ import annotations
@@ -207,6 +210,9 @@ class PitStrategy:
         if damage > self.damage_limit and \
                 damage + self.damage_per_lap * remaining_laps > OUT_DAMAGE - self.damage_reserve:
             return True
+        if damage * self.s_per_lap_per_damage * remaining_laps > \
+                self.pit_loss_s + STOP_BASE_S + damage * REPAIR_S_PER_POINT:
+            return True  # the damage's drag costs more by the finish than a stop that repairs it
         if laps_done + 1 in self.pit_laps:
             return True
         fpl = self.fuel_per_lap_l

@@ -89,6 +89,14 @@ def test_wants_stop_for_damage_and_requested_laps():
     assert not st.wants_stop(5, 10, 80.0, 0.0)
 
 
+def test_wants_stop_when_the_damage_costs_more_lap_time_than_a_repair():
+    st = strat(s_per_lap_per_damage=0.001, pit_loss_s=15.0)
+    # 3000 points cost 3 s a lap: over 20 laps 60 s against 15 + 2 + 21 s for the stop and repair
+    assert st.wants_stop(3, 20, 80.0, 3000.0)
+    assert not st.wants_stop(3, 10, 80.0, 3000.0)  # 30 s against 38 s
+    assert not strat().wants_stop(3, 20, 80.0, 3000.0)  # damage that costs no time: no stop
+
+
 def test_no_second_stop_in_the_same_lap():
     st = strat(pit_laps=[5])
     st.on_lap(4, 80.0, 0.0)
