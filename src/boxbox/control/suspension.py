@@ -21,12 +21,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from boxbox.control.carmodel import WING_FACTOR
 from boxbox.model.car import Car
 from boxbox.model.constants import AIR_DENSITY_KGPM3, G_MPS2
 
 WHEELS = ("fr", "fl", "rr", "rl")
 REBOUND_KEPT = 0.5  # simuv2 takes half the speed into the road off the body when it hits the packers
-WING_FACTOR = 4.0  # as carmodel.WING_FACTOR: simuv2's wing force per rho x area x sin(angle) x v^2
 
 
 @dataclass(frozen=True)
@@ -110,8 +110,8 @@ def packer_impacts(road_z_m: np.ndarray, speed_mps: np.ndarray, lateral_mps2: np
     step_m apart (one step or one per sample; fine enough to keep the road's kinks: 0.5 m);
     speed_mps: the car's speed per sample (> 0); lateral_mps2 (+ to the left) and
     longitudinal_mps2 (+ forwards): its acceleration, which pitches and rolls the body through its
-    CG height.  The run starts warmup_m before
-    the start line, from rest on the road, so the lap begins with the body moving as it would.
+    CG height.  The run starts warmup_m before the start line, from rest on the road, so the lap
+    begins with the body moving as it would.
     """
     road = np.asarray(road_z_m, dtype=float)
     n = road.shape[-1]

@@ -2,8 +2,8 @@
 suspension model (control/suspension.py) under each wheel, and where a wheel would hit the packers
 harder than allowed, slow the stretch that leads there, then try again.
 
-The road under a wheel is TORCS's: the middle's height plus the offset times the banking's
-tangent (the surface is flat across), `x` metres ahead of the car's place for an axle `x` ahead of
+The road under a wheel is TORCS's (racingline.road_height_m: the right edge linear along each
+segment, tan(banking) across it), `x` metres ahead of the car's place for an axle `x` ahead of
 the CG.  The loads come from the profile itself: v^2 times the line's curvature sideways, v dv/ds
 along.
 """

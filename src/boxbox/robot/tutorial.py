@@ -173,16 +173,22 @@ class TutorialRobot(Robot):
             self._set_line(RacingLine(track, step_m=2.0, margin_m=p.line_margin_m, blend=p.racing_line,
                                       bounds_m=self._fast_turn_bounds(car, p, bounds)), p)
 
+    def _lap_inputs(self, model: CarModel, p: TutorialParams
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """What the lap simulation needs of the current line, per sample: the step (m), the
+        curvature, the grip and the robot's own speed limits (unlearned)."""
+        limits = np.maximum(np.asarray(self._limits([1.0] * self.n, model)), 0.1)
+        step_m = np.asarray(self.line.length_factor[: self.n]) * self.step_m
+        mu = model.mu * np.asarray(self._friction) * p.mu_scale
+        return step_m, np.asarray(self._curv), mu, limits
+
     def _fast_turn_bounds(self, car: Car, p: TutorialParams, bounds: tuple[np.ndarray, np.ndarray]
                           ) -> tuple[np.ndarray, np.ndarray]:
         """The bounds with more room kept outside each turn where the line's simulated lap is fast and
         near its grip: a car slides out of its line by more the faster it goes (g-track-1's long left
         turn at 45 m/s left the track from a line on the outer edge), never in."""
         model = CarModel.from_car(car, fuel_l=car.initial_fuel_l)
-        limits = np.maximum(np.asarray(self._limits([1.0] * self.n, model)), 0.1)
-        step_m = np.asarray(self.line.length_factor[: self.n]) * self.step_m
-        curv = np.asarray(self._curv)
-        mu = model.mu * np.asarray(self._friction) * p.mu_scale
+        step_m, curv, mu, limits = self._lap_inputs(model, p)
 
         def lap() -> np.ndarray:
             return lapsim.lap_speeds_mps(step_m, curv, mu, carsetup.ideal_gearbox_car(car, model),
@@ -268,10 +274,7 @@ class TutorialRobot(Robot):
         drag by 1 + damage / 10000 (simuv2 aero.cpp), so the lap simulation with the drag of 5000
         points (x 1.5) against none, over 5000 (e-track-4 +6.7 s a lap, mixed-2 +0.05 s)."""
         model = self.tyre_model
-        limits = np.maximum(np.asarray(self._limits([1.0] * self.n, model)), 0.1)
-        step_m = np.asarray(self.line.length_factor[: self.n]) * self.step_m
-        curv = np.asarray(self._curv)
-        mu = model.mu * np.asarray(self._friction) * self.params.mu_scale
+        step_m, curv, mu, limits = self._lap_inputs(model, self.params)
         point = carsetup.ideal_gearbox_car(car, model)
 
         def cost() -> np.ndarray:
