@@ -16,6 +16,7 @@ class RaceOptions:
     """What the race asks of a robot beyond driving (from `boxbox race` options)."""
 
     laps: int = 0  # race length
+    cars: int = 1  # cars in the race, this one included (1: alone)
     fuel_laps: float | None = None  # start with fuel for this many laps (None: the car's default)
     pit_laps: tuple[int, ...] = ()  # laps on which to stop in the pit
     pit_mode: str = "constant-decel"

@@ -39,6 +39,7 @@ from boxbox.robot.pitpath import PitPath
 from boxbox.robot.racingline import middle_line
 from boxbox.robot.strategy import PitStrategy, laps_after_box, plan_stops
 
+EXIT_BRAKE_BAND_MPS = 2.0  # leaving the lane: full brake this far above the exit path's speed cap
 PIT_HOLD_GAIN_PER_MPS = 1.0  # throttle per m/s below the pit lane's target speed
 DECIDE_BEFORE_ENTRY_M = 600.0  # a stop is decided once per lap, this far before the pit entry
 
@@ -126,6 +127,7 @@ class PitStops:
             give_up=True, give_up_timeout_s=p.give_up_s,
             # full brake on the lane's surface decelerates by about mu g (clutch open: no engine braking)
             tracker=SpeedTracker(full_brake_mps2=lane_mu * G_MPS2, drag_k_per_m=model.cw / model.mass_kg))
+        self._exit_from_m, self._exit_caps = path.exit_speed_caps(lane_mu * 0.9, 0.5 * lane_mu * G_MPS2)
         mid = middle_line(track, step_m=2.0)
         self._step_m, self._n = mid.step_m, mid.n
         self._mid_xy = list(zip(mid.x_m.tolist(), mid.y_m.tolist(), strict=True))
@@ -170,7 +172,18 @@ class PitStops:
             steer = self._steer_on_path(s, v)
         self.clutch_open = r.phase in (STOP, HOLD)
         self.phase = r.phase
-        return r.brake, self._throttle(accel, v, pos, on_path, r.target_speed_mps, r.brake), steer
+        brake, accel = r.brake, self._throttle(accel, v, pos, on_path, r.target_speed_mps, r.brake)
+        if on_path and self.event is not None and pos >= self._exit_from_m:
+            brake, accel = self._exit_cap(v, pos, brake, accel)
+        return brake, accel, steer
+
+    def _exit_cap(self, v: float, pos: float, brake: float, accel: float) -> tuple[float, float]:
+        """Leaving the lane: no faster than the path back to the line allows (PitPath.exit_speed_caps),
+        braking in proportion over EXIT_BRAKE_BAND_MPS above it."""
+        i = int(pos - self._exit_from_m)
+        if i >= len(self._exit_caps) or v <= self._exit_caps[i]:
+            return brake, accel
+        return max(brake, min(1.0, (v - self._exit_caps[i]) / EXIT_BRAKE_BAND_MPS)), 0.0
 
     def _decide(self, s: State, pos: float, on_path: bool, laps_done: int) -> None:
         """Once per lap, a few hundred metres before the entry: stop this lap or not."""

@@ -214,6 +214,27 @@ class PitPath:
             k_offset = np.where(np.abs(1.0 - k_track * y) > 1e-6, k_track / (1.0 - k_track * y), 0.0)
         return k_offset + np.interp(s_m, self._grid_s, self._bends)
 
+    def exit_speed_caps(self, mu: float, decel_mps2: float, g_mps2: float = G_MPS2,
+                        max_speed_mps: float = 100.0) -> tuple[float, list[float]]:
+        """(start s_m, speed cap per metre from there to the exit): the grip limit sqrt(mu g / |k|) of
+        the path from the end of the speed limit back to the line, without downforce, lowered
+        ahead of each tight part to the speed from which decel_mps2 slows the car to it in time.
+        The line's own speed profile is for the line's curvature: a path rejoining a line that
+        swings across the track (aalborg's exit into a turn) bends harder, and at the line's speed
+        the car slid off its outside (1100 damage at each stop)."""
+        if not (mu > 0.0 and decel_mps2 > 0.0 and math.isfinite(mu + decel_mps2)):
+            raise ValueError(f"mu ({mu}) and decel_mps2 ({decel_mps2}) must be positive and finite")
+        start = self.limit_end_m
+        s = np.arange(start, self.exit_m + 1e-9, 1.0)
+        if len(s) == 0:
+            return start, []
+        k = np.abs(self.curvature_at(s))
+        with np.errstate(divide="ignore"):
+            v = np.minimum(np.sqrt(mu * g_mps2 / k), max_speed_mps)
+        for i in range(len(v) - 2, -1, -1):  # braking ahead: v^2 = v_next^2 + 2 a (1 m)
+            v[i] = min(v[i], math.sqrt(v[i + 1] ** 2 + 2.0 * decel_mps2))
+        return float(start), v.tolist()
+
     def entry_speed_constraints(self, mu: float, g_mps2: float = G_MPS2,
                                 max_speed_mps: float = 100.0) -> list[tuple[float, float]]:
         """(s_m, speed_mps) where the path from the entry to the speed limit start is slowest.

@@ -112,6 +112,7 @@ def run_race(cfg: RaceConfig, overlay: Overlay, progress: Progress | None = None
     if len(cfg.robots) > MAX_PYTHON_CARS:
         raise RaceError(f"at most {MAX_PYTHON_CARS} Python cars per race")
     cfg.options.laps = cfg.laps
+    cfg.options.cars = len(cfg.robots) + len(cfg.opponents)
     run_dir = RunDir(cfg.run_dir) if cfg.run_dir is not None else RunDir.new(cfg.keep_runs)
     run_dir.make()
     # a copy: the caller's config stays as given (benches race one config several times)

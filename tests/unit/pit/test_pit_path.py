@@ -187,3 +187,24 @@ def test_joins_the_line_with_its_slope():
     assert sloped.offset_at_s(s) == pytest.approx(flat.offset_at_s(s))
     with pytest.raises(ValueError):
         PitPath(track, car, exit_slope=float("nan"))
+
+
+def test_exit_speed_caps_on_aalborg():
+    """aalborg's exit rejoins a line that swings across the track into a right-hand turn: the
+    path bends harder there than the line, so its caps sit below the line's 32-35 m/s, and each
+    cap is reachable by braking at the given deceleration from the one before."""
+    p = PitPath(*load("aalborg"), exit_offset_m=-4.7, exit_slope=-0.4)
+    start, caps = p.exit_speed_caps(1.0, 5.0)
+    assert start == pytest.approx(p.limit_end_m)
+    assert len(caps) == int(p.exit_m - p.limit_end_m) + 1
+    assert min(caps) < 32.0
+    v = np.asarray(caps)
+    assert np.all(v[:-1] ** 2 <= v[1:] ** 2 + 2.0 * 5.0 + 1e-6)  # braking ahead, never harder than 5 m/s^2
+    # more grip, higher caps
+    assert min(p.exit_speed_caps(1.5, 5.0)[1]) > min(caps)
+
+
+@pytest.mark.parametrize("mu, decel", [(0.0, 5.0), (1.0, -1.0), (float("nan"), 5.0), (1.0, float("inf"))])
+def test_exit_speed_caps_rejects_bad_input(mu, decel):
+    with pytest.raises(ValueError):
+        PitPath(*load("aalborg")).exit_speed_caps(mu, decel)
