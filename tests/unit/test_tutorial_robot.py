@@ -565,16 +565,3 @@ def test_damage_is_priced_by_the_drag_it_adds():
     per_point = fast.pits.strategy.s_per_lap_per_damage, twisty.pits.strategy.s_per_lap_per_damage
     assert per_point[0] > 5.0 * per_point[1] > 0.0
     assert 2.0 < per_point[0] * 5000.0 < 15.0  # seconds a lap at 5000 damage
-
-
-def test_start_fuel_has_a_traffic_margin_in_a_field():
-    """Alone the start fuel is the race's laps plus the margin; in a field, TRAFFIC_FUEL_SHARE of
-    the race more (following and damage burn more: a stop for a few litres costs ~20 s)."""
-    from boxbox.robot.strategy import MARGIN_LAPS, TRAFFIC_FUEL_SHARE
-    track, car = load("aalborg")
-    car.name = "car1-trb1"
-    alone = TutorialRobot(RaceOptions(learning_dir=None, laps=10)).initial_fuel_l(track, car)
-    field = TutorialRobot(RaceOptions(learning_dir=None, laps=10, cars=10)).initial_fuel_l(track, car)
-    assert alone is not None and field is not None
-    per_lap = alone / (10 + MARGIN_LAPS)
-    assert field == pytest.approx(per_lap * (10 + MARGIN_LAPS + 10 * TRAFFIC_FUEL_SHARE), rel=1e-6)

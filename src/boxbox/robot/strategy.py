@@ -43,11 +43,6 @@ DAMAGE_LIMIT = 5000.0  # stop for repair above this (when the rest of the race n
 OUT_DAMAGE = 10000.0  # TORCS 1.3.7 takes a car out of the race at this damage
 DAMAGE_RESERVE = 1500.0  # room kept below OUT_DAMAGE for one crash beyond the damage per lap so far
 REPAIR_TREND = 1.5  # a repair plans for this many times the damage per lap so far
-# in a field, start with fuel for this share of the race more: following burns more and the drag
-# of damage more still (aalborg's 8-12 lap field races from last stopped for 3.2-4.4 l, 16-22 % of
-# their fuel, ~20 s each; the weight of 15 % of a 10-lap race's fuel costs ~0.3 s in all)
-TRAFFIC_FUEL_SHARE = 0.15
-MARGIN_LAPS = 0.3  # fuel for this many laps more than the race needs
 MIN_FUEL_LAPS = 1.5  # stop for fuel only when less than this many laps are left in the tank
 
 
@@ -60,7 +55,7 @@ class StopPlan:
 
 
 def plan_stops(race_laps: float, fuel_per_lap_l: float, tank_l: float, *, pit_loss_s: float = 15.0,
-               s_per_lap_per_kg: float = 0.022, kg_per_l: float = 1.0, margin_laps: float = MARGIN_LAPS,
+               s_per_lap_per_kg: float = 0.022, kg_per_l: float = 1.0, margin_laps: float = 0.3,
                first_stint_fuelled: bool = True, max_extra_stops: int = 3) -> StopPlan:
     """Number of stops and fuel per stint that minimise time for race_laps laps still to drive.
 
@@ -146,7 +141,7 @@ class PitStrategy:
 
     def __init__(self, track_length_m: float, tank_l: float, *, fuel_per_m_l: float = FUEL_PER_M_L,
                  pit_laps: Iterable[int] = (), damage_limit: float = DAMAGE_LIMIT,
-                 min_fuel_laps: float = MIN_FUEL_LAPS, margin_laps: float = MARGIN_LAPS, pit_loss_s: float = 15.0,
+                 min_fuel_laps: float = MIN_FUEL_LAPS, margin_laps: float = 0.3, pit_loss_s: float = 15.0,
                  s_per_lap_per_kg: float = 0.022, kg_per_l: float = 1.0, repair_keep_damage: float = DAMAGE_LIMIT,
                  s_per_lap_per_damage: float = 0.0, damage_reserve: float = DAMAGE_RESERVE) -> None:
         self.track_length_m = track_length_m

@@ -44,7 +44,7 @@ from boxbox.robot.params import BOUNDS, CHOICES, TutorialParams, load_params
 from boxbox.robot.pit import PitParams, PitStops
 from boxbox.robot.racecraft import TURN_CURVATURE_1PM, Racecraft, RacecraftParams, inside_speed_mps
 from boxbox.robot.racingline import RacingLine, middle_line, washboard
-from boxbox.robot.strategy import MARGIN_LAPS, OUT_DAMAGE, TRAFFIC_FUEL_SHARE, plan_stops
+from boxbox.robot.strategy import OUT_DAMAGE, plan_stops
 
 TWO_PI = 2.0 * math.pi
 DAMAGE_DRAG_POINTS = 5000.0  # the damage the drag's cost per point is measured at
@@ -78,9 +78,7 @@ class TutorialRobot(Robot):
         if self.options.fuel_laps is not None or not self.options.laps or track.pit is None:
             return super().initial_fuel_l(track, car)
         per_lap = FUEL_L_PER_M_ESTIMATE * car.fuel_cons_factor * track.length_m
-        laps = self.options.laps
-        margin = MARGIN_LAPS + (TRAFFIC_FUEL_SHARE * laps if self.options.cars > 1 else 0.0)
-        plan = plan_stops(laps, per_lap, car.tank_l, margin_laps=margin)
+        plan = plan_stops(self.options.laps, per_lap, car.tank_l)
         return min(car.tank_l, plan.fuel_per_stint_l[0])
 
     def car_setup(self, track: Track, car: Car) -> CarSetup | None:
