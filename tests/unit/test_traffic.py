@@ -182,6 +182,22 @@ def test_a_pass_under_way_on_the_inside_is_not_called_back_to_the_line():
         return craft.offset(0.0, 30.0, 0.0, [car], -0.5, 0.0, (6.0, -6.0), inside, 400.0, 0.1, -0.6, 0.01)
     assert step(near, -1.0) == pytest.approx(-0.6) and craft.pass_side == -1.0  # under way on the inside: kept
     assert step(far, -1.0) == pytest.approx(-0.4) and craft.pass_side == 0.0  # not under way: back to the line
-    assert step(near, 1.0) == pytest.approx(-0.4)  # under way on the outside: back to the line
+    assert step(near, 1.0) == pytest.approx(-0.6)  # aside towards the outside (left turn): kept too
+    craft = _craft(keep_outside=False)
+    assert step(near, 1.0) == pytest.approx(-0.4)  # ... unless keep_outside is off: back to the line
     assert _craft(keep_inside=False).offset(0.0, 30.0, 0.0, [near], -0.5, 0.0, (6.0, -6.0), -1.0, 400.0, 0.1,
                                             -0.6, 0.01) == pytest.approx(-0.4)
+
+
+def test_an_offset_towards_the_outside_of_a_turn_is_kept_and_one_inwards_is_not():
+    """keep_outside: moving out widens the radius (the line's speed holds), moving in tightens it."""
+    craft = _craft(keep_inside=False)
+    car = _car(30.0, 0.5, 25.0)  # far ahead: no pass under way
+
+    def step(offset, inside):  # a turn ahead needing most of the grip at 30 m/s
+        return craft.offset(0.0, 30.0, 0.0, [car], offset, 0.0, (6.0, -6.0), inside, 400.0, 0.1, offset, 0.01)
+    assert step(1.0, -1.0) == pytest.approx(1.0)  # left of the line, right turn: outside, kept
+    assert step(1.0, 1.0) == pytest.approx(0.9)  # left of the line, left turn: inside, back to the line
+    assert step(-1.0, 1.0) == pytest.approx(-1.0)  # right of the line, left turn: outside, kept
+    assert _craft(keep_inside=False, keep_outside=False).offset(
+        0.0, 30.0, 0.0, [car], 1.0, 0.0, (6.0, -6.0), -1.0, 400.0, 0.1, 1.0, 0.01) == pytest.approx(0.9)

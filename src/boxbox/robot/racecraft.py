@@ -12,12 +12,13 @@ exactly as without it.  Per step:
   (towards the free side of a slower car ahead, aside for a car lapping us), then: round a car
   stopped close ahead, never further out than the track allows, back to the line where the turn
   ahead needs more than hold_line_grip_share of the grip at our speed (the speed profile is the
-  line's: off it the radius is another), and inside the band that cars alongside leave us (room
-  side by side).  plan_passes=True plans passes instead (the inside of the coming turn when it has
-  room, no further aside than needed, only when the pass completes before the braking zone or is
-  on the inside, given up after abort_s); it measured worse in the field.  A pass under way on the
-  inside of the coming turn (a car within commit_lengths ahead, moved aside towards the inside) is
-  not called back to the line (keep_inside), and drives at the speed of the inside's tighter radius
+  line's: off it the radius is another; an offset towards the turn's outside only widens it and
+  is kept), and inside the band that cars alongside leave us (room side by side).
+  plan_passes=True plans passes instead (the inside of the coming turn when it has room, no
+  further aside than needed, only when the pass completes before the braking zone or is on the
+  inside, given up after abort_s); it measured worse in the field.  A pass under way on the inside
+  of the coming turn (a car within commit_lengths ahead, moved aside towards the inside) is not
+  called back to the line (keep_inside), and drives at the speed of the inside's tighter radius
   (inside_speed): without it a faster car never got by a slower one in a turn.
 - `brake`: a touch of brake for a car touching ahead in our lane, faster or not; with
   brake_mode "ttc" or "both" also braking from the predicted closest gap (we brake after a
@@ -90,6 +91,10 @@ class RacecraftParams:
     # passing two cars on g-track-1 for the same places over 8-12 lap fields: docs/racecraft.md)
     lift_m: float = 0.0
     inside_speed: bool = True  # an offset towards a turn's inside caps the speed to its tighter radius
+    # an offset towards the coming turn's outside is not called back to the line: it widens the
+    # radius, so the line's speed holds there (g-track-1 from last of 10: third behind olethros:2 in
+    # 9 of 9 races, which takes its long turns 11 m/s below our line; with it 7 wins of 9)
+    keep_outside: bool = True
 
 
 def converging(cars: list[Nearby], rates_mps: list[float], ahead_s: float) -> list[Nearby]:
@@ -217,7 +222,8 @@ class Racecraft:
             elif new < 0.0:
                 new = min(0.0, max(new, right - line_off_m))
         inside_pass = p.keep_inside and self.pass_side != 0.0 and self.pass_side == inside_sign
-        if v * v * turn_1pm > p.hold_line_grip_share * self.decel_mps2 and not inside_pass:
+        outside = p.keep_outside and new * inside_sign < 0.0
+        if v * v * turn_1pm > p.hold_line_grip_share * self.decel_mps2 and not inside_pass and not outside:
             new = max(0.0, offset_m - step_m) if offset_m > 0.0 else min(0.0, offset_m + step_m)
         new = inward_step(offset_m, new, here_1pm, v, self.decel_mps2, step_m, p.inward_grip_share)
         alongside = [(c.mid_m, c.width_m or self.width_m) for c in cars if abs(c.dist_m) < self.length_m + 1.0]
