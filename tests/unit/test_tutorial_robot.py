@@ -565,3 +565,25 @@ def test_damage_is_priced_by_the_drag_it_adds():
     per_point = fast.pits.strategy.s_per_lap_per_damage, twisty.pits.strategy.s_per_lap_per_damage
     assert per_point[0] > 5.0 * per_point[1] > 0.0
     assert 2.0 < per_point[0] * 5000.0 < 15.0  # seconds a lap at 5000 damage
+
+
+def test_a_car_behind_leaves_the_traction_control_of_the_line():
+    """On the line, in a turn, with the driven wheels slipping: a car 10 m behind changes nothing
+    (the tutorial's plain traction slip in traffic is for driving off the line; with a car behind
+    boxbox spun out of g-track-1's turn at 1100 m); aside for a pass it does."""
+    robot = robot_for("g-track-1")
+    k = np.abs(robot.line.curvature_1pm[: robot.n])
+    dist = float(np.argmax(k > 0.5 * k.max())) * robot.step_m  # into a turn
+    v = 0.7 * robot.profile.speed_at(dist)
+    state = line_state(robot, dist, v)
+    slip = [(v + 4.0) / r for r in robot.radii]  # 4 m/s of wheel slip: traction control acts
+    state = state._replace(spin_fr_rps=slip[0], spin_fl_rps=slip[1], spin_rr_rps=slip[2], spin_rl_rps=slip[3])
+    behind = make_opp(dist_from_start_m=dist - 10.0, to_middle_m=state.to_middle_m, speed_mps=v, laps=1.0)
+    alone = copy.deepcopy(robot).drive(state)
+    followed = copy.deepcopy(robot).drive(state._replace(opponents=(behind,)))
+    require(0.0 < alone.accel, "the robot accelerates there")
+    assert followed.accel == pytest.approx(alone.accel)
+    aside = copy.deepcopy(robot)
+    aside.offset_m = 1.0
+    aside_alone = copy.deepcopy(aside).drive(state)
+    assert aside.drive(state._replace(opponents=(behind,))).accel != pytest.approx(aside_alone.accel)

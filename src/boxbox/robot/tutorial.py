@@ -389,7 +389,9 @@ class TutorialRobot(Robot):
         brake, accel = self._speed(s, v)
         brake, accel, steer = self.pits.step(s, v, brake, accel, steer)
         brake = self._avoid_collision(brake, v, cars)
-        brake, accel = self._traction(s, v, brake, accel, bool(cars))
+        # the plain slip only aside among cars: on the line the line's turn share holds, car behind or
+        # not (with one behind boxbox spun out of g-track-1's turn at 1100 m, 1139 damage)
+        brake, accel = self._traction(s, v, brake, accel, bool(cars) and self.offset_m != 0.0)
         if cars:  # behind a slower car: coast before the gap brake, not throttle and brake in turn
             accel = self.craft.lift(accel, v, cars, self._brakedist)
         accel = self._guard_throttle(s, v, steer, accel)
