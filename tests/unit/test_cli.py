@@ -9,7 +9,7 @@ import pytest
 from click.testing import CliRunner
 
 from boxbox.cli import main_group
-from boxbox.cli.types import LAP_LIST, FiniteFloatRange, OutputDir, OutputFile
+from boxbox.cli.types import LAP_LIST, FiniteFloatRange, LapLengths, OutputDir, OutputFile
 from boxbox.torcs import catalog
 from boxbox.torcs import setup as torcs_setup
 
@@ -80,6 +80,15 @@ def test_number_types_refuse_nan_and_out_of_range():
     assert convert(LAP_LIST, "7, 3,3") == [7, 3]
     with pytest.raises(click.BadParameter):
         convert(LAP_LIST, "0")
+
+
+def test_race_lengths_are_one_a_list_or_a_range():
+    assert convert(LapLengths(), "10") == [10]
+    assert convert(LapLengths(), "8,10,12") == [8, 10, 12]
+    assert convert(LapLengths(), "6-9") == [6, 7, 8, 9]
+    for bad in ("", "0", "9-6", "x-3", "3-", "nan"):
+        with pytest.raises(click.BadParameter):
+            convert(LapLengths(), bad)
 
 
 def test_output_paths_are_absolute_and_writable(tmp_path, monkeypatch):

@@ -46,3 +46,40 @@ def test_no_lap_one_gain_without_every_car_s_laps():
     b = DriverResult(name="b", module="bt", idx=1, car="c", rank=2, laps=1, time=41.0)
     result = RaceResult(track="t", category="road", car="c", laps=1, drivers=[a, b])
     assert car_figures(result, a, start_slot=2)["lap1_gain"] is None
+
+
+# --- several lengths (bench/field_grid.py) ---------------------------------------------------------
+
+def _result(laps, ranks, damage=100):
+    """A FieldResult for two tracks: {track: (robot rank, anchor rank)}, None for a failed race."""
+    from boxbox.bench.field import FieldResult, FieldSpec
+    rows = []
+    for track, (mine, anchor) in ranks.items():
+        for role, entry, rank in (("robot", "boxbox", mine), ("anchor", "inferno:3", anchor)):
+            rows.append({"track": track, "role": role, "entry": entry, "rank": rank, "damage": damage,
+                         "field_damage": 0, "error": None if rank is not None else "torcs-bin hung"})
+    return FieldResult(FieldSpec(tracks=list(ranks), laps=laps), rows)
+
+
+def test_field_grid_sums_places_wins_and_damage_per_car():
+    from boxbox.bench.field_grid import FieldGrid
+    grid = FieldGrid([_result(8, {"a": (1, 6), "b": (3, 9)}), _result(9, {"a": (2, 5), "b": (None, 9)})])
+    assert grid.lengths == [8, 9]
+    assert grid.places("robot") == {"a": [1, 2], "b": [3, None]}
+    assert grid.damage("robot") == {"a": 200, "b": 100}  # the failed race counts no damage
+    assert grid.summary("robot") == {"races": 4, "failed": 1, "places": 6, "wins": 1, "damage": 300}
+    assert grid.summary("anchor") == {"races": 4, "failed": 0, "places": 29, "wins": 0, "damage": 400}
+    lines = grid.summary_lines()
+    assert lines[0] == "boxbox: 4 races, places 6, wins 1, damage 300, 1 failed"
+    assert lines[1].startswith("inferno:3: 4 races, places 29, wins 0")
+    assert grid.table().row_count == 4 and len(grid.table().columns) == 6
+    assert grid.to_json()["places"]["anchor"] == {"a": [6, 5], "b": [9, 9]}
+
+
+def test_field_grid_needs_a_length():
+    import pytest
+
+    from boxbox.bench.field import FieldSpec
+    from boxbox.bench.field_grid import run_field_grid
+    with pytest.raises(ValueError):
+        run_field_grid(FieldSpec(tracks=["a"]), [], None, None)  # type: ignore[arg-type]

@@ -7,7 +7,15 @@ import os
 import click
 
 from boxbox.cli.common import err, out, ready
-from boxbox.cli.types import LAPS, CommaList, GridPosition, OutputFile, bench_race_options, skill_level_option
+from boxbox.cli.types import (
+    LAPS,
+    CommaList,
+    GridPosition,
+    LapLengths,
+    OutputFile,
+    bench_race_options,
+    skill_level_option,
+)
 
 DEFAULT_TRACKS = "e-track-2,e-track-4,mixed-2,g-track-1,aalborg,michigan"
 DEFAULT_ROBOTS = "boxbox,bt:2,berniw:3,inferno:3,olethros:2"
@@ -180,7 +188,8 @@ def bench_telemetry(track, laps, runs, robot, json_file, skill_level) -> None:
 @click.option("--tracks", type=CommaList("TRACK,..."), default=DEFAULT_TRACKS, show_default=True,
               help="Tracks, comma separated, or 'all'.")
 @click.option("--robot", default="boxbox", show_default=True, help="Python robot under test, e.g. my_robot.py:MyRobot.")
-@click.option("--laps", type=LAPS, default=10, show_default=True, help="Race length in laps.")
+@click.option("--laps", type=LapLengths(), default="10", show_default=True,
+              help="Race length in laps, or several (8,10,12 or 6-14: a summary per track over them).")
 @click.option("--jobs", type=JOBS, default=1, show_default=True, help="Races run in parallel.")
 @bench_race_options
 @click.option("--json", "json_file", type=OutputFile(), help="Write the rows as JSON.")
@@ -194,6 +203,7 @@ def bench_field(tracks, robot, laps, jobs, no_cache, learning, settings, json_fi
     Examples:
       boxbox bench-field
       boxbox bench-field --tracks g-track-1 --laps 5 --json f.json
+      boxbox bench-field --laps 6-14 --jobs 2     # 54 races each: places per length and track
     """
     from boxbox.bench.bench import expand_all
     from boxbox.bench.field import FieldSpec, run_field, runs_root
@@ -201,9 +211,12 @@ def bench_field(tracks, robot, laps, jobs, no_cache, learning, settings, json_fi
     from boxbox.torcs import catalog
 
     overlay = ready()
-    spec = FieldSpec(tracks=expand_all(tracks, list(catalog.tracks())), robot=robot, laps=laps, jobs=jobs,
+    spec = FieldSpec(tracks=expand_all(tracks, list(catalog.tracks())), robot=robot, laps=laps[0], jobs=jobs,
                      use_cache=not no_cache, learning=learning, settings=parse_set(settings) if settings else None,
                      skill_level=skill_level)
+    if len(laps) > 1:
+        _field_grid(spec, laps, overlay, json_file)
+        return
     result = run_field(spec, overlay, err)
     out.print(result.table())
     out.print(result.summary_line())
@@ -213,3 +226,20 @@ def bench_field(tracks, robot, laps, jobs, no_cache, learning, settings, json_fi
               + (f"; [red]{failed} rows with errors[/]" if failed else "") + "[/]")
     if json_file:
         result.write_json(json_file)
+
+
+def _field_grid(spec, lengths: list[int], overlay, json_file) -> None:
+    """bench-field at several lengths: the places per track and length, wins and damage."""
+    from boxbox.bench.field import runs_root
+    from boxbox.bench.field_grid import run_field_grid
+
+    grid = run_field_grid(spec, lengths, overlay, err)
+    out.print(grid.table())
+    for line in grid.summary_lines():
+        out.print(line)
+    err.print(f"[dim]run dirs (for `boxbox report`) under {runs_root()}[/]")
+    raced, cached = sum(r.raced for r in grid.results), sum(r.cached for r in grid.results)
+    wall = sum(r.wall_s for r in grid.results)
+    err.print(f"[dim]{raced} raced, {cached} cached, {wall:.1f} s wall[/]")
+    if json_file:
+        grid.write_json(json_file)

@@ -108,6 +108,30 @@ class CommaList(click.ParamType):
 LAP_LIST = CommaList("LAP,...", item=LAPS)
 
 
+class LapLengths(click.ParamType):
+    """Race lengths: '10', '8,10,12' or '6-14' (both ends included) -> [10], [8, 10, 12], [6, ..., 14]."""
+
+    name = "lengths"
+
+    def get_metavar(self, param: click.Parameter, ctx: click.Context) -> str:
+        return "N|N,N,..|N-M"
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        if isinstance(value, list | tuple):
+            return list(value)
+        text = str(value).strip()
+        if "-" in text and "," not in text:
+            lo, _, hi = text.partition("-")
+            first, last = LAPS.convert(lo.strip(), param, ctx), LAPS.convert(hi.strip(), param, ctx)
+            if last < first:
+                self.fail(f"{text!r}: the range ends before it starts (e.g. 6-14).", param, ctx)
+            return list(range(first, last + 1))
+        lengths = LAP_LIST.convert(text, param, ctx)
+        if not lengths:
+            self.fail("give at least one race length, e.g. 10 or 6-14.", param, ctx)
+        return lengths
+
+
 def _probe_writable(folder: Path) -> str | None:
     """None when a file can be created in folder, else why not (a real create: permissions alone
     do not tell, e.g. /proc or a read-only mount)."""

@@ -1,0 +1,104 @@
+"""`boxbox bench-field --laps 6-14`: the field benchmark over several race lengths, per track.
+
+One 10-lap race from the back of a field says little: these robots crash into each other, and a
+centimetre more or less of side gap reshuffles every race after the first contact (docs/racecraft.md,
+sessions 8 and 9). The same races at several lengths are as many samples: each length is a
+`bench-field` run (bench/field.py, cached per race), and the summary gives, per track and car, the
+place at each length, the wins and the damage summed, and over all tracks the places, wins and
+damage of the robot and of the anchor (inferno:3 from the same slot).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+from rich.console import Console
+from rich.table import Table
+
+from boxbox.bench.field import ANCHOR, FieldResult, FieldSpec, run_field
+from boxbox.files import write_json_atomic
+from boxbox.torcs.setup import Overlay
+
+ROLES = ("robot", "anchor")
+
+
+@dataclass
+class FieldGrid:
+    results: list[FieldResult]  # one per race length, in the order asked
+
+    @property
+    def lengths(self) -> list[int]:
+        return [r.spec.laps for r in self.results]
+
+    def places(self, role: str) -> dict[str, list[int | None]]:
+        """Per track, the car's place at each length (None: the race failed)."""
+        out: dict[str, list[int | None]] = {}
+        for result in self.results:
+            rows = {r["track"]: r for r in result.rows if r["role"] == role}
+            for track in result.spec.tracks:
+                row = rows.get(track)
+                out.setdefault(track, []).append(None if row is None or row["error"] else row["rank"])
+        return out
+
+    def damage(self, role: str) -> dict[str, int]:
+        """Per track, the car's damage (with repairs) summed over the lengths."""
+        out: dict[str, int] = {}
+        for result in self.results:
+            for r in result.rows:
+                if r["role"] == role and not r["error"]:
+                    out[r["track"]] = out.get(r["track"], 0) + int(r["damage"])
+        return out
+
+    def summary(self, role: str) -> dict:
+        places = [p for ps in self.places(role).values() for p in ps]
+        done = [p for p in places if p is not None]
+        return {"races": len(places), "failed": len(places) - len(done), "places": sum(done),
+                "wins": done.count(1), "damage": sum(self.damage(role).values())}
+
+    def table(self) -> Table:
+        spec = self.results[0].spec
+        table = Table(title=f"bench-field over {len(self.lengths)} lengths: {spec.robot} and {ANCHOR} from "
+                            f"P{spec.start_slot} of {spec.start_slot}, skill level {spec.skill_level.torcs_name}")
+        table.add_column("track")
+        table.add_column("car")
+        for n in self.lengths:
+            table.add_column(f"{n}", justify="right")
+        for col in ("wins", "damage"):
+            table.add_column(col, justify="right")
+        places = {role: self.places(role) for role in ROLES}
+        damage = {role: self.damage(role) for role in ROLES}
+        tracks = list(places["robot"])
+        for i, track in enumerate(tracks):
+            for role, entry in zip(ROLES, (spec.robot, ANCHOR), strict=True):
+                ps = places[role].get(track, [])
+                style = "bold" if role == "robot" else "dim"
+                table.add_row(track if role == "robot" else "", f"[{style}]{entry}[/]",
+                              *(f"[{style}]{'-' if p is None else p}[/]" for p in ps),
+                              str(sum(p == 1 for p in ps)), str(damage[role].get(track, 0)),
+                              end_section=role == "anchor" and i < len(tracks) - 1)
+        return table
+
+    def summary_lines(self) -> list[str]:
+        lines = []
+        for role, entry in zip(ROLES, (self.results[0].spec.robot, ANCHOR), strict=True):
+            m = self.summary(role)
+            failed = f", {m['failed']} failed" if m["failed"] else ""
+            lines.append(f"{entry}: {m['races']} races, places {m['places']}, wins {m['wins']}, "
+                         f"damage {m['damage']}{failed}")
+        return lines
+
+    def to_json(self) -> dict:
+        return {"lengths": self.lengths, "runs": [r.to_json() for r in self.results],
+                "summary": {role: self.summary(role) for role in ROLES},
+                "places": {role: self.places(role) for role in ROLES}}
+
+    def write_json(self, path) -> None:
+        write_json_atomic(path, self.to_json(), indent=1)
+
+
+def run_field_grid(spec: FieldSpec, lengths: list[int], overlay: Overlay, console: Console) -> FieldGrid:
+    """bench-field at each of the lengths (in order), the races of each length in parallel."""
+    if not lengths:
+        raise ValueError("at least one race length is needed")
+    return FieldGrid([run_field(dataclasses.replace(spec, laps=n), overlay, console) for n in lengths])
