@@ -92,8 +92,8 @@ class RacecraftParams:
     lift_m: float = 0.0
     inside_speed: bool = True  # an offset towards a turn's inside caps the speed to its tighter radius
     # an offset towards the coming turn's outside is not called back to the line: it widens the
-    # radius, so the line's speed holds there (g-track-1 from last of 10: third behind olethros:2 in
-    # 9 of 9 races, which takes its long turns 11 m/s below our line; with it 7 wins of 9)
+    # radius, so the line's speed holds there (g-track-1 from last of 10, 6-14 laps: third behind
+    # olethros:2, 11 m/s below our line in its long turns, in 8 of 9 races; with it 3 to 7 wins)
     keep_outside: bool = True
 
 
