@@ -214,6 +214,12 @@ class PitPath:
             k_offset = np.where(np.abs(1.0 - k_track * y) > 1e-6, k_track / (1.0 - k_track * y), 0.0)
         return k_offset + np.interp(s_m, self._grid_s, self._bends)
 
+    def _grip_speeds(self, s_m: np.ndarray, mu: float, g_mps2: float, max_speed_mps: float) -> np.ndarray:
+        """The path's grip limit sqrt(mu g / |k|) (m/s, no downforce) at s_m, at most max_speed_mps."""
+        k = np.abs(self.curvature_at(s_m))
+        with np.errstate(divide="ignore"):
+            return np.minimum(np.sqrt(mu * g_mps2 / k), max_speed_mps)
+
     def exit_speed_caps(self, mu: float, decel_mps2: float, g_mps2: float = G_MPS2,
                         max_speed_mps: float = 100.0) -> tuple[float, list[float]]:
         """(start s_m, speed cap per metre from there to the exit): the grip limit sqrt(mu g / |k|) of
@@ -228,9 +234,7 @@ class PitPath:
         s = np.arange(start, self.exit_m + 1e-9, 1.0)
         if len(s) == 0:
             return start, []
-        k = np.abs(self.curvature_at(s))
-        with np.errstate(divide="ignore"):
-            v = np.minimum(np.sqrt(mu * g_mps2 / k), max_speed_mps)
+        v = self._grip_speeds(s, mu, g_mps2, max_speed_mps)
         for i in range(len(v) - 2, -1, -1):  # braking ahead: v^2 = v_next^2 + 2 a (1 m)
             v[i] = min(v[i], math.sqrt(v[i + 1] ** 2 + 2.0 * decel_mps2))
         return float(start), v.tolist()
@@ -247,9 +251,7 @@ class PitPath:
         s = np.arange(0.0, end + 1e-9, 1.0)
         if len(s) < 3:
             return []
-        k = np.abs(self.curvature_at(s))
-        with np.errstate(divide="ignore"):
-            v = np.minimum(np.sqrt(mu * g_mps2 / k), max_speed_mps)
+        v = self._grip_speeds(s, mu, g_mps2, max_speed_mps)
         out: list[tuple[float, float]] = []
         for i in range(len(v)):
             lo = v[i - 1] if i > 0 else math.inf
