@@ -3,12 +3,16 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
+import numpy as np
 import pytest
 
+from boxbox.control.offset_room import offset_room_ahead
 from boxbox.control.traffic import brake_for, closing_time_s, min_gap_m, pass_pays, pass_side, predicted_speed_mps, room
+from boxbox.robot.opponent_lines import OpponentLines
 from boxbox.robot.opponents import Nearby
-from boxbox.robot.racecraft import Racecraft, RacecraftParams
+from boxbox.robot.racecraft import Racecraft, RacecraftParams, on_our_path
 
 G = 9.81
 
@@ -201,3 +205,47 @@ def test_an_offset_towards_the_outside_of_a_turn_is_kept_and_one_inwards_is_not(
     assert step(-1.0, 1.0) == pytest.approx(-1.0)  # right of the line, left turn: outside, kept
     assert _craft(keep_inside=False, keep_outside=False).offset(
         0.0, 30.0, 0.0, [car], 1.0, 0.0, (6.0, -6.0), -1.0, 400.0, 0.1, 1.0, 0.01) == pytest.approx(0.9)
+
+
+def test_a_car_ahead_counts_where_our_line_meets_it():
+    """on_our_path: a slower car 6 m aside now, our line swinging 5 m across to it, is in our lane
+    where we reach it; a car alongside and a faster car are where they are."""
+    ahead = _car(24.5, -6.0, 10.0)  # gap 20 m, closing at 10 m/s: met after 2 s, 40 m on
+    swing = lambda ahead_m: -5.0 * min(1.0, ahead_m / 40.0)  # noqa: E731  our line moves right as we go
+
+    [met] = on_our_path([ahead], 20.0, 3.0, swing)
+    assert met.lateral_m == pytest.approx(-1.0) and met.mid_m == pytest.approx(-6.0)
+    [later] = on_our_path([ahead], 20.0, 1.5, swing)  # met beyond the horizon: where it is now
+    assert later.lateral_m == pytest.approx(-6.0)
+    beside, faster = _car(3.0, -2.0, 10.0), _car(24.5, -6.0, 25.0)
+    assert [c.lateral_m for c in on_our_path([beside, faster], 20.0, 3.0, swing)] == [-2.0, -6.0]
+    # its line known from laps before: 40 m further on it drives 3 m left of where it is now
+    [seen] = on_our_path([ahead], 20.0, 3.0, swing, lambda c, ahead_m: (c.mid_m + 3.0 * ahead_m / 20.0, True))
+    assert seen.mid_m == pytest.approx(-3.0) and seen.lateral_m == pytest.approx(2.0)
+    # unknown there, and our line moving away from it: still counts where it is now (the closer)
+    [away] = on_our_path([ahead], 20.0, 3.0, lambda ahead_m: -swing(ahead_m))
+    assert away.lateral_m == pytest.approx(-6.0)
+
+
+def test_opponent_lines_remember_where_each_car_drove():
+    lines = OpponentLines(1000.0, 5.0)
+    lines.observe(990.0, [replace(_car(20.0, 3.0, 30.0), index=4)])  # at 10 m past the line: wraps
+    assert lines.mid_at(4, 1012.0, 0.0) == pytest.approx(3.0)  # the same 5 m step, a lap on
+    assert lines.mid_at(4, 500.0, -1.0) == -1.0  # never seen there: the fallback
+    assert lines.mid_at(7, 10.0, -2.0) == -2.0  # a car never seen
+    with pytest.raises(ValueError, match="positive"):
+        OpponentLines(0.0, 5.0)
+
+
+def test_offset_room_is_the_least_room_over_the_road_ahead():
+    line = np.array([0.0, 0.0, -3.0, -4.0, 0.0])  # the line runs to the right edge at sample 3
+    left, right = np.full(5, 5.0), np.full(5, 5.0)
+    room_l, room_r = offset_room_ahead(line, left, right, 2)
+    assert room_r.tolist() == [2.0, 1.0, 1.0, 1.0, 5.0]  # the apex at 3 bounds the samples before it
+    assert room_l.tolist() == [5.0, 5.0, 5.0, 5.0, 5.0]
+    assert offset_room_ahead(line, left, right, 0)[1].tolist() == [5.0, 5.0, 2.0, 1.0, 5.0]
+    assert offset_room_ahead(line, left, right, 99)[1].tolist() == [1.0] * 5  # the whole lap, wrapping
+    with pytest.raises(ValueError):
+        offset_room_ahead(line, left, right[:4], 2)
+    with pytest.raises(ValueError):
+        offset_room_ahead(line, left, np.full(5, np.nan), 2)

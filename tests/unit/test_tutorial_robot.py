@@ -14,7 +14,7 @@ import boxbox.robot.params as params_mod
 from boxbox.model import Opponent, State
 from boxbox.robot.base import RaceOptions
 from boxbox.robot.racingline import middle_line
-from boxbox.robot.tutorial import TutorialRobot
+from boxbox.robot.tutorial import OFFSET_ROOM_AHEAD_M, TutorialRobot
 from trackdata import load
 
 TRACKS = ["e-track-2", "g-track-1", "aalborg", "michigan", "mixed-2", "e-track-4"]
@@ -587,3 +587,25 @@ def test_a_car_behind_leaves_the_traction_control_of_the_line():
     aside.offset_m = 1.0
     aside_alone = copy.deepcopy(aside).drive(state)
     assert aside.drive(state._replace(opponents=(behind,))).accel != pytest.approx(aside_alone.accel)
+
+
+def test_an_overtaking_offset_comes_back_before_the_line_reaches_the_edge():
+    """aalborg: an offset held 3.5 m right of the line is pulled in wherever the line runs to the
+    right edge within OFFSET_ROOM_AHEAD_M, so the moved line stays edge_m inside the room there."""
+    robot = robot_for("aalborg")
+    edge = robot.craft.p.edge_m
+    ahead = int(OFFSET_ROOM_AHEAD_M / robot.step_m)
+    line = [robot.line.offset_at(j * robot.step_m) for j in range(robot.n)]
+    pulled = 0
+    for offset in (-3.5, 3.5):
+        robot.offset_m = offset
+        for j in range(robot.n):
+            off = robot._moved_line(j, line[j]) - line[j]
+            pulled += abs(off) < abs(offset) - 1e-9
+            for k in (j + i for i in range(ahead + 1)):
+                k %= robot.n
+                if off < 0.0:
+                    assert line[k] + off >= min(line[k], edge - robot._half_right[k]) - 1e-6
+                elif off > 0.0:
+                    assert line[k] + off <= max(line[k], robot._half_left[k] - edge) + 1e-6
+    assert pulled > robot.n // 10  # the rule acts, not only in theory

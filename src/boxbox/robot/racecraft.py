@@ -42,7 +42,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 
-from boxbox.control.traffic import brake_for, min_gap_m, pass_pays, pass_side, room
+from boxbox.control.traffic import brake_for, closing_time_s, min_gap_m, pass_pays, pass_side, room
 from boxbox.model.constants import G_MPS2
 from boxbox.robot.opponents import Nearby
 
@@ -95,6 +95,17 @@ class RacecraftParams:
     # radius, so the line's speed holds there (g-track-1 from last of 10, 6-14 laps: third behind
     # olethros:2, 11 m/s below our line in its long turns, in 8 of 9 races; with it 3 to 7 wins)
     keep_outside: bool = True
+    # a car ahead counts as in our lane where our line will be when we reach it, not only where we are
+    # (aalborg's S at 1600 m: the line swings 4.6 m across onto a car taking it at 12 m/s, which the
+    # lane of now saw 7 m aside until 0.3 s before contact, 500-900 damage a lap behind bt:2).  Off:
+    # braking for more cars cost passes (the 2-car matrix, docs/racecraft.md: 380 s lost, not 302)
+    path_lane: bool = False
+    path_lane_s: float = 2.0  # ... when we reach it within this many seconds
+    # ... where it will be from the line it was seen on there before (robot/opponent_lines.py)
+    learn_lines: bool = False
+    # a slower car ahead off our path where we reach it is not passed aside (the line goes by); with
+    # learn_lines: the matrix as before (301 s), 54 field races 185 places, not 179: off
+    path_pass: bool = False  # a slower car ahead off our path where we reach it is not passed aside (the line goes by)
 
 
 def converging(cars: list[Nearby], rates_mps: list[float], ahead_s: float) -> list[Nearby]:
@@ -109,6 +120,25 @@ def converging(cars: list[Nearby], rates_mps: list[float], ahead_s: float) -> li
             c = replace(c, lateral_m=moved, mid_m=c.mid_m + shift)
         elif moved * c.lateral_m <= 0.0 and c.lateral_m:
             c = replace(c, lateral_m=math.copysign(1e-3, c.lateral_m), mid_m=c.mid_m - c.lateral_m)
+        out.append(c)
+    return out
+
+
+def on_our_path(cars: list[Nearby], my_speed_mps: float, horizon_s: float, line_mid_at,
+                their_mid_at=None) -> list[Nearby]:
+    """The cars with the lateral of a slower car clear ahead taken against our line where we reach
+    it, after closing_time_s within horizon_s (line_mid_at(ahead_m) -> our line's to_middle that far
+    ahead).  their_mid_at(car, ahead_m) -> (its to_middle that far ahead of where it is, whether
+    that is known): known, the lateral there is the car's; unknown, the car keeps its to_middle and
+    counts there only when that is closer than now.  A car alongside is where it is."""
+    out = []
+    for c in cars:
+        t_s = closing_time_s(c.gap_m, my_speed_mps, c.speed_mps) if c.gap_m > 0.0 else math.inf
+        if t_s < horizon_s:
+            mid, known = their_mid_at(c, c.speed_mps * t_s) if their_mid_at else (c.mid_m, False)
+            meet = mid - line_mid_at(my_speed_mps * t_s)
+            if known or abs(meet) < abs(c.lateral_m):
+                c = replace(c, lateral_m=meet, mid_m=mid)
         out.append(c)
     return out
 

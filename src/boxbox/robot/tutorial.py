@@ -26,6 +26,7 @@ from boxbox.control import carmodel, lapsim, speed, suspension, tyre
 from boxbox.control.braking import brake_distance
 from boxbox.control.carmodel import CarModel
 from boxbox.control.gears import GearBox
+from boxbox.control.offset_room import offset_room_ahead
 from boxbox.control.pit_brake import ENTRY, EXIT, FREE, GAVE_UP, HOLD, LANE, LIMIT, STOP
 from boxbox.control.speed import SpeedProfile, allowed_speed, bump_speed, crest_speed
 from boxbox.control.steering import steer_to_line, steer_to_point
@@ -39,10 +40,11 @@ from boxbox.robot.bottoming import NO_PACKER_LIMIT_MPS, packer_speed_caps
 from boxbox.robot.carsetup import best_rear_wing_rad
 from boxbox.robot.drivable import centre_room
 from boxbox.robot.learning import TurnLearner
+from boxbox.robot.opponent_lines import OpponentLines
 from boxbox.robot.opponents import Nearby, OpponentParams, collision_brake, nearby, overtake_offset, side_steer
 from boxbox.robot.params import BOUNDS, CHOICES, TutorialParams, load_params
 from boxbox.robot.pit import PitParams, PitStops
-from boxbox.robot.racecraft import TURN_CURVATURE_1PM, Racecraft, RacecraftParams, inside_speed_mps
+from boxbox.robot.racecraft import TURN_CURVATURE_1PM, Racecraft, RacecraftParams, inside_speed_mps, on_our_path
 from boxbox.robot.racingline import RacingLine, middle_line, washboard
 from boxbox.robot.strategy import OUT_DAMAGE, plan_stops
 
@@ -54,6 +56,8 @@ REVERSE_MAX_S = 4.0  # longest time backing out in one go
 REVERSE_MAX_MPS = 4.0  # no throttle in reverse beyond this speed
 LOCK_SHARE = 0.95  # |steer| from which the steering counts as at its lock
 LOCK_MIN_SPEED_MPS = 10.0  # below this (leaving the grid onto the line) full lock is no sign of a slide
+OPPONENT_LINE_STEP_M = 5.0  # the step other cars' lines are remembered at (a car length)
+OFFSET_ROOM_AHEAD_M = 30.0  # an overtaking offset keeps inside the room over this much road ahead
 
 
 class TutorialRobot(Robot):
@@ -118,6 +122,10 @@ class TutorialRobot(Robot):
         self._normals = [(-math.sin(h), math.cos(h)) for h in mid.heading_rad.tolist()]
         self._half_left = mid.half_left_m.tolist()
         self._half_right = mid.half_right_m.tolist()
+        ahead = int(OFFSET_ROOM_AHEAD_M / self.step_m)
+        room = offset_room_ahead(np.asarray(self.line.offset_m[: self.n]), mid.half_left_m[: self.n],
+                                 mid.half_right_m[: self.n], ahead)
+        self._offset_room_l, self._offset_room_r = room[0].tolist(), room[1].tolist()
         self.tyre_model = CarModel.from_car(car, fuel_l=car.initial_fuel_l)
         self._downforce_per_mg = self.tyre_model.ca / (self.tyre_model.mass_kg * G_MPS2)
         self.learner = TurnLearner.from_limits(self._limits([1.0] * self.n, self.tyre_model), self.step_m,
@@ -149,6 +157,7 @@ class TutorialRobot(Robot):
                                   length_margin_m=p.length_margin_m, side_margin_m=p.side_margin_m,
                                   overtake_step_m=p.overtake_step_m)
         self.craft = Racecraft(RacecraftParams(), car.width_m, car.length_m, self.tyre_model.mu)
+        self.opp_lines = OpponentLines(track.length_m, OPPONENT_LINE_STEP_M)
         self.offset_m = 0.0
         self.target_mps = 0.0  # the speed profile's target the last drive step used
         self.stuck_steps = 0
@@ -452,6 +461,8 @@ class TutorialRobot(Robot):
         cars = nearby(s, self.car.length_m, self.track.length_m, p.back_range_m, p.front_range_m) \
             if s.opponents and not math.isnan(s.dist_from_start_m) else []
         if cars:
+            if self.craft.p.learn_lines:
+                self.opp_lines.observe(s.dist_from_start_m, cars)
             cars = self.craft.predict(s.sim_time_s, cars)
             dist = s.dist_from_start_m
             self._now_s, self._dist_m = s.sim_time_s, dist
@@ -462,8 +473,11 @@ class TutorialRobot(Robot):
                            if abs(c) >= TURN_CURVATURE_1PM), 0.0)  # the turn we are heading for
             inside = 0.0 if abs(k) < TURN_CURVATURE_1PM else math.copysign(1.0, k)
             straight = next((x for x in range(0, 400, 10) if self.profile.speed_at(dist + x) < 0.95 * v), 400)
+            passing = [c for c in self._on_our_path(cars, v)
+                       if c.laps_ahead > 0 or abs(c.lateral_m) < self.car.width_m + self.opp.side_margin_m] \
+                if self.craft.p.path_pass else cars
             base = None if self.craft.p.plan_passes else \
-                overtake_offset(self.offset_m, v, s.to_middle_m, cars, 0.5 * self.track.width_m - 1.5,
+                overtake_offset(self.offset_m, v, s.to_middle_m, passing, 0.5 * self.track.width_m - 1.5,
                                 self.car.length_m, self.opp)
             turn = max(abs(self.line.curvature_at(dist + x))
                        for x in range(0, int(max(0.0, v) * self.craft.p.turn_ahead_s) + 1, 10))
@@ -496,13 +510,23 @@ class TutorialRobot(Robot):
         line_off = self.line.offset_at(dist)
         if self.offset_m:
             j = int(dist / self.step_m) % self.n
-            line_off = max(-self._half_right[j], min(self._half_left[j], line_off + self.offset_m))
+            line_off = self._moved_line(j, line_off)
         heading_error = (self.line.heading_at(ahead) - s.yaw_rad + math.pi) % TWO_PI - math.pi
         # slip angle per lateral acceleration falls as downforce loads the tyres
         understeer = p.line_understeer_rad_per_mps2 / (1.0 + self._downforce_per_mg * v * v)
         return steer_to_line(heading_error, line_off - s.to_middle_m, self.line.curvature_at(ahead), v,
                              s.yaw_rate_rps, self.wheelbase_m, self.car.steer_lock_rad, p.line_lateral_gain,
                              p.line_yaw_damping_s, understeer_rad_per_mps2=understeer)
+
+    def _moved_line(self, j: int, line_off: float) -> float:
+        """The line at sample j moved by the overtaking offset: never nearer the edge of the room than
+        RacecraftParams.edge_m unless the line itself is (aalborg's right-hander at 1350 m: an inside
+        offset held to the room's very edge, the car cut past it into the inside wall, 29k damage in 9 races)."""
+        edge = self.craft.p.edge_m
+        lo = min(line_off, edge - self._half_right[j])
+        hi = max(line_off, self._half_left[j] - edge)
+        off = max(min(0.0, edge - self._offset_room_r[j]), min(max(0.0, self._offset_room_l[j] - edge), self.offset_m))
+        return max(lo, min(hi, line_off + off))
 
     def _steer_lookahead(self, s: State, v: float) -> float:
         """The tutorial's steering: at a point on the line lookahead_m + lookahead_s x speed ahead."""
@@ -512,7 +536,7 @@ class TutorialRobot(Robot):
         if self.offset_m:
             j = int(target_dist / self.step_m) % self.n
             line_off = self.line.offset_at(target_dist)
-            off = max(-self._half_right[j], min(self._half_left[j], line_off + self.offset_m)) - line_off
+            off = self._moved_line(j, line_off) - line_off
             nx, ny = self._normals[j]
             tx += off * nx
             ty += off * ny
@@ -543,10 +567,28 @@ class TutorialRobot(Robot):
         if not cars:
             return brake
         mode = self.craft.p.brake_mode
+        if self.craft.p.path_lane:
+            cars = self._on_our_path(cars, v)
         brake = self.craft.brake(self._now_s, brake, v, cars, self._other_target, predict=mode != "gap")
         if mode != "ttc":
             brake = collision_brake(brake, v, cars, self.car.width_m, self.opp, self._brakedist)
         return brake
+
+    def _on_our_path(self, cars: list[Nearby], v: float) -> list[Nearby]:
+        """The cars ahead judged where we reach them (robot/racecraft.py on_our_path)."""
+        their = self._their_mid_ahead if self.craft.p.learn_lines else None
+        return on_our_path(cars, v, self.craft.p.path_lane_s, self._line_mid_ahead, their)
+
+    def _their_mid_ahead(self, c: Nearby, ahead_m: float) -> tuple[float, bool]:
+        """Car c's to_middle ahead_m further along, from where it was seen there before."""
+        mid = self.opp_lines.mid_at(c.index, self._dist_m + c.dist_m + ahead_m, math.nan)
+        return (c.mid_m, False) if mid != mid else (mid, True)
+
+    def _line_mid_ahead(self, ahead_m: float) -> float:
+        """Our line's to_middle ahead_m ahead of the car, with the offset of now (inside the usable width)."""
+        at = self._dist_m + ahead_m
+        j = int(at / self.step_m) % self.n
+        return self._moved_line(j, self.line.offset_at(at)) if self.offset_m else self.line.offset_at(at)
 
     def _traction(self, s: State, v: float, brake: float, accel: float, traffic: bool) -> tuple[float, float]:
         """ABS on the brake, or traction control on the throttle (never both)."""
