@@ -12,7 +12,7 @@ from boxbox.control.offset_room import offset_room_ahead
 from boxbox.control.traffic import brake_for, closing_time_s, min_gap_m, pass_pays, pass_side, predicted_speed_mps, room
 from boxbox.robot.opponent_lines import OpponentLines
 from boxbox.robot.opponents import Nearby
-from boxbox.robot.racecraft import Racecraft, RacecraftParams, on_our_path
+from boxbox.robot.racecraft import Racecraft, RacecraftParams, conflict_time_s, on_our_path
 
 G = 9.81
 
@@ -249,3 +249,16 @@ def test_offset_room_is_the_least_room_over_the_road_ahead():
         offset_room_ahead(line, left, right[:4], 2)
     with pytest.raises(ValueError):
         offset_room_ahead(line, left, np.full(5, np.nan), 2)
+
+
+def test_a_car_turning_in_across_us_is_a_conflict_before_it_moves():
+    """conflict_time_s: a car half a length ahead, 3 m to our left, whose line comes to ours 10 m on."""
+    car = _car(2.0, 3.0, 20.0)
+    ours = lambda ahead_m: 0.0  # noqa: E731
+    turning = lambda c, ahead_m: (c.mid_m - 3.0 * min(1.0, ahead_m / 10.0), True)  # noqa: E731
+    keeping = lambda c, ahead_m: (c.mid_m, False)  # noqa: E731
+    assert conflict_time_s(car, 20.0, 4.5, 2.2, 1.0, ours, turning) == pytest.approx(0.2)  # 4 m on: 1.8 m apart
+    assert conflict_time_s(car, 20.0, 4.5, 2.2, 1.0, ours, keeping) == math.inf  # it keeps its 3 m
+    # we are 10 m/s faster: past it (0.65 s) before its line, turning in over 80 m, reaches ours
+    assert conflict_time_s(car, 30.0, 4.5, 2.2, 1.0, ours, lambda c, a: (c.mid_m - 3.0 * min(1.0, a / 80.0), True)) \
+        == math.inf

@@ -44,7 +44,14 @@ from boxbox.robot.opponent_lines import OpponentLines
 from boxbox.robot.opponents import Nearby, OpponentParams, collision_brake, nearby, overtake_offset, side_steer
 from boxbox.robot.params import BOUNDS, CHOICES, TutorialParams, load_params
 from boxbox.robot.pit import PitParams, PitStops
-from boxbox.robot.racecraft import TURN_CURVATURE_1PM, Racecraft, RacecraftParams, inside_speed_mps, on_our_path
+from boxbox.robot.racecraft import (
+    TURN_CURVATURE_1PM,
+    Racecraft,
+    RacecraftParams,
+    conflict_time_s,
+    inside_speed_mps,
+    on_our_path,
+)
 from boxbox.robot.racingline import RacingLine, middle_line, washboard
 from boxbox.robot.strategy import OUT_DAMAGE, plan_stops
 
@@ -461,7 +468,7 @@ class TutorialRobot(Robot):
         cars = nearby(s, self.car.length_m, self.track.length_m, p.back_range_m, p.front_range_m) \
             if s.opponents and not math.isnan(s.dist_from_start_m) else []
         if cars:
-            if self.craft.p.learn_lines:
+            if self.craft.p.learn_lines or self.craft.p.conflict_s:
                 self.opp_lines.observe(s.dist_from_start_m, cars)
             cars = self.craft.predict(s.sim_time_s, cars)
             dist = s.dist_from_start_m
@@ -572,6 +579,22 @@ class TutorialRobot(Robot):
         brake = self.craft.brake(self._now_s, brake, v, cars, self._other_target, predict=mode != "gap")
         if mode != "ttc":
             brake = collision_brake(brake, v, cars, self.car.width_m, self.opp, self._brakedist)
+        if self.craft.p.conflict_s > 0.0:
+            brake = self._conflict_brake(brake, v, cars)
+        return brake
+
+    def _conflict_brake(self, brake: float, v: float, cars: list[Nearby]) -> float:
+        """Full brake for a car up to three lengths ahead, beside our lane now, whose line crosses
+        ours while we overlap (robot/racecraft.py conflict_time_s): it turns in and does not see us."""
+        length, width = self.car.length_m, self.car.width_m
+        lane = width + self.opp.side_margin_m
+        for c in cars:
+            if 0.0 < c.dist_m < 3.0 * length and abs(c.lateral_m) >= lane and c.laps_ahead <= 0:
+                clear = 0.5 * (width + (c.width_m or width)) + 0.5
+                if conflict_time_s(c, v, length, clear, self.craft.p.conflict_s, self._line_mid_ahead,
+                                   self._their_mid_ahead) < math.inf:
+                    self.craft._mark(self._now_s)
+                    return 1.0
         return brake
 
     def _on_our_path(self, cars: list[Nearby], v: float) -> list[Nearby]:
