@@ -32,7 +32,11 @@ exactly as without it.  Per step:
   takes its speed of now, and a car braking earlier than our profile was run into),
   `inward_grip_share` (a move towards a turn's
   inside only with grip to spare), `yield_inside` (brake to fall in behind a car alongside on the
-  outside of the coming turn), `next_turn_s` (the first turn ahead is the inside to pass on).
+  outside of the coming turn), `next_turn_s` (the first turn ahead is the inside to pass on),
+  `path_lane` (a car ahead judged where our line meets it: `on_our_path`), `learn_lines` and
+  `path_pass` (that place from the line the car was seen on before, robot/opponent_lines.py; a car
+  off our path there is not passed aside), `conflict_s` (brake for a car whose remembered line
+  turns in across ours while we overlap: `conflict_time_s`).
 - `spoiled` / `tainted`: whether traffic shaped the last steps (a car close, the line moved aside,
   a brake for a car), so the learner drops the whole turn for this lap.
 """
