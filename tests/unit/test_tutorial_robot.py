@@ -13,6 +13,8 @@ import pytest
 import boxbox.robot.params as params_mod
 from boxbox.model import Opponent, State
 from boxbox.robot.base import RaceOptions
+from boxbox.robot.opponents import Nearby
+from boxbox.robot.racecraft import Racecraft, RacecraftParams
 from boxbox.robot.racingline import middle_line
 from boxbox.robot.tutorial import OFFSET_ROOM_AHEAD_M, TutorialRobot
 from trackdata import load
@@ -609,3 +611,21 @@ def test_an_overtaking_offset_comes_back_before_the_line_reaches_the_edge():
                 elif off > 0.0:
                     assert line[k] + off <= max(line[k], robot._half_left[k] - edge) + 1e-6
     assert pulled > robot.n // 10  # the rule acts, not only in theory
+
+
+def test_a_car_ahead_is_judged_where_our_line_meets_it_on_the_line_it_drove_before():
+    """The robot's wiring of racecraft's on_our_path: our line ahead from the racing line, the car's
+    place there from the lines remembered (robot/opponent_lines.py), with learn_lines on."""
+    robot = robot_for("aalborg")
+    robot.craft = Racecraft(RacecraftParams(path_lane=True, learn_lines=True), robot.car.width_m,
+                            robot.car.length_m, 1.2)
+    robot._dist_m, robot.offset_m = 1000.0, 0.0
+    # 19.5 m ahead (a 15 m gap), 10 m/s slower, 6 m left of our line: met after 1.5 s, 30 m on
+    car = Nearby(19.5, 15.0, 6.0, 10.0, 0, 1.94, robot.line.offset_at(1019.5) + 6.0, 3)
+    ours_m = robot.line.offset_at(1030.0)
+    [unknown] = robot._on_our_path([car], 20.0)  # never seen there: it keeps its to_middle
+    assert unknown.lateral_m == pytest.approx(min(6.0, car.mid_m - ours_m, key=abs))
+    # seen before where it will be then (15 m further on, 1034.5 m): on our line's place
+    robot.opp_lines.observe(1000.0, [Nearby(34.5, 30.0, 0.0, 10.0, 0, 1.94, ours_m, 3)])
+    [seen] = robot._on_our_path([car], 20.0)
+    assert seen.lateral_m == pytest.approx(0.0) and seen.mid_m == pytest.approx(ours_m)

@@ -243,7 +243,8 @@ class Racecraft:
             return True, new
         return turn >= 0 and turn in self._tainted, False
 
-    def _mark(self, now_s: float) -> None:
+    def mark_spoiled(self, now_s: float) -> None:
+        """Traffic shapes this step and the next spoil_hold_s: the learner skips them."""
         self.spoiled_until_s = now_s + self.p.spoil_hold_s
 
     # --- the line's offset ----------------------------------------------------------------------
@@ -287,7 +288,7 @@ class Racecraft:
             lo, hi = room(my_mid_m, alongside, self.width_m, p.side_gap_m, left, right)
             new = min(hi, max(lo, line_off_m + new)) - line_off_m
         if new or any(abs(c.dist_m) < p.spoil_m for c in cars):
-            self._mark(now_s)
+            self.mark_spoiled(now_s)
         return new
 
     def _pass_target(self, now_s: float, v: float, cars: list[Nearby], my_mid_m: float, line_off_m: float,
@@ -428,7 +429,7 @@ class Racecraft:
             want = max(want, self._braking_ahead(v, cars))
         if want <= 0.0:
             return brake
-        self._mark(now_s)
+        self.mark_spoiled(now_s)
         follower = any(-p.follower_m < c.dist_m < 0.0 and abs(c.lateral_m) < self.width_m for c in cars)
         if follower and closest > p.margin_m:
             want = min(want, p.follower_brake)

@@ -595,7 +595,7 @@ class TutorialRobot(Robot):
                 clear = 0.5 * (width + (c.width_m or width)) + 0.5
                 if conflict_time_s(c, v, length, clear, self.craft.p.conflict_s, self._line_mid_ahead,
                                    self._their_mid_ahead) < math.inf:
-                    self.craft._mark(self._now_s)
+                    self.craft.mark_spoiled(self._now_s)
                     return 1.0
         return brake
 
