@@ -262,3 +262,23 @@ def test_a_car_turning_in_across_us_is_a_conflict_before_it_moves():
     # we are 10 m/s faster: past it (0.65 s) before its line, turning in over 80 m, reaches ours
     assert conflict_time_s(car, 30.0, 4.5, 2.2, 1.0, ours, lambda c, a: (c.mid_m - 3.0 * min(1.0, a / 80.0), True)) \
         == math.inf
+
+
+def test_a_stopped_car_in_our_lane_blocks_us_only_while_we_are_stopped_too():
+    craft = _craft()
+    wreck = _car(6.4, 0.5, 0.2)
+    assert craft.blocking(0.0, [wreck]) is wreck
+    assert craft.blocking(10.0, [wreck]) is None  # at speed the pass aside still works
+    assert craft.blocking(0.0, [_car(6.4, 4.0, 0.2)]) is None  # beside our lane
+    assert craft.blocking(0.0, [_car(6.4, 0.5, 5.0)]) is None  # moving off
+    assert craft.blocking(0.0, [_car(12.0, 0.5, 0.2)]) is None  # room to steer round it
+    # after backing away the nearest stopped car in our way counts, alongside too
+    assert craft.stopped_ahead([_car(12.0, 0.5, 0.2), _car(-1.0, 1.0, 0.0)]).dist_m == -1.0
+
+
+def test_a_wreck_is_driven_round_on_the_side_with_our_width():
+    craft = _craft(wreck_gap_m=0.5)
+    # mixed-2 at 257 m: 7.6 m wide, the wreck 1 m left of the middle: only the right has room
+    target = craft.wreck_target(_car(6.4, 1.0, 0.2), 3.8, -3.8)
+    assert target == pytest.approx(1.0 - (2.0 + 0.5))
+    assert craft.wreck_target(_car(6.4, 0.0, 0.2), 2.9, -2.9) is None  # neither side has room

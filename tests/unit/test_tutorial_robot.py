@@ -246,6 +246,32 @@ def test_keeps_backing_until_pointing_along_the_track_for_at_most_4_s():
     assert robot.drive(backing._replace(angle_rad=-0.2)).gear >= 1  # 11 deg: along the track, forward
 
 
+def test_backs_away_from_a_wreck_in_its_lane_and_drives_round_it_at_walking_pace():
+    """Stopped behind a stopped car in our lane for over 2 s, the car backs 2.5 car lengths, then
+    steers round the wreck at no more than 5 m/s without braking for it (mixed-2, 10 laps: 33 s
+    behind tita:3's wreck)."""
+    robot = robot_for("e-track-2")
+    d = straight_dist(robot)
+    me = line_state(robot, d, 0.0, gear=1.0)
+    wreck = make_opp(dist_from_start_m=d + 6.4, to_middle_m=me.to_middle_m + 0.5, speed_mps=0.2, car_index=3.0)
+    s = me._replace(opponents=(wreck,), n_opponents=1.0)
+    gears = [robot.drive(s).gear for _ in range(110)]
+    assert gears[90] >= 1 and gears[-1] == -1  # 1.8 s: waiting; 2.2 s: backing
+    half_way = line_state(robot, d - 6.0, -3.0, gear=-1.0)._replace(opponents=(wreck,), n_opponents=1.0)
+    assert robot.drive(half_way).gear == -1
+    backed = line_state(robot, d - 12.0, -1.0, gear=-1.0)._replace(opponents=(wreck,), n_opponents=1.0)
+    assert robot.drive(backed).gear >= 1  # 12 m back: forward again
+    rolling = line_state(robot, d - 4.0, 3.0)._replace(opponents=(wreck,), n_opponents=1.0)
+    c = robot.drive(rolling)
+    require(robot.wreck is not None, "the wreck is the one driven round")
+    half = track_half_width(robot, int((d + 6.4) / robot.step_m) % robot.n)
+    side = 1.0 if half - wreck.to_middle_m > half + wreck.to_middle_m else -1.0  # the side with more room
+    assert c.steer * side > 0.2  # 10 m behind it, 0.5 m to its side: steering round it
+    assert c.brake == 0.0 and c.accel > 0.0 and robot.target_mps <= 5.0
+    robot.drive(rolling._replace(speed_x_mps=6.0))
+    assert robot.target_mps <= 5.0
+
+
 @pytest.mark.parametrize("fields", [
     dict(angle_rad=0.8),  # pointing away from the near edge (to_middle 4 m): it can drive out forwards
     dict(angle_rad=-0.3),  # less than 30 deg

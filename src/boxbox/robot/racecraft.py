@@ -37,6 +37,9 @@ exactly as without it.  Per step:
   `path_pass` (that place from the line the car was seen on before, robot/opponent_lines.py; a car
   off our path there is not passed aside), `conflict_s` (brake for a car whose remembered line
   turns in across ours while we overlap: `conflict_time_s`).
+- `blocking` / `wreck_target`: stopped behind a stopped car in our lane (a wreck) for blocked_s,
+  the robot backs away blocked_back_lengths car lengths and then drives round it (and any other
+  stopped car in its way for wreck_s) at wreck_speed_mps, up to the track's edge, not braking for it.
 - `spoiled` / `tainted`: whether traffic shaped the last steps (a car close, the line moved aside,
   a brake for a car), so the learner drops the whole turn for this lap.
 """
@@ -115,6 +118,14 @@ class RacecraftParams:
     # races fell from 82,577 to 36,322 (aalborg 23,058 to 318), but its places rose from 169 to 239
     # (g-track-1 7th to 10th): most passes are made side by side with such a car
     conflict_s: float = 0.0
+    # stopped this long behind a stopped car in our lane (a wreck): back away from it to steer round
+    # (mixed-2's narrow turn at 257 m: boxbox sat 33 s behind tita:3's wreck with no side wide
+    # enough for the margins of a pass at speed)
+    blocked_s: float = 2.0
+    blocked_back_lengths: float = 2.5  # ... this many car lengths before driving round it
+    wreck_gap_m: float = 0.5  # then round it at this lateral gap, up to the track's edge,
+    wreck_speed_mps: float = 5.0  # ... no faster than this,
+    wreck_s: float = 15.0  # ... for at most this long
 
 
 def converging(cars: list[Nearby], rates_mps: list[float], ahead_s: float) -> list[Nearby]:
@@ -349,6 +360,32 @@ class Racecraft:
                                    inside_sign)
                 return None if chosen is None else chosen[1]
         return None
+
+    def stopped_ahead(self, cars: list[Nearby], reach_lengths: float = 3.0) -> Nearby | None:
+        """The nearest stopped car ahead (or alongside) within reach_lengths car lengths and
+        overlapping our lane, or None."""
+        p = self.p
+        near = [c for c in cars if -self.length_m < c.dist_m < reach_lengths * self.length_m
+                and c.speed_mps < p.stopped_mps
+                and abs(c.lateral_m) < 0.5 * (self.width_m + (c.width_m or self.width_m)) + p.lane_m]
+        return min(near, key=lambda c: c.dist_m, default=None)
+
+    def blocking(self, v: float, cars: list[Nearby]) -> Nearby | None:
+        """The stopped car close ahead in our lane while we are stopped too, or None: a wreck we
+        cannot steer round from where we stand."""
+        if v >= self.p.stopped_mps:
+            return None
+        c = self.stopped_ahead(cars, 2.0)
+        return c if c is not None and c.dist_m > 0.0 else None
+
+    def wreck_target(self, c: Nearby, left_m: float, right_m: float) -> float | None:
+        """Our lateral position (+ left) to drive by a wreck, car c, at walking pace: wreck_gap_m
+        beside it on the side with more room up to the track's edges (left_m, right_m as lateral
+        positions), or None when neither side has our width."""
+        half = 0.5 * self.width_m
+        chosen = pass_side(c.mid_m, self.width_m, c.width_m or self.width_m, self.p.wreck_gap_m, left_m - half,
+                           right_m + half, 0.0)
+        return None if chosen is None else chosen[1]
 
     def _yield_target(self, cars: list[Nearby], my_mid_m: float, left: float, right: float) -> float | None:
         """Aside for a car lapping us from close behind: the side it is not on."""

@@ -5,7 +5,7 @@ pit part (robot/pit.py). Per step (drive): look-ups and a few comparisons, one n
 in the order of the tutorial's filter chain (bt's driver.cpp: filterABS(filterBrakeSpeed(
 filterBColl(filterBPit(getBrake()))))):
 
-    new lap (learned factors, fuel: rebuild the profile) -> stuck? back out
+    new lap (learned factors, fuel: rebuild the profile) -> stuck (or behind a wreck)? back out
     learn (room left in this turn) -> traffic (cars near, overtaking offset)
     steer     = avoid_side(steer to the line + offset)
     brake, accel = speed (the profile) -> pits.step (stop in the box) -> avoid_collision
@@ -172,6 +172,10 @@ class TutorialRobot(Robot):
         self.stuck_steps = 0
         self.reversing = False
         self.reverse_steps = 0
+        self.blocked_steps = 0
+        self._backing_from_m: float | None = None  # where backing away from a wreck began
+        self._wrecks_until_s = -math.inf  # after backing from a wreck, stopped cars are driven round until then
+        self.wreck: Nearby | None = None  # the stopped car ahead driven round this step
         self.laps_seen = 0
         self.last_damage = 0.0
         self._setup_pit(track, car, p)
@@ -469,10 +473,13 @@ class TutorialRobot(Robot):
         p = self.params
         cars = nearby(s, self.car.length_m, self.track.length_m, p.back_range_m, p.front_range_m) \
             if s.opponents and not math.isnan(s.dist_from_start_m) else []
+        self.wreck = None
         if cars:
             if self.craft.p.learn_lines or self.craft.p.conflict_s:
                 self.opp_lines.observe(s.dist_from_start_m, cars)
             cars = self.craft.predict(s.sim_time_s, cars)
+            self._back_from_wreck(s, v, cars)
+            self.wreck = self._wreck_ahead(s, cars)
             dist = s.dist_from_start_m
             self._now_s, self._dist_m = s.sim_time_s, dist
             j = int(dist / self.step_m) % self.n
@@ -499,6 +506,38 @@ class TutorialRobot(Robot):
                 else min(0.0, self.offset_m + p.overtake_step_m)
         return cars
 
+    def _back_from_wreck(self, s: State, v: float, cars: list[Nearby]) -> None:
+        """Start backing away from a stopped car in our lane after RacecraftParams.blocked_s stopped
+        behind it (robot/racecraft.py blocking): from where we stand there is no steering round it."""
+        on_track = PIT_PHASE_CODES.get(self.pits.phase, -1) == 0  # not in the pit lane, where cars stop
+        blocker = self.craft.blocking(v, cars) if on_track else None
+        self.blocked_steps = self.blocked_steps + 1 if blocker else 0
+        if blocker and self.blocked_steps * DRIVE_STEP_S > self.craft.p.blocked_s:
+            self.reversing, self.reverse_steps, self.blocked_steps = True, 0, 0
+            self._backing_from_m = s.dist_from_start_m
+            self._wrecks_until_s = s.sim_time_s + self.craft.p.wreck_s
+
+    def _wreck_ahead(self, s: State, cars: list[Nearby]) -> Nearby | None:
+        """Within RacecraftParams.wreck_s of backing from a wreck: the nearest stopped car ahead
+        (or alongside) in our way, driven round at walking pace and not braked for (a pile-up
+        seldom has one car in it)."""
+        if s.sim_time_s > self._wrecks_until_s:
+            return None
+        return self.craft.stopped_ahead(cars)
+
+    def _steer_by_wreck(self, s: State, c: Nearby) -> float | None:
+        """Steer at the point beside the wreck c (a car length ahead of us once alongside), on the
+        side with room (robot/racecraft.py wreck_target); None when neither side has room."""
+        at = s.dist_from_start_m + max(c.dist_m, self.car.length_m)
+        j = int(at / self.step_m) % self.n
+        target = self.craft.wreck_target(c, self._half_left[j], -self._half_right[j])
+        if target is None:
+            return None
+        tx, ty = self.line.point_at(at)
+        off = target - self.line.offset_at(at)
+        nx, ny = self._normals[j]
+        return steer_to_point(s.x_m, s.y_m, s.yaw_rad, tx + off * nx, ty + off * ny, self.car.steer_lock_rad)
+
     def _other_target(self, c: Nearby) -> float:
         """The speed a car ahead is predicted to slow to within the horizon: our profile's lowest
         speed over the road it covers, scaled by how much slower than the profile it drives now
@@ -510,6 +549,10 @@ class TutorialRobot(Robot):
         return min(c.speed_mps, max(0.8, min(1.0, c.speed_mps / here)) * lowest)
 
     def _steer(self, s: State, v: float) -> float:
+        if self.wreck is not None:
+            steer = self._steer_by_wreck(s, self.wreck)
+            if steer is not None:
+                return steer
         return self._steer_line(s, v) if self.params.steering == "line" else self._steer_lookahead(s, v)
 
     def _steer_line(self, s: State, v: float) -> float:
@@ -564,6 +607,8 @@ class TutorialRobot(Robot):
         if self.offset_m and self.craft.p.inside_speed:  # off the line in traffic: its radius, not the line's
             target = inside_speed_mps(target, self.line.curvature_at(s.dist_from_start_m + v * p.speed_lookahead_s),
                                       self.offset_m)
+        if self.wreck is not None:
+            target = min(target, self.craft.p.wreck_speed_mps)
         self.target_mps = target  # for telemetry
         if v > target:
             return min(1.0, (v - target) / p.brake_band_mps), 0.0
@@ -576,6 +621,8 @@ class TutorialRobot(Robot):
         if not cars:
             return brake
         mode = self.craft.p.brake_mode
+        if self.wreck is not None:  # driven round at walking pace
+            cars = [c for c in cars if c.index != self.wreck.index]
         if self.craft.p.path_lane:
             cars = self._on_our_path(cars, v)
         brake = self.craft.brake(self._now_s, brake, v, cars, self._other_target, predict=mode != "gap")
@@ -666,9 +713,16 @@ class TutorialRobot(Robot):
         p = self.params
         if self.reversing:
             self.reverse_steps += 1
-            if abs(s.angle_rad) < 0.5 * self._stuck_angle or self.reverse_steps * DRIVE_STEP_S > REVERSE_MAX_S:
+            if self._backing_from_m is None:
+                done = abs(s.angle_rad) < 0.5 * self._stuck_angle
+            else:  # away from a wreck: far enough back to steer round it
+                half = 0.5 * self.track.length_m
+                backed_m = (self._backing_from_m - s.dist_from_start_m + half) % self.track.length_m - half
+                done = backed_m > self.craft.p.blocked_back_lengths * self.car.length_m
+            if done or self.reverse_steps * DRIVE_STEP_S > REVERSE_MAX_S:
                 self.reversing = False
                 self.stuck_steps = 0
+                self._backing_from_m = None
             return self.reversing
         if abs(s.angle_rad) > self._stuck_angle and s.speed_x_mps < p.stuck_speed_mps \
                 and abs(s.to_middle_m) > p.stuck_offset_m and s.angle_rad * s.to_middle_m < 0:
