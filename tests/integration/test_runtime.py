@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import re
 import shutil
 import subprocess
 import time
@@ -165,6 +166,21 @@ def test_the_wall_limit_can_be_set(tmp_path, overlay):
     result = launch.run_race(cfg, overlay)
     assert time.monotonic() - started < 10
     assert result.error.startswith("the race did not finish within its wall limit of 1.5 s"), result.error
+    assert processes_mentioning(str(tmp_path)) == []
+
+
+def test_torcs_that_stops_calling_the_robots_is_stopped_after_the_stall_limit(tmp_path, overlay):
+    """TORCS stopped mid-race (here SIGSTOP, seen as torcs-bin spinning at full CPU): the host's
+    heartbeat stops, and the race ends after the stall limit (set-up budget + step budget + 6 s),
+    not the wall limit (hours with the default budgets), with nothing left running."""
+    cfg = launch.RaceConfig(track="g-track-1", category="road", laps=1, robots=[f"{HOSTILE}:StopsTorcs"],
+                            run_dir=tmp_path / "run", step_budget_ms=50, setup_budget_ms=1000, telemetry=False)
+    started = time.monotonic()
+    result = launch.run_race(cfg, overlay)
+    assert time.monotonic() - started < 25
+    assert re.match(r"TORCS stopped calling the robots \(last heard of at -?[\d.]+ s of simulated time\) and did "
+                    r"not resume for 7 s; it was stopped", result.error), result.error
+    assert result.limits["wall_limit_s"] > 100
     assert processes_mentioning(str(tmp_path)) == []
 
 

@@ -92,3 +92,27 @@ class NumpyControls(MiddleRobot):
         c = super().drive(state)
         return Controls(steer=np.float32(c.steer), accel=np.float64(c.accel), brake=np.array(c.brake),
                         clutch=np.float32(c.clutch), gear=np.int64(c.gear) if state.laps > 1 else float(c.gear))
+
+
+class StopsTorcs(MiddleRobot):
+    """After a second of racing, stops its own TORCS (SIGSTOP): TORCS no longer calls the robots,
+    as when torcs-bin spins at full CPU mid-race."""
+
+    stopped = False
+
+    def drive(self, state):
+        if state.sim_time_s > 1.0 and not self.stopped:
+            import os
+            import signal
+
+            import psutil
+
+            self.stopped = True
+            run_dir = os.environ["BOXBOX_RUN_DIR"]
+            for proc in psutil.process_iter(["name"]):
+                try:
+                    if "torcs" in (proc.info["name"] or "") and proc.environ().get("BOXBOX_RUN_DIR") == run_dir:
+                        os.kill(proc.pid, signal.SIGSTOP)
+                except (psutil.Error, OSError):
+                    pass
+        return super().drive(state)

@@ -332,3 +332,11 @@ def test_asking_on_the_way_out_of_a_stop_is_no_miss_but_next_lap_counts():
     assert watch.finish() == []
     drive_through(watch, pit_states(track, car, [20.0] * 5, -3.0, [-20, -10, 0, 10, 20]), track)  # next lap
     assert [m["reason"] for m in watch.finish()] == ["passed its box"]
+
+
+def test_the_stall_limit_covers_the_longest_call_and_a_heartbeat():
+    from boxbox.torcs.timing import HEARTBEAT_S, STALL_MARGIN_S, TimeModel
+
+    model = TimeModel(step_budget_ms=200, setup_budget_ms=120_000)
+    assert model.stall_limit_s() == pytest.approx(120.2 + HEARTBEAT_S + STALL_MARGIN_S)
+    assert model.stall_limit_s() < model.wall_limit_s(1, 2000.0, 1, 10) / 10

@@ -31,6 +31,8 @@ class Ending:
     setup_budget_ms: float
     wall_limit_s: float
     timed_out: bool = False
+    stalled_s: float | None = None  # timed out after this long without a robot call (TORCS stuck)
+    stalled_sim_s: float = 0.0  # ... after this much simulated time
     fault: Fault | None = None
     torcs_code: int | None = None
     host_code: int | None = None
@@ -49,6 +51,9 @@ def diagnose(run_dir: RunDir, end: Ending) -> str | None:
         return fault.line(end.robots[0] if end.robots else "")
     if marker := FAULT_LINE.search(err_text):
         return _bridge_fault(run_dir, end, marker)
+    if end.timed_out and end.stalled_s is not None:
+        return f"TORCS stopped calling the robots (last heard of at {end.stalled_sim_s:.1f} s of simulated time) " \
+            f"and did not resume for {end.stalled_s:.0f} s; it was stopped (logs {run_dir.path}/torcs.*)"
     if end.timed_out:
         hang_tb = run_dir.read_text(run_dir.hang_traceback).strip()
         limit = f"{end.wall_limit_s:.0f}" if end.wall_limit_s >= 10 else f"{end.wall_limit_s:.2g}"

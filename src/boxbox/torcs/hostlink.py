@@ -8,6 +8,7 @@ race, and at the end the host's summary of each Python car.
 |---|---|---|
 | `connected` | TORCS's bridge connected | - |
 | `track` | the track arrived | `length_m` (the launcher's wall limit needs it) |
+| `alive` | every HEARTBEAT_S of wall time while TORCS calls the robots | `sim_time_s` |
 | `progress` | every lap of a Python car | `cars`, `other_lap_times` as in `summary` (step times left out) |
 | `fault` | a robot fault | a `faults.Fault` |
 | `summary` | the host's end | `cars` (per Python car: lap times, step times, incidents, missed pit |
@@ -56,6 +57,8 @@ class HostReports:
         self.summary: dict | None = None
         self.fault: Fault | None = None
         self.telemetry_errors: list[str] = []
+        self.alive_at: float | None = None  # perf_counter of the last heartbeat
+        self.alive_sim_s = 0.0  # the simulated time it gave
 
     def read(self) -> None:
         """Take what the pipe holds now (never blocks); `closed` once the host's end is closed."""
@@ -106,6 +109,9 @@ class HostReports:
             self.connected = True
         elif kind == "track":
             self.track_length_m = float(msg["length_m"])
+        elif kind == "alive":
+            self.alive_at = time.perf_counter()
+            self.alive_sim_s = float(msg.get("sim_time_s", 0.0))
         elif kind == "progress":
             self.progress = msg
         elif kind == "summary":

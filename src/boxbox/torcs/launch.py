@@ -12,6 +12,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import json
+import math
 import os
 import selectors
 import shutil
@@ -183,6 +184,7 @@ class Race:
         self.sock_dir: str | None = None
         self.laps_seen: list[tuple[int, float]] = []
         self.timed_out = False
+        self.stalled = False  # timed out by the stall limit: TORCS stopped calling the robots
         self.tail = LogTail(run_dir.host_log) if cfg.verbose else None
         self.started = time.perf_counter()
         self.env = dict(os.environ, LD_LIBRARY_PATH=str(overlay.torcs.shared_lib_dir),
@@ -285,9 +287,11 @@ class Race:
                 sel.register(self.stop.wakeup_fd, selectors.EVENT_READ, "stop")
             pending = b""
             while not self.stop.stopped:
-                remaining = self._deadline() - time.perf_counter()
+                now = time.perf_counter()
+                remaining = self._deadline() - now
                 if remaining <= 0:
                     self.timed_out = True
+                    self.stalled = now >= self._stall_deadline()
                     return
                 events = sel.select(timeout=min(remaining, 0.1 if tail else 1.0))
                 if tail:
@@ -320,12 +324,18 @@ class Race:
                     self.progress(lap, sim_s)
 
     def _deadline(self) -> float:
-        """Until the host knows the track, the start-up allowance; then the whole race's wall limit."""
+        """Until the host knows the track, the start-up allowance; then the whole race's wall limit,
+        or sooner the stall limit after the host's last heartbeat (torcs/timing.py)."""
         cfg = self.cfg
         length = self.reports.track_length_m if self.reports is not None else None
         if cfg.wall_limit_s is None and cfg.robots and length is None:
             return self.started + cfg.time_model.start_limit_s(len(cfg.robots))
-        return self.started + cfg.wall_limit(length)
+        return min(self.started + cfg.wall_limit(length), self._stall_deadline())
+
+    def _stall_deadline(self) -> float:
+        """When the host's silence means TORCS stopped calling the robots (inf before its first heartbeat)."""
+        alive = self.reports.alive_at if self.reports is not None else None
+        return math.inf if alive is None else alive + self.cfg.time_model.stall_limit_s()
 
     def _wind_down(self) -> None:
         """TORCS stopped (or stopping): let a host that is not stuck send its summary and exit."""
@@ -406,7 +416,10 @@ class Race:
         cfg = self.cfg
         end = Ending(robots=list(cfg.robots), names=cfg.names, step_budget_ms=cfg.step_budget_ms,
                      setup_budget_ms=cfg.setup_budget_ms, wall_limit_s=self._deadline() - self.started,
-                     timed_out=self.timed_out, fault=self.reports.fault if self.reports else None,
+                     timed_out=self.timed_out,
+                     stalled_s=self.cfg.time_model.stall_limit_s() if self.stalled else None,
+                     stalled_sim_s=self.reports.alive_sim_s if self.reports else 0.0,
+                     fault=self.reports.fault if self.reports else None,
                      torcs_code=self.torcs.returncode if self.torcs else None,
                      host_code=self.host.poll() if self.host else None)
         error = diagnose(self.run_dir, end)

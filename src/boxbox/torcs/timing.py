@@ -12,6 +12,10 @@
   the simulated-time limit (50 a second) taking every Python robot's step budget plus a
   millisecond per car for TORCS itself. A robot that keeps within its budgets is therefore never
   stopped for being slow overall; the wall limit only catches TORCS itself hanging.
+* **Stall limit**: once the race is under way the robot host tells the launcher every
+  HEARTBEAT_S of wall time that TORCS still calls it; silence for longer than a set-up budget, a
+  step budget, a heartbeat and STALL_MARGIN_S together means TORCS stopped calling the robots
+  (torcs-bin has been seen spinning at full CPU mid-race; the wall limit would wait hours).
 
 All four can be set (RaceConfig: `step_budget_ms`, `setup_budget_ms`, `min_speed_mps`,
 `wall_limit_s` to replace the derived wall limit); docs/reliability.md shows the figures.
@@ -30,6 +34,8 @@ START_S = 30.0  # processes starting, TORCS loading the track and cars
 ENGINE_S_PER_CAR_STEP = 0.001  # TORCS's own work per car and step, with a wide margin (it is ~20 us)
 UNKNOWN_TRACK_M = 25_000.0  # before the track's length is known (the longest installed: spring, 22.1 km)
 SETUP_CALLS_BEFORE_START = 3  # connecting, initial_fuel_l, on_track
+HEARTBEAT_S = 1.0  # the robot host says it is still being called this often (wall time)
+STALL_MARGIN_S = 5.0  # scheduling on a busy machine, on top of the longest legitimate silence
 
 
 @dataclass(frozen=True)
@@ -49,6 +55,12 @@ class TimeModel:
     def start_limit_s(self, python_cars: int) -> float:
         """Wall time until the first drive step: start-up and every robot's set-up calls."""
         return START_S + python_cars * SETUP_CALLS_BEFORE_START * self.setup_budget_ms / 1000
+
+    def stall_limit_s(self) -> float:
+        """Wall time without a word from the robot host, once it is being called, after which
+        TORCS has stopped calling it: the longest call (a set-up call, a pit stop's included), a
+        step, the heartbeat's period and a margin."""
+        return (self.setup_budget_ms + self.step_budget_ms) / 1000 + HEARTBEAT_S + STALL_MARGIN_S
 
     def wall_limit_s(self, laps: int, length_m: float | None, python_cars: int, cars: int) -> float:
         """Wall time the whole race may take when every call uses its full budget."""
