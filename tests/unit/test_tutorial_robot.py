@@ -246,6 +246,21 @@ def test_keeps_backing_until_pointing_along_the_track_for_at_most_4_s():
     assert robot.drive(backing._replace(angle_rad=-0.2)).gear >= 1  # 11 deg: along the track, forward
 
 
+def test_backing_out_waits_for_a_car_coming_from_behind():
+    """Reversing out of a stuck spot stops on the brakes while a car behind would reach us within
+    3 s (e-track-2: boxbox backed into bt:2 and berniw:3 coming by, 242 damage), and goes on after."""
+    robot = robot_for("e-track-2")
+    s = line_state(robot, 300.0, 1.0, to_middle_m=4.0, angle_rad=-0.8, gear=1.0)
+    gears = [robot.drive(s).gear for _ in range(110)]
+    require(gears[-1] == -1, "reversing after 2 s stuck")
+    coming = make_opp(dist_from_start_m=280.0, to_middle_m=0.0, speed_mps=30.0)
+    c = robot.drive(s._replace(opponents=(coming,), n_opponents=1.0))
+    assert c.gear == -1 and c.brake == 1.0 and c.accel == 0.0
+    far = make_opp(dist_from_start_m=300.0 - 45.0, to_middle_m=0.0, speed_mps=10.0)  # 4.5 s away
+    c = robot.drive(s._replace(opponents=(far,), n_opponents=1.0))
+    assert c.gear == -1 and c.brake == 0.0 and c.accel > 0.0
+
+
 def test_backs_away_from_a_wreck_in_its_lane_and_drives_round_it_at_walking_pace():
     """Stopped behind a stopped car in our lane for over 2 s, the car backs 2.5 car lengths, then
     steers round the wreck at no more than 5 m/s without braking for it (mixed-2, 10 laps: 33 s

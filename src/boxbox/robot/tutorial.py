@@ -61,6 +61,7 @@ DAMAGE_DRAG_POINTS = 5000.0  # the damage the drag's cost per point is measured 
 PIT_PHASE_CODES = {None: 0, FREE: 0, ENTRY: 1, LIMIT: 2, LANE: 3, STOP: 4, HOLD: 5, EXIT: 6, GAVE_UP: 7}
 REVERSE_MAX_S = 4.0  # longest time backing out in one go
 REVERSE_MAX_MPS = 4.0  # no throttle in reverse beyond this speed
+REVERSE_CLEAR_S = 3.0  # no backing while a car coming from behind would reach us within this
 LOCK_SHARE = 0.95  # |steer| from which the steering counts as at its lock
 LOCK_MIN_SPEED_MPS = 10.0  # below this (leaving the grid onto the line) full lock is no sign of a slide
 OPPONENT_LINE_STEP_M = 5.0  # the step other cars' lines are remembered at (a car length)
@@ -427,11 +428,22 @@ class TutorialRobot(Robot):
         return Controls(steer=0.0, accel=0.0, brake=1.0, clutch=0.0, gear=gear)
 
     def _back_out(self, s: State, v: float) -> Controls:
-        """Reverse, steering the nose back towards the track's direction."""
+        """Reverse, steering the nose back towards the track's direction; held on the brakes while
+        a car comes up from behind (the backing car is in its way)."""
         steer = max(-1.0, min(1.0, -s.angle_rad * self._inv_lock))
+        if s.opponents and self._coming_from_behind(s):
+            self.reverse_steps -= 1  # waiting is no time spent backing
+            return Controls(steer=steer, accel=0.0, brake=1.0, clutch=0.0, gear=-1)
         # backing out is for turning round, not for speed: off the track it slid into walls at 11 m/s
         accel = 0.6 if v > -REVERSE_MAX_MPS else 0.0
         return Controls(steer=steer, accel=accel, brake=0.0, clutch=0.0, gear=-1)
+
+    def _coming_from_behind(self, s: State) -> bool:
+        """A moving car behind us that reaches us within REVERSE_CLEAR_S (e-track-2, 10 laps: boxbox
+        backed off the grass at 3000 m into bt:2 and berniw:3 coming by, 242 damage)."""
+        cars = nearby(s, self.car.length_m, self.track.length_m, self.params.back_range_m, 0.0)
+        return any(c.dist_m < 0.0 and c.speed_mps > REVERSE_MAX_MPS
+                   and -c.dist_m < (c.speed_mps + REVERSE_MAX_MPS) * REVERSE_CLEAR_S for c in cars)
 
     def _learn(self, s: State) -> None:
         """Tell the learner how much room the car left to the edge in this turn and how far the car
