@@ -246,6 +246,18 @@ def test_keeps_backing_until_pointing_along_the_track_for_at_most_4_s():
     assert robot.drive(backing._replace(angle_rad=-0.2)).gear >= 1  # 11 deg: along the track, forward
 
 
+def test_a_car_turned_round_and_grinding_into_something_backs_out():
+    """Turned round (pointing against the track) near the middle, slow and taking damage every
+    step (dirt-5: pushing a stopped car at full throttle, 10,000 damage): after 2 s it reverses,
+    which takes it along the track; turned round without damage it drives on (round the lock)."""
+    robot = robot_for("e-track-2")
+    s = line_state(robot, 300.0, 1.5, to_middle_m=0.5, angle_rad=3.0, gear=1.0)
+    gears = [robot.drive(s._replace(damage=10.0 * i, sim_time_s=0.02 * i)).gear for i in range(110)]
+    assert gears[90] >= 1 and gears[-1] == -1
+    robot = robot_for("e-track-2")
+    assert all(robot.drive(s._replace(sim_time_s=0.02 * i)).gear >= 1 for i in range(200))
+
+
 def test_backing_out_waits_for_a_car_coming_from_behind():
     """Reversing out of a stuck spot stops on the brakes while a car behind would reach us within
     3 s (e-track-2: boxbox backed into bt:2 and berniw:3 coming by, 242 damage), and goes on after."""

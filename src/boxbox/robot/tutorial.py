@@ -61,6 +61,8 @@ DAMAGE_DRAG_POINTS = 5000.0  # the damage the drag's cost per point is measured 
 PIT_PHASE_CODES = {None: 0, FREE: 0, ENTRY: 1, LIMIT: 2, LANE: 3, STOP: 4, HOLD: 5, EXIT: 6, GAVE_UP: 7}
 REVERSE_MAX_S = 4.0  # longest time backing out in one go
 REVERSE_MAX_MPS = 4.0  # no throttle in reverse beyond this speed
+BACKWARDS_RAD = 0.5 * math.pi  # pointing further than this from the track's direction: turned round
+GRINDING_S = 0.5  # damage this recent: still pushing into something
 REVERSE_CLEAR_S = 3.0  # no backing while a car coming from behind would reach us within this
 LOCK_SHARE = 0.95  # |steer| from which the steering counts as at its lock
 LOCK_MIN_SPEED_MPS = 10.0  # below this (leaving the grid onto the line) full lock is no sign of a slide
@@ -174,6 +176,7 @@ class TutorialRobot(Robot):
         self.reversing = False
         self.reverse_steps = 0
         self.blocked_steps = 0
+        self._damage_seen, self._grinding_until_s = 0.0, -math.inf  # for _grinding
         self._backing_from_m: float | None = None  # where backing away from a wreck began
         self._wrecks_until_s = -math.inf  # after backing from a wreck, stopped cars are driven round until then
         self.wreck: Nearby | None = None  # the stopped car ahead driven round this step
@@ -736,8 +739,14 @@ class TutorialRobot(Robot):
                 self.stuck_steps = 0
                 self._backing_from_m = None
             return self.reversing
-        if abs(s.angle_rad) > self._stuck_angle and s.speed_x_mps < p.stuck_speed_mps \
-                and abs(s.to_middle_m) > p.stuck_offset_m and s.angle_rad * s.to_middle_m < 0:
+        slow = s.speed_x_mps < p.stuck_speed_mps
+        if slow and abs(s.angle_rad) > self._stuck_angle and abs(s.to_middle_m) > p.stuck_offset_m \
+                and s.angle_rad * s.to_middle_m < 0:
+            self.stuck_steps += 1
+        elif slow and abs(s.angle_rad) > BACKWARDS_RAD and self._grinding(s):
+            # turned round and pushing into something anywhere on the track (dirt-5: against a car
+            # stopped behind it, boxbox took 10,000 damage at full throttle in the middle); turned
+            # round alone, forward round the lock is quicker than backing (e-track-3)
             self.stuck_steps += 1
         else:
             self.stuck_steps = 0
@@ -745,6 +754,12 @@ class TutorialRobot(Robot):
             self.reversing = True
             self.reverse_steps = 0
         return self.reversing
+
+    def _grinding(self, s: State) -> bool:
+        """Whether the car took damage within the last GRINDING_S."""
+        if s.damage > self._damage_seen:
+            self._damage_seen, self._grinding_until_s = s.damage, s.sim_time_s + GRINDING_S
+        return s.sim_time_s < self._grinding_until_s
 
     def _new_lap(self, s: State) -> None:
         first = self.laps_seen == 0
