@@ -739,11 +739,11 @@ class TutorialRobot(Robot):
                 self.stuck_steps = 0
                 self._backing_from_m = None
             return self.reversing
-        slow = s.speed_x_mps < p.stuck_speed_mps
+        slow, grinding = s.speed_x_mps < p.stuck_speed_mps, self._grinding(s)
         if slow and abs(s.angle_rad) > self._stuck_angle and abs(s.to_middle_m) > p.stuck_offset_m \
                 and s.angle_rad * s.to_middle_m < 0:
             self.stuck_steps += 1
-        elif slow and abs(s.angle_rad) > BACKWARDS_RAD and self._grinding(s):
+        elif slow and abs(s.angle_rad) > BACKWARDS_RAD and grinding:
             # turned round and pushing into something anywhere on the track (dirt-5: against a car
             # stopped behind it, boxbox took 10,000 damage at full throttle in the middle); turned
             # round alone, forward round the lock is quicker than backing (e-track-3)
@@ -756,7 +756,8 @@ class TutorialRobot(Robot):
         return self.reversing
 
     def _grinding(self, s: State) -> bool:
-        """Whether the car took damage within the last GRINDING_S."""
+        """Whether the car took damage within the last GRINDING_S (called every step it is not
+        backing, so damage taken long ago is never new)."""
         if s.damage > self._damage_seen:
             self._damage_seen, self._grinding_until_s = s.damage, s.sim_time_s + GRINDING_S
         return s.sim_time_s < self._grinding_until_s
