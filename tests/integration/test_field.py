@@ -32,3 +32,18 @@ def test_bench_field_one_lap_and_its_report(tmp_path):
 def test_bench_field_refuses_a_robot_of_the_field():
     r = run_boxbox("bench-field", "--robot", "bt:2", "--tracks", "g-track-1")
     assert r.returncode == 2 and "already in the field" in r.stderr
+
+
+def test_bench_field_repeats_race_the_robot_again_with_more_fuel(tmp_path):
+    out = tmp_path / "g.json"
+    r = run_boxbox("bench-field", "--tracks", "g-track-1", "--laps", "1", "--repeats", "2", "--jobs", "2",
+                   "--json", str(out), timeout=600)
+    assert r.returncode == 0, r.stderr
+    g = read_json(out)
+    assert g["labels"] == ["1 #1", "1 #2"]
+    first, second = g["runs"]
+    assert (first["fuel_offset_l"], second["fuel_offset_l"]) == (0.0, 0.05)
+    robot_dirs = [run["rows"][0]["run_dir"] for run in g["runs"]]
+    assert robot_dirs[0] != robot_dirs[1]  # two races of the robot
+    assert first["rows"][1]["run_dir"] == second["rows"][1]["run_dir"]  # one anchor race, TORCS's alone
+    assert "mean" in r.stdout and "1 #2" in r.stdout

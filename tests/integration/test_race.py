@@ -67,6 +67,30 @@ def test_fuel_laps_sets_the_starting_fuel(tmp_path, overlay):
     assert expected < car.initial_fuel_l  # so the default would have failed this test
 
 
+def test_fuel_offset_adds_to_the_robot_s_choice(tmp_path, overlay):
+    """RaceConfig.fuel_offset_l (bench-field --repeats) adds to the fuel the robot chose, and takes
+    it off a full tank."""
+    from boxbox.robot.base import RaceOptions
+    from boxbox.torcs import launch
+
+    starts = []
+    for offset, sub in ((0.0, "a"), (0.5, "b")):
+        cfg = launch.RaceConfig(track="g-track-1", category="road", laps=1, robots=["middle"],
+                                options=RaceOptions(fuel_laps=2.0), run_dir=tmp_path / sub, fuel_offset_l=offset)
+        result = launch.run_race(cfg, overlay)
+        assert result.error is None
+        starts.append(result.drivers[0].start_fuel_l)
+    assert abs(starts[1] - starts[0] - 0.5) < 0.01, starts
+    cfg = launch.RaceConfig(track="g-track-1", category="road", laps=1, robots=["middle"],
+                            options=RaceOptions(fuel_laps=1000.0), run_dir=tmp_path / "c", fuel_offset_l=0.5)
+    full = launch.run_race(cfg, overlay)
+    assert full.error is None
+    from trackdata import load
+
+    tank_l = load("g-track-1")[1].tank_l
+    assert abs(full.drivers[0].start_fuel_l - (tank_l - 0.5)) < 0.01, (full.drivers[0].start_fuel_l, tank_l)
+
+
 def test_track_limits_torcs_uses_the_sides_without_a_penalty(tmp_path, overlay):
     """aalborg has asphalt beside its track: with track_limits=torcs the line goes there (the car's
     centre beyond the track's edge) and TORCS gives no cutting penalty."""

@@ -50,7 +50,7 @@ def test_no_lap_one_gain_without_every_car_s_laps():
 
 # --- several lengths (bench/field_grid.py) ---------------------------------------------------------
 
-def _result(laps, ranks, damage=100):
+def _result(laps, ranks, damage=100, fuel_offset_l=0.0):
     """A FieldResult for two tracks: {track: (robot rank, anchor rank)}, None for a failed race."""
     from boxbox.bench.field import FieldResult, FieldSpec
     rows = []
@@ -58,7 +58,7 @@ def _result(laps, ranks, damage=100):
         for role, entry, rank in (("robot", "boxbox", mine), ("anchor", "inferno:3", anchor)):
             rows.append({"track": track, "role": role, "entry": entry, "rank": rank, "damage": damage,
                          "field_damage": 0, "error": None if rank is not None else "torcs-bin hung"})
-    return FieldResult(FieldSpec(tracks=list(ranks), laps=laps), rows)
+    return FieldResult(FieldSpec(tracks=list(ranks), laps=laps, fuel_offset_l=fuel_offset_l), rows)
 
 
 def test_field_grid_sums_places_wins_and_damage_per_car():
@@ -67,11 +67,14 @@ def test_field_grid_sums_places_wins_and_damage_per_car():
     assert grid.lengths == [8, 9]
     assert grid.places("robot") == {"a": [1, 2], "b": [3, None]}
     assert grid.damage("robot") == {"a": 200, "b": 100}  # the failed race counts no damage
-    assert grid.summary("robot") == {"races": 4, "failed": 1, "places": 6, "wins": 1, "damage": 300}
-    assert grid.summary("anchor") == {"races": 4, "failed": 0, "places": 29, "wins": 0, "damage": 400}
+    assert grid.summary("robot") == {"races": 4, "failed": 1, "places": 6, "mean_place": 2.0, "wins": 1,
+                                     "damage": 300}
+    assert grid.summary("anchor") == {"races": 4, "failed": 0, "places": 29, "mean_place": 7.25, "wins": 0,
+                                      "damage": 400}
     lines = grid.summary_lines()
-    assert lines[0] == "boxbox: 4 races, places 6, wins 1, damage 300, 1 failed"
-    assert lines[1].startswith("inferno:3: 4 races, places 29, wins 0")
+    assert lines[0] == "boxbox: 4 races, places 6 (mean 2.0), wins 1, damage 300, 1 failed"
+    assert grid.labels == ["8", "9"]
+    assert lines[1].startswith("inferno:3: 4 races, places 29 (mean 7.25), wins 0")
     assert grid.table().row_count == 4 and len(grid.table().columns) == 6
     assert grid.to_json()["places"]["anchor"] == {"a": [6, 5], "b": [9, 9]}
 
@@ -83,3 +86,37 @@ def test_field_grid_needs_a_length():
     from boxbox.bench.field_grid import run_field_grid
     with pytest.raises(ValueError):
         run_field_grid(FieldSpec(tracks=["a"]), [], None, None)  # type: ignore[arg-type]
+
+
+def test_field_grid_labels_repeats_of_a_length():
+    from boxbox.bench.field_grid import DITHER_L, FieldGrid
+    grid = FieldGrid([_result(10, {"a": (1, 6)}), _result(10, {"a": (3, 6)}, fuel_offset_l=DITHER_L),
+                      _result(10, {"a": (2, 6)}, fuel_offset_l=2 * DITHER_L)])
+    assert grid.labels == ["10 #1", "10 #2", "10 #3"]
+    assert grid.places("robot") == {"a": [1, 3, 2]}
+    assert grid.summary("robot")["mean_place"] == 2.0
+    assert [c.header for c in grid.table().columns][2:5] == ["10 #1", "10 #2", "10 #3"]
+
+
+def test_field_grid_repeats_raise_the_robot_s_start_fuel(monkeypatch):
+    """Each repeat is the same race with DITHER_L more start fuel for the robot (its cache key differs)."""
+    import boxbox.bench.field_grid as fg
+    from boxbox.bench.field import FieldSpec
+
+    seen = []
+    monkeypatch.setattr(fg, "run_field", lambda spec, overlay, console: seen.append((spec.laps, spec.fuel_offset_l))
+                        or _result(spec.laps, {"a": (1, 2)}, fuel_offset_l=spec.fuel_offset_l))
+    grid = fg.run_field_grid(FieldSpec(tracks=["a"]), [8, 9], None, None, repeats=2)  # type: ignore[arg-type]
+    assert seen == [(8, 0.0), (8, fg.DITHER_L), (9, 0.0), (9, fg.DITHER_L)]
+    assert grid.labels == ["8 #1", "8 #2", "9 #1", "9 #2"]
+    import pytest
+    with pytest.raises(ValueError):
+        fg.run_field_grid(FieldSpec(tracks=["a"]), [8], None, None, repeats=0)  # type: ignore[arg-type]
+
+
+def test_fuel_offset_counts_in_the_cache_key_only_when_given():
+    from boxbox.bench import cache
+    robots = [{"entry": "boxbox", "kind": "python", "version": "v"}]
+    plain = cache.cache_key("t", "c", 3, robots, None, "fresh")
+    assert cache.cache_key("t", "c", 3, robots, None, "fresh", fuel_offset_l=0.0) == plain
+    assert cache.cache_key("t", "c", 3, robots, None, "fresh", fuel_offset_l=0.05) != plain

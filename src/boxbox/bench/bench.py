@@ -19,6 +19,7 @@ import statistics
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 from rich.console import Console
 from rich.markup import escape
@@ -58,6 +59,7 @@ class BenchSpec:
     skill_level: SkillLevel = DEFAULT_SKILL_LEVEL  # every car's, boxbox's and TORCS's robots alike
     grid_position: int | None = None  # the Python cars' grid slot in races --together (None: pole)
     limit: bool = True  # compute each track's limit lap (bench/limit.py) and every robot's gap to it
+    fuel_offset_l: float = 0.0  # litres added to the Python cars' start fuel (launch.RaceConfig)
 
 
 def expand_all(names: list[str], all_names: list[str]) -> list[str]:
@@ -105,6 +107,7 @@ class RaceJob:
     inputs: dict
     skill_level: SkillLevel = DEFAULT_SKILL_LEVEL
     grid_position: int | None = None
+    fuel_offset_l: float = 0.0
     run_dir: str = ""  # where to race (made afresh; "": a new automatic run dir, pruned with the oldest)
 
     @property
@@ -137,7 +140,8 @@ def _run_job(job: RaceJob, overlay: Overlay) -> dict:
                                 robots=list(job.python_specs), robot_names=list(job.python_names),
                                 opponents=list(job.opponents), options=job.options, cpu=_worker.get("cpu"),
                                 learning=job.learning,
-                                run_dir=run_dir, skill_level=job.skill_level, grid_position=job.grid_position)
+                                run_dir=run_dir, skill_level=job.skill_level, grid_position=job.grid_position,
+                                fuel_offset_l=job.fuel_offset_l)
 
         def progress(lap: int, sim: float) -> None:
             if q is not None:
@@ -351,18 +355,22 @@ def plan(spec: BenchSpec) -> tuple[list[tuple[str, str, _Robot, RaceJob]], list[
                 ordered = py + tc
                 described = [{"entry": r.entry, "kind": r.kind, "version": r.version} for r in ordered]
                 grid = spec.grid_position if spec.together and py else None
+                offset = spec.fuel_offset_l if py else 0.0
                 key = cache_key(track, car, spec.laps, described, spec.settings, spec.learning,
-                                spec.skill_level.torcs_name, grid)
+                                spec.skill_level.torcs_name, grid, offset)
                 if key not in jobs:
-                    inputs = {"track": track, "car": car if py else None, "laps": spec.laps, "robots": described,
-                              "settings": spec.settings or {}, "learning": spec.learning,
-                              "skill_level": spec.skill_level.torcs_name, "grid_position": grid}
+                    inputs: dict[str, Any] = {
+                        "track": track, "car": car if py else None, "laps": spec.laps, "robots": described,
+                        "settings": spec.settings or {}, "learning": spec.learning,
+                        "skill_level": spec.skill_level.torcs_name, "grid_position": grid}
+                    if offset:
+                        inputs["fuel_offset_l"] = offset
                     jobs[key] = RaceJob(key=key, track=track, category=categories[track], car=car, laps=spec.laps,
                                         entries=[r.entry for r in ordered], python_specs=[r.spec for r in py],
                                         python_names=[f"{r.name} {i + 1}" for i, r in enumerate(py)],
                                         opponents=[(r.module, r.idx) for r in tc], options=options,
                                         learning=spec.learning, inputs=inputs, skill_level=spec.skill_level,
-                                        grid_position=grid)
+                                        grid_position=grid, fuel_offset_l=offset)
                 for r in group:
                     rows.append((track, car, r, jobs[key]))
     return rows, robots

@@ -85,7 +85,7 @@ def _dir_hash(path: Path) -> str:
 
 
 def cache_key(track: str, car: str, laps: int, robots: list[dict], settings: dict | None, learning: str,
-              skill_level: str = "semi-pro", grid_position: int | None = None) -> str:
+              skill_level: str = "semi-pro", grid_position: int | None = None, fuel_offset_l: float = 0.0) -> str:
     """sha256 of a race's inputs.  robots: [{"entry", "kind", "version"}] in race order.
 
     The car, settings and learning mode only count when a Python robot is in the race (TORCS robots
@@ -97,6 +97,8 @@ def cache_key(track: str, car: str, laps: int, robots: list[dict], settings: dic
               "settings": (settings or {}) if has_python else None,
               "learning": learning if has_python else None,
               "torcs": _stat(system_torcs().binary), "skill_level": skill_level, "grid_position": grid_position}
+    if has_python and fuel_offset_l:  # only when given: every earlier key stays as it was
+        inputs["fuel_offset_l"] = fuel_offset_l
     if has_python and learning == "on":
         inputs["learned"] = _dir_hash(cache_dir() / "learning")
     return hashlib.sha256(json.dumps(inputs, sort_keys=True, default=str).encode()).hexdigest()

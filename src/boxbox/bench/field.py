@@ -50,6 +50,7 @@ class FieldSpec:
     learning: LearningMode = "fresh"
     settings: dict | None = None
     skill_level: SkillLevel = DEFAULT_SKILL_LEVEL
+    fuel_offset_l: float = 0.0  # added to the robot's start fuel (bench-field --repeats)
 
     @property
     def start_slot(self) -> int:
@@ -68,7 +69,8 @@ class FieldResult:
         s = self.spec
         return {"tracks": s.tracks, "robot": s.robot, "anchor": ANCHOR, "field": list(FIELD), "laps": s.laps,
                 "skill_level": s.skill_level.torcs_name, "learning": s.learning, "settings": s.settings or {},
-                "incident_s": INCIDENT_S, "rows": self.rows, "summary": self.summary()}
+                "incident_s": INCIDENT_S, "fuel_offset_l": s.fuel_offset_l, "rows": self.rows,
+                "summary": self.summary()}
 
     def write_json(self, path) -> None:
         write_json_atomic(path, self.to_json(), indent=1)
@@ -186,7 +188,7 @@ def _specs(spec: FieldSpec) -> tuple[BenchSpec, BenchSpec]:
     common: dict[str, Any] = {
         "tracks": spec.tracks, "cars": [CAR], "laps": spec.laps, "together": True, "jobs": spec.jobs,
         "use_cache": spec.use_cache, "learning": spec.learning, "settings": spec.settings,
-        "skill_level": spec.skill_level}
+        "skill_level": spec.skill_level, "fuel_offset_l": spec.fuel_offset_l}
     if spec.robot in FIELD or spec.robot == ANCHOR:
         raise UsageError(f"--robot {spec.robot} is already in the field; give a Python robot (boxbox, file.py:Class)")
     robot = BenchSpec(robots=[spec.robot, *FIELD], grid_position=spec.start_slot, **common)

@@ -6,6 +6,12 @@ sessions 8 and 9). The same races at several lengths are as many samples: each l
 `bench-field` run (bench/field.py, cached per race), and the summary gives, per track and car, the
 place at each length, the wins and the damage summed, and over all tracks the places, wins and
 damage of the robot and of the anchor (inferno:3 from the same slot).
+
+`--repeats N` races each length N times, the robot's start fuel DITHER_L more each time (less where
+the tank is full).  50 g change nothing of its pace (fuel costs 0.022 s a lap per kg, robot/strategy.py),
+but the first contact comes out differently and the race with it: the repeats show how much of a
+result is the field's chaos.  TORCS's robots cannot be dithered, so the anchor's race is the same in
+every repeat.
 """
 
 from __future__ import annotations
@@ -21,15 +27,23 @@ from boxbox.files import write_json_atomic
 from boxbox.torcs.setup import Overlay
 
 ROLES = ("robot", "anchor")
+DITHER_L = 0.05  # litres more start fuel in each repeat of a race
 
 
 @dataclass
 class FieldGrid:
-    results: list[FieldResult]  # one per race length, in the order asked
+    results: list[FieldResult]  # one per race length and repeat, in the order asked
 
     @property
     def lengths(self) -> list[int]:
         return [r.spec.laps for r in self.results]
+
+    @property
+    def labels(self) -> list[str]:
+        """A column per result: the length, and the repeat where there are several."""
+        repeated = len({r.spec.fuel_offset_l for r in self.results}) > 1
+        return [f"{r.spec.laps}" + (f" #{round(r.spec.fuel_offset_l / DITHER_L) + 1}" if repeated else "")
+                for r in self.results]
 
     def places(self, role: str) -> dict[str, list[int | None]]:
         """Per track, the car's place at each length (None: the race failed)."""
@@ -54,16 +68,17 @@ class FieldGrid:
         places = [p for ps in self.places(role).values() for p in ps]
         done = [p for p in places if p is not None]
         return {"races": len(places), "failed": len(places) - len(done), "places": sum(done),
+                "mean_place": round(sum(done) / len(done), 2) if done else None,
                 "wins": done.count(1), "damage": sum(self.damage(role).values())}
 
     def table(self) -> Table:
         spec = self.results[0].spec
-        table = Table(title=f"bench-field over {len(self.lengths)} lengths: {spec.robot} and {ANCHOR} from "
-                            f"P{spec.start_slot} of {spec.start_slot}, skill level {spec.skill_level.torcs_name}")
+        table = Table(title=f"bench-field over {len(self.lengths)} races a track: {spec.robot} and {ANCHOR} "
+                            f"from P{spec.start_slot} of {spec.start_slot}, skill level {spec.skill_level.torcs_name}")
         table.add_column("track")
         table.add_column("car")
-        for n in self.lengths:
-            table.add_column(f"{n}", justify="right")
+        for label in self.labels:
+            table.add_column(label, justify="right")
         for col in ("wins", "damage"):
             table.add_column(col, justify="right")
         places = {role: self.places(role) for role in ROLES}
@@ -84,12 +99,12 @@ class FieldGrid:
         for role, entry in zip(ROLES, (self.results[0].spec.robot, ANCHOR), strict=True):
             m = self.summary(role)
             failed = f", {m['failed']} failed" if m["failed"] else ""
-            lines.append(f"{entry}: {m['races']} races, places {m['places']}, wins {m['wins']}, "
-                         f"damage {m['damage']}{failed}")
+            lines.append(f"{entry}: {m['races']} races, places {m['places']} (mean {m['mean_place']}), "
+                         f"wins {m['wins']}, damage {m['damage']}{failed}")
         return lines
 
     def to_json(self) -> dict:
-        return {"lengths": self.lengths, "runs": [r.to_json() for r in self.results],
+        return {"lengths": self.lengths, "labels": self.labels, "runs": [r.to_json() for r in self.results],
                 "summary": {role: self.summary(role) for role in ROLES},
                 "places": {role: self.places(role) for role in ROLES}}
 
@@ -97,8 +112,13 @@ class FieldGrid:
         write_json_atomic(path, self.to_json(), indent=1)
 
 
-def run_field_grid(spec: FieldSpec, lengths: list[int], overlay: Overlay, console: Console) -> FieldGrid:
-    """bench-field at each of the lengths (in order), the races of each length in parallel."""
+def run_field_grid(spec: FieldSpec, lengths: list[int], overlay: Overlay, console: Console,
+                   repeats: int = 1) -> FieldGrid:
+    """bench-field at each of the lengths (in order), `repeats` times each (the robot's start fuel
+    DITHER_L more each time), the races of each run in parallel."""
     if not lengths:
         raise ValueError("at least one race length is needed")
-    return FieldGrid([run_field(dataclasses.replace(spec, laps=n), overlay, console) for n in lengths])
+    if repeats < 1:
+        raise ValueError(f"repeats must be at least 1, got {repeats}")
+    return FieldGrid([run_field(dataclasses.replace(spec, laps=n, fuel_offset_l=spec.fuel_offset_l + r * DITHER_L),
+                                overlay, console) for n in lengths for r in range(repeats)])

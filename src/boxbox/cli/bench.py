@@ -191,10 +191,14 @@ def bench_telemetry(track, laps, runs, robot, json_file, skill_level) -> None:
 @click.option("--laps", type=LapLengths(), default="10", show_default=True,
               help="Race length in laps, or several (8,10,12 or 6-14: a summary per track over them).")
 @click.option("--jobs", type=JOBS, default=1, show_default=True, help="Races run in parallel.")
+@click.option("--repeats", type=click.IntRange(1, 20), default=1, show_default=True,
+              help="Race each length this many times, the robot's start fuel 0.05 l more each time (less "
+                   "where the tank is full): "
+                   "the spread of places that is the field's chaos, not the robot.")
 @bench_race_options
 @click.option("--json", "json_file", type=OutputFile(), help="Write the rows as JSON.")
 @skill_level_option
-def bench_field(tracks, robot, laps, jobs, no_cache, learning, settings, json_file, skill_level) -> None:
+def bench_field(tracks, robot, laps, jobs, repeats, no_cache, learning, settings, json_file, skill_level) -> None:
     """The robot from last of ten behind nine TORCS robots, and inferno:3 from the same slot.
 
     \b
@@ -204,6 +208,7 @@ def bench_field(tracks, robot, laps, jobs, no_cache, learning, settings, json_fi
       boxbox bench-field
       boxbox bench-field --tracks g-track-1 --laps 5 --json f.json
       boxbox bench-field --laps 6-14 --jobs 2     # 54 races each: places per length and track
+      boxbox bench-field --repeats 5 --jobs 2     # each race 5 times: how much is chance
     """
     from boxbox.bench.bench import expand_all
     from boxbox.bench.field import FieldSpec, run_field, runs_root
@@ -214,8 +219,8 @@ def bench_field(tracks, robot, laps, jobs, no_cache, learning, settings, json_fi
     spec = FieldSpec(tracks=expand_all(tracks, list(catalog.tracks())), robot=robot, laps=laps[0], jobs=jobs,
                      use_cache=not no_cache, learning=learning, settings=parse_set(settings) if settings else None,
                      skill_level=skill_level)
-    if len(laps) > 1:
-        _field_grid(spec, laps, overlay, json_file)
+    if len(laps) > 1 or repeats > 1:
+        _field_grid(spec, laps, overlay, json_file, repeats)
         return
     result = run_field(spec, overlay, err)
     out.print(result.table())
@@ -228,12 +233,12 @@ def bench_field(tracks, robot, laps, jobs, no_cache, learning, settings, json_fi
         result.write_json(json_file)
 
 
-def _field_grid(spec, lengths: list[int], overlay, json_file) -> None:
-    """bench-field at several lengths: the places per track and length, wins and damage."""
+def _field_grid(spec, lengths: list[int], overlay, json_file, repeats: int) -> None:
+    """bench-field at several lengths or repeats: the places per track and race, wins and damage."""
     from boxbox.bench.field import runs_root
     from boxbox.bench.field_grid import run_field_grid
 
-    grid = run_field_grid(spec, lengths, overlay, err)
+    grid = run_field_grid(spec, lengths, overlay, err, repeats)
     out.print(grid.table())
     for line in grid.summary_lines():
         out.print(line)

@@ -374,6 +374,7 @@ class Host:
             fuel = self._call("initial_fuel_l", slot.robot.initial_fuel_l, slot.track, slot.car)
             if fuel is not None and not (isinstance(fuel, (int, float)) and 0 <= fuel < math.inf):
                 raise RobotFault("invalid-value", f"initial_fuel_l() returned {fuel!r}; expected litres >= 0 or None")
+            fuel = self._offset_fuel(fuel, slot.car)
             setup = self._call("car_setup", slot.robot.car_setup, slot.track, slot.car) or CarSetup()
             problem = setup.problem() if isinstance(setup, CarSetup) else \
                 f"returned {type(setup).__name__}, not CarSetup or None"
@@ -385,6 +386,15 @@ class Host:
         apply_setup(slot.car, setup)
         self._reply(conn, wire.FUEL, robot, step, wire.FUEL_REC, (-1.0 if fuel is None else float(fuel),
                                                                    *setup_values(setup)))
+
+    def _offset_fuel(self, fuel: float | None, car: Car) -> float | None:
+        """The robot's start fuel (None: the car's own) plus the race's fuel_offset_l; as much less
+        where more would not fit in the tank (a full tank is still dithered)."""
+        offset = float(self.spec.get("fuel_offset_l", 0.0))
+        if not offset:
+            return fuel
+        base = car.initial_fuel_l if fuel is None else fuel
+        return max(0.0, base + offset if base + offset <= car.tank_l else base - offset)
 
     def _track_known(self, track: Track) -> None:
         if math.isinf(self.sim_limit_s):

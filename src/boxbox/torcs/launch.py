@@ -81,6 +81,9 @@ class RaceConfig:
     # the robots' learned data: on (the shared store), fresh (a new store in the run dir), off
     # (none); None: options.learning_dir as given. Kept per skill level either way.
     learning: LearningMode | None = None
+    # litres added to each Python car's start fuel after its robot chose it (bench-field --repeats:
+    # grams that change nothing of the car's pace but reorder a chaotic field race)
+    fuel_offset_l: float = 0.0
 
     def __post_init__(self) -> None:
         # relative paths are the caller's: TORCS runs in another working directory
@@ -241,7 +244,7 @@ class Race:
                 "options": dataclasses.asdict(cfg.options), "telemetry": cfg.telemetry,
                 "connect_timeout_s": cfg.time_model.start_limit_s(len(cfg.robots)),
                 "limits": {"laps": cfg.laps, "min_speed_mps": cfg.min_speed_mps},
-                "skill_level": int(cfg.skill_level)}
+                "skill_level": int(cfg.skill_level), "fuel_offset_l": cfg.fuel_offset_l}
 
     def _spawn_host(self, listen_fd: int, link_fd: int) -> ForkedHost | subprocess.Popen:
         if not os.environ.get("BOXBOX_HOST_EXEC") and hasattr(os, "fork"):
