@@ -41,6 +41,21 @@ def test_pushed_past_the_box_gives_up_and_stops_next_lap(tmp_path, overlay):
     assert me["pit_stops"] == 1 and me["laps"] == 3 and me["penalty_time"] == 0
 
 
+def test_a_box_that_does_not_capture_twice_is_not_tried_a_third_time(tmp_path):
+    """forza from slot 10 of 10: the car stands in its box and TORCS never captures it there (the
+    box lies where the lane is too narrow for TORCS's capture rule); two stops given up, no third."""
+    out = tmp_path / "r.json"
+    field = "inferno:4,berniw:3,bt:2,olethros:2,lliaw:3,tita:3,damned:6,bt:3,berniw:4"
+    proc = run_boxbox("race", "--track", "forza", "--laps", "4", "--pit-laps", "1", "--grid-position", "last",
+                      "--opponents", field, "--learning", "off", "--json", str(out), "--quiet")
+    assert proc.returncode == 0, proc.stderr
+    me = next(d for d in read_json(out)["drivers"] if d["module"] == "boxbox")
+    assert [m["lap"] for m in me["missed_pit_stops"]] == [1, 2], me["missed_pit_stops"]
+    assert all(m["reason"] == "not captured" for m in me["missed_pit_stops"])
+    assert me["pit_stops"] == 0 and me["laps"] == 4
+    assert [e["lap"] for e in me["pit_events"]] == [1, 2] and all(e["gave_up"] for e in me["pit_events"])
+
+
 @pytest.mark.parametrize("robot,cause", [
     ("TutorialRaisesInPitStop", "KeyError: 'deliberate failure in pit_stop'"),
     ("TutorialBadPitOrder", "fuel_l=nan must be finite"),

@@ -247,15 +247,47 @@ def test_keeps_backing_until_pointing_along_the_track_for_at_most_4_s():
 
 
 def test_a_car_turned_round_and_grinding_into_something_backs_out():
-    """Turned round (pointing against the track) near the middle, slow and taking damage every
-    step (dirt-5: pushing a stopped car at full throttle, 10,000 damage): after 2 s it reverses,
-    which takes it along the track; turned round without damage it drives on (round the lock)."""
+    """Turned round (pointing against the track) near the middle, slow and taking damage (dirt-5:
+    pushing a stopped car at full throttle, 1,400 damage in 2 s): it reverses at once, which takes it
+    along the track; turned round without damage it drives on (round the lock)."""
     robot = robot_for("e-track-2")
     s = line_state(robot, 300.0, 1.5, to_middle_m=0.5, angle_rad=3.0, gear=1.0)
-    gears = [robot.drive(s._replace(damage=10.0 * i, sim_time_s=0.02 * i)).gear for i in range(110)]
-    assert gears[90] >= 1 and gears[-1] == -1
+    assert robot.drive(s._replace(sim_time_s=0.0)).gear >= 1
+    c = robot.drive(s._replace(damage=10.0, sim_time_s=0.02))
+    assert c.gear == -1 and c.brake == 0.0
     robot = robot_for("e-track-2")
     assert all(robot.drive(s._replace(sim_time_s=0.02 * i)).gear >= 1 for i in range(200))
+
+
+def test_a_touch_while_sliding_backwards_is_no_reason_to_reverse():
+    """Spinning, turned round and sliding backwards at 16 m/s, a touch is not being stuck (g-track-3:
+    the reverse gear put in at -16 m/s held the car for 5 s): only slow in either direction."""
+    robot = robot_for("e-track-2")
+    s = line_state(robot, 300.0, -16.0, to_middle_m=0.5, angle_rad=2.4, gear=1.0)
+    robot.drive(s._replace(sim_time_s=0.0))
+    assert robot.drive(s._replace(damage=14.0, sim_time_s=0.02)).gear >= 1
+
+
+def test_boxed_in_between_two_cars_it_holds_on_the_brakes():
+    """Backing out, still not moving after GRINDING_S and taking damage (dirt-5: turned round between
+    two stopped cars, backing from one into the other): it stops pushing and holds on the brakes for
+    BOXED_HOLD_S, then tries again."""
+    from boxbox.robot.tutorial import BOXED_HOLD_S
+
+    robot = robot_for("e-track-2")
+    s = line_state(robot, 300.0, 0.5, to_middle_m=0.5, angle_rad=3.0, gear=1.0)
+    robot.drive(s._replace(sim_time_s=0.0))
+    require(robot.drive(s._replace(damage=10.0, sim_time_s=0.02)).gear == -1, "backing out at once")
+    stuck = s._replace(speed_x_mps=-0.2, gear=-1.0)
+    gears = [robot.drive(stuck._replace(damage=10.0 + i, sim_time_s=0.04 + 0.02 * i)).gear for i in range(40)]
+    assert gears[10] == -1  # 0.2 s of backing: still trying
+    assert gears[-1] >= 1  # boxed in after 0.5 s of it: not backing any more
+    until = robot._hold_until_s
+    assert 0.5 < until - BOXED_HOLD_S < 0.85
+    c = robot.drive(stuck._replace(damage=70.0, sim_time_s=until - 0.1))  # hit meanwhile
+    assert c.brake == 1.0 and c.accel == 0.0  # on the brakes
+    c = robot.drive(stuck._replace(damage=70.0, sim_time_s=until + 0.1))
+    assert c.gear >= 1 and c.brake < 1.0  # then forward again: the hits of the hold are not new
 
 
 def test_backing_out_waits_for_a_car_coming_from_behind():

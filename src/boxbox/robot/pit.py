@@ -42,6 +42,10 @@ from boxbox.robot.strategy import PitStrategy, laps_after_box, plan_stops
 EXIT_BRAKE_BAND_MPS = 2.0  # leaving the lane: full brake this far above the exit path's speed cap
 PIT_HOLD_GAIN_PER_MPS = 1.0  # throttle per m/s below the pit lane's target speed
 DECIDE_BEFORE_ENTRY_M = 600.0  # a stop is decided once per lap, this far before the pit entry
+# stops given up after which no more are asked for: a box that did not capture the car twice will not
+# the third time (forza from slot 10 of 10: stopped in its box, never captured, 28 s lost in each of
+# six laps)
+MAX_GIVEN_UP = 2
 
 
 @dataclass(frozen=True)
@@ -98,6 +102,7 @@ class PitStops:
         self.wanted = False  # a stop is planned for this lap and not made yet (TORCS's pit request)
         self.decided_lap = -1
         self.retry = False  # a stop given up in an earlier lap is still owed
+        self.given_up = 0  # stops given up so far (MAX_GIVEN_UP: no more)
         self.clutch_open = False
         self.phase: str | None = None  # the pit brake filter's phase this step (telemetry)
         self.plan = None
@@ -164,7 +169,8 @@ class PitStops:
                                      self._seg_friction[int(s.seg_id)] * self.model.mu, s.in_pit)
         if r.gave_up and self.wanted:
             # pushed past the box (or not captured): drive on at the limit, try again next lap
-            self.wanted, self.retry = False, True
+            self.given_up += 1
+            self.wanted, self.retry = False, self.given_up < MAX_GIVEN_UP
             if self.event is not None:
                 self.event.gave_up = True
         if on_path and (self.wanted or self.event is not None):
@@ -191,8 +197,9 @@ class PitStops:
             self.decided_lap = int(s.laps)
             remaining = laps_after_box(s.remaining_laps, s.dist_from_start_m, self._box_from_start_m,
                                        self.track.length_m)
-            self.wanted = (self.retry and remaining > 0) or \
-                self.strategy.wants_stop(laps_done, remaining, s.fuel_l, s.damage)
+            self.wanted = self.given_up < MAX_GIVEN_UP and ((self.retry and remaining > 0) or
+                                                            self.strategy.wants_stop(laps_done, remaining,
+                                                                                     s.fuel_l, s.damage))
 
     def _steer_on_path(self, s: State, v: float) -> float:
         """Steer at the pit path a short way ahead."""

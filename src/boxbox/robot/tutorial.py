@@ -63,6 +63,8 @@ REVERSE_MAX_S = 4.0  # longest time backing out in one go
 REVERSE_MAX_MPS = 4.0  # no throttle in reverse beyond this speed
 BACKWARDS_RAD = 0.5 * math.pi  # pointing further than this from the track's direction: turned round
 GRINDING_S = 0.5  # damage this recent: still pushing into something
+BOXED_MPS = 1.0  # backing out slower than this and grinding: boxed in (cars stopped front and back)
+BOXED_HOLD_S = 1.0  # boxed in: held on the brakes this long before trying again
 REVERSE_CLEAR_S = 3.0  # no backing while a car coming from behind would reach us within this
 LOCK_SHARE = 0.95  # |steer| from which the steering counts as at its lock
 LOCK_MIN_SPEED_MPS = 10.0  # below this (leaving the grid onto the line) full lock is no sign of a slide
@@ -177,6 +179,8 @@ class TutorialRobot(Robot):
         self.reverse_steps = 0
         self.blocked_steps = 0
         self._damage_seen, self._grinding_until_s = 0.0, -math.inf  # for _grinding
+        self._hold_until_s = -math.inf  # boxed in: on the brakes until then
+        self._backing_on_throttle = False  # the last backing step gave throttle (not waiting for a car)
         self._backing_from_m: float | None = None  # where backing away from a wreck began
         self._wrecks_until_s = -math.inf  # after backing from a wreck, stopped cars are driven round until then
         self.wreck: Nearby | None = None  # the stopped car ahead driven round this step
@@ -407,6 +411,9 @@ class TutorialRobot(Robot):
             return self._blind(s)
         if s.laps != self.laps_seen:
             self._new_lap(s)
+        if s.sim_time_s < self._hold_until_s:  # boxed in: pushing either way only takes damage
+            self._damage_seen = s.damage  # what hits us meanwhile is no reason to back out after
+            return self._blind(s)
         if self._stuck(s):
             return self._back_out(s, v)
         self._learn(s)
@@ -434,11 +441,13 @@ class TutorialRobot(Robot):
         """Reverse, steering the nose back towards the track's direction; held on the brakes while
         a car comes up from behind (the backing car is in its way)."""
         steer = max(-1.0, min(1.0, -s.angle_rad * self._inv_lock))
+        self._backing_on_throttle = False
         if s.opponents and self._coming_from_behind(s):
             self.reverse_steps -= 1  # waiting is no time spent backing
             return Controls(steer=steer, accel=0.0, brake=1.0, clutch=0.0, gear=-1)
         # backing out is for turning round, not for speed: off the track it slid into walls at 11 m/s
         accel = 0.6 if v > -REVERSE_MAX_MPS else 0.0
+        self._backing_on_throttle = accel > 0.0
         return Controls(steer=steer, accel=accel, brake=0.0, clutch=0.0, gear=-1)
 
     def _coming_from_behind(self, s: State) -> bool:
@@ -728,13 +737,7 @@ class TutorialRobot(Robot):
         p = self.params
         if self.reversing:
             self.reverse_steps += 1
-            if self._backing_from_m is None:
-                done = abs(s.angle_rad) < 0.5 * self._stuck_angle
-            else:  # away from a wreck: far enough back to steer round it
-                half = 0.5 * self.track.length_m
-                backed_m = (self._backing_from_m - s.dist_from_start_m + half) % self.track.length_m - half
-                done = backed_m > self.craft.p.blocked_back_lengths * self.car.length_m
-            if done or self.reverse_steps * DRIVE_STEP_S > REVERSE_MAX_S:
+            if self._reverse_done(s) or self.reverse_steps * DRIVE_STEP_S > REVERSE_MAX_S:
                 self.reversing = False
                 self.stuck_steps = 0
                 self._backing_from_m = None
@@ -743,11 +746,12 @@ class TutorialRobot(Robot):
         if slow and abs(s.angle_rad) > self._stuck_angle and abs(s.to_middle_m) > p.stuck_offset_m \
                 and s.angle_rad * s.to_middle_m < 0:
             self.stuck_steps += 1
-        elif slow and abs(s.angle_rad) > BACKWARDS_RAD and grinding:
+        elif abs(s.speed_x_mps) < p.stuck_speed_mps and abs(s.angle_rad) > BACKWARDS_RAD and grinding:
             # turned round and pushing into something anywhere on the track (dirt-5: against a car
             # stopped behind it, boxbox took 10,000 damage at full throttle in the middle); turned
-            # round alone, forward round the lock is quicker than backing (e-track-3)
-            self.stuck_steps += 1
+            # round alone, forward round the lock is quicker than backing (e-track-3).  At once: each
+            # step costs damage (dirt-5: 1,400 in the 2 s of stuck_time_s against a car stopped there)
+            self.stuck_steps = int(p.stuck_time_s / DRIVE_STEP_S) + 1
         else:
             self.stuck_steps = 0
         if self.stuck_steps * DRIVE_STEP_S > p.stuck_time_s:
@@ -755,9 +759,24 @@ class TutorialRobot(Robot):
             self.reverse_steps = 0
         return self.reversing
 
+    def _reverse_done(self, s: State) -> bool:
+        """Backed out far enough: pointing along the track again, or away from a wreck; or boxed in
+        (dirt-5: turned round between two stopped cars, backing from one into the other), then held
+        on the brakes for BOXED_HOLD_S."""
+        backing_s = self.reverse_steps * DRIVE_STEP_S
+        pushing = self._backing_on_throttle and abs(s.speed_x_mps) < BOXED_MPS  # hit while waiting is not
+        if self._grinding(s) and backing_s > GRINDING_S and pushing:
+            self._hold_until_s = s.sim_time_s + BOXED_HOLD_S
+            return True
+        if self._backing_from_m is None:
+            return abs(s.angle_rad) < 0.5 * self._stuck_angle
+        half = 0.5 * self.track.length_m  # away from a wreck: far enough back to steer round it
+        backed_m = (self._backing_from_m - s.dist_from_start_m + half) % self.track.length_m - half
+        return backed_m > self.craft.p.blocked_back_lengths * self.car.length_m
+
     def _grinding(self, s: State) -> bool:
-        """Whether the car took damage within the last GRINDING_S (called every step it is not
-        backing, so damage taken long ago is never new)."""
+        """Whether the car took damage within the last GRINDING_S (called every step, so damage
+        taken long ago is never new)."""
         if s.damage > self._damage_seen:
             self._damage_seen, self._grinding_until_s = s.damage, s.sim_time_s + GRINDING_S
         return s.sim_time_s < self._grinding_until_s
