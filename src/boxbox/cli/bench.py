@@ -193,8 +193,7 @@ def bench_telemetry(track, laps, runs, robot, json_file, skill_level) -> None:
 @click.option("--jobs", type=JOBS, default=1, show_default=True, help="Races run in parallel.")
 @click.option("--repeats", type=click.IntRange(1, 20), default=1, show_default=True,
               help="Race each length this many times, the robot's start fuel 0.05 l more each time (less "
-                   "where the tank is full): "
-                   "the spread of places that is the field's chaos, not the robot.")
+                   "where the tank is full): the spread of places that is the field's chaos, not the robot.")
 @bench_race_options
 @click.option("--json", "json_file", type=OutputFile(), help="Write the rows as JSON.")
 @skill_level_option

@@ -42,9 +42,9 @@ from boxbox.robot.strategy import PitStrategy, laps_after_box, plan_stops
 EXIT_BRAKE_BAND_MPS = 2.0  # leaving the lane: full brake this far above the exit path's speed cap
 PIT_HOLD_GAIN_PER_MPS = 1.0  # throttle per m/s below the pit lane's target speed
 DECIDE_BEFORE_ENTRY_M = 600.0  # a stop is decided once per lap, this far before the pit entry
-# stops given up after which no more are asked for: a box that did not capture the car twice will not
-# the third time (forza from slot 10 of 10: stopped in its box, never captured, 28 s lost in each of
-# six laps)
+# stops given up (pushed past the box, or not captured) after which no more are asked for in the race:
+# a box that did not capture the car twice will not the third time (forza from slot 10 of 10: stopped
+# in its box, never captured, 28 s lost in each of six laps)
 MAX_GIVEN_UP = 2
 
 
