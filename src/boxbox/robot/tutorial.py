@@ -172,6 +172,14 @@ class TutorialRobot(Robot):
                                   overtake_step_m=p.overtake_step_m)
         self.craft = Racecraft(RacecraftParams(), car.width_m, car.length_m, self.tyre_model.mu)
         self.opp_lines = OpponentLines(track.length_m, OPPONENT_LINE_STEP_M)
+        self._init_race_state()
+        self._setup_pit(track, car, p)
+        self._inv_lock = 1.0 / car.steer_lock_rad
+        self.wheelbase_m = 0.6 * car.length_m  # not in the car's constants; 0.6 x length fits TORCS's cars
+        self._stuck_angle = math.radians(p.stuck_angle_deg)
+
+    def _init_race_state(self) -> None:
+        """What the drive steps keep between them: the race starts with none of it."""
         self.offset_m = 0.0
         self.target_mps = 0.0  # the speed profile's target the last drive step used
         self.stuck_steps = 0
@@ -186,10 +194,6 @@ class TutorialRobot(Robot):
         self.wreck: Nearby | None = None  # the stopped car ahead driven round this step
         self.laps_seen = 0
         self.last_damage = 0.0
-        self._setup_pit(track, car, p)
-        self._inv_lock = 1.0 / car.steer_lock_rad
-        self.wheelbase_m = 0.6 * car.length_m  # not in the car's constants; 0.6 x length fits TORCS's cars
-        self._stuck_angle = math.radians(p.stuck_angle_deg)
 
     def _prepare_line(self, track: Track, car: Car, p: TutorialParams) -> None:
         """The racing line and what the speed limits need of it per sample (once: car_setup made it
