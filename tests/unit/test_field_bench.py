@@ -79,6 +79,18 @@ def test_field_grid_sums_places_wins_and_damage_per_car():
     assert grid.to_json()["places"]["anchor"] == {"a": [6, 5], "b": [9, 9]}
 
 
+def test_field_grid_counts_the_racecraft_targets_over_every_race():
+    from boxbox.bench.field_grid import FieldGrid
+    grid = FieldGrid([_result(10, {"a": (1, 6), "b": (7, 5)}, damage=299),
+                      _result(10, {"a": (2, 5), "b": (None, 9)}, damage=300)])
+    # b's second race failed: no win, not ahead, no damage figure; every race counts in "races"
+    assert grid.targets() == {"races": 4, "wins": 1, "low_damage": 2, "ahead_of_anchor": 2,
+                              "field_damage_not_higher": 3}
+    assert grid.summary_lines()[2] == ("boxbox in 4 races: wins 1/4, damage under 300 2/4, ahead of inferno:3 "
+                                       "2/4, field damage no higher than with inferno:3 3/4")
+    assert grid.to_json()["targets"]["low_damage"] == 2
+
+
 def test_field_grid_needs_a_length():
     import pytest
 

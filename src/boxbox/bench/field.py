@@ -38,6 +38,7 @@ FIELD = ("inferno:4", "berniw:3", "bt:2", "olethros:2", "lliaw:3", "tita:3", "da
 ANCHOR = "inferno:3"
 CAR = "car1-trb1"  # the anchor's car: the robot under test drives the same
 INCIDENT_S = 2.0  # a lap this much slower than the car's median lap was spoiled by an incident
+LOW_DAMAGE = 300  # the racecraft target (issue #16, docs/racecraft.md): a race with less damage than this
 
 
 @dataclass
@@ -80,6 +81,7 @@ class FieldResult:
         anchor = {r["track"]: r for r in self.rows if r["role"] == "anchor"}
         return {"tracks": len(robot), "wins": sum(r["rank"] == 1 for r in robot),
                 "max_damage": max((r["damage"] for r in robot), default=0),
+                "low_damage": sum(not r["error"] and r["damage"] < LOW_DAMAGE for r in robot),
                 "ahead_of_anchor": sum(_ahead(r, anchor.get(r["track"])) for r in robot),
                 "field_damage_not_higher": sum(r["field_damage"] <= anchor[r["track"]]["field_damage"]
                                                for r in robot if r["track"] in anchor and not r["error"])}
@@ -106,7 +108,8 @@ class FieldResult:
 
     def summary_line(self) -> str:
         m = self.summary()
-        return (f"{self.spec.robot}: {m['wins']}/{m['tracks']} wins, highest damage {m['max_damage']}, "
+        return (f"{self.spec.robot}: {m['wins']}/{m['tracks']} wins, damage under {LOW_DAMAGE} on "
+                f"{m['low_damage']}/{m['tracks']} (highest {m['max_damage']}), "
                 f"ahead of {ANCHOR} on {m['ahead_of_anchor']}/{m['tracks']}, field damage no higher than "
                 f"with {ANCHOR} on {m['field_damage_not_higher']}/{m['tracks']}")
 

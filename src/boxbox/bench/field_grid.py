@@ -5,7 +5,8 @@ centimetre more or less of side gap reshuffles every race after the first contac
 sessions 8 and 9). The same races at several lengths are as many samples: each length is a
 `bench-field` run (bench/field.py, cached per race), and the summary gives, per track and car, the
 place at each length, the wins and the damage summed, and over all tracks the places, wins and
-damage of the robot and of the anchor (inferno:3 from the same slot).
+damage of the robot and of the anchor (inferno:3 from the same slot), and the robot's races counted
+against the racecraft targets (wins, damage under 300, ahead of the anchor, field damage no higher).
 
 `--repeats N` races each length N times, the robot's start fuel DITHER_L more each time (less where
 the tank is full).  50 g change nothing of its pace (fuel costs 0.022 s a lap per kg, robot/strategy.py),
@@ -22,7 +23,7 @@ from dataclasses import dataclass
 from rich.console import Console
 from rich.table import Table
 
-from boxbox.bench.field import ANCHOR, FieldResult, FieldSpec, run_field
+from boxbox.bench.field import ANCHOR, LOW_DAMAGE, FieldResult, FieldSpec, run_field
 from boxbox.files import write_json_atomic
 from boxbox.torcs.setup import Overlay
 
@@ -71,6 +72,13 @@ class FieldGrid:
                 "mean_place": round(sum(done) / len(done), 2) if done else None,
                 "wins": done.count(1), "damage": sum(self.damage(role).values())}
 
+    def targets(self) -> dict:
+        """The robot's races against the racecraft targets, summed over every race: wins, damage
+        under LOW_DAMAGE, ahead of the anchor, the field's damage no higher than with the anchor."""
+        keys = ("tracks", "wins", "low_damage", "ahead_of_anchor", "field_damage_not_higher")
+        sums = {k: sum(r.summary()[k] for r in self.results) for k in keys}
+        return {"races": sums.pop("tracks"), **sums}
+
     def table(self) -> Table:
         spec = self.results[0].spec
         table = Table(title=f"bench-field over {len(self.lengths)} races a track: {spec.robot} and {ANCHOR} "
@@ -101,11 +109,16 @@ class FieldGrid:
             failed = f", {m['failed']} failed" if m["failed"] else ""
             lines.append(f"{entry}: {m['races']} races, places {m['places']} (mean {m['mean_place']}), "
                          f"wins {m['wins']}, damage {m['damage']}{failed}")
+        t = self.targets()
+        n = t["races"]
+        lines.append(f"{self.results[0].spec.robot} in {n} races: wins {t['wins']}/{n}, damage under {LOW_DAMAGE} "
+                     f"{t['low_damage']}/{n}, ahead of {ANCHOR} {t['ahead_of_anchor']}/{n}, field damage no "
+                     f"higher than with {ANCHOR} {t['field_damage_not_higher']}/{n}")
         return lines
 
     def to_json(self) -> dict:
         return {"lengths": self.lengths, "labels": self.labels, "runs": [r.to_json() for r in self.results],
-                "summary": {role: self.summary(role) for role in ROLES},
+                "summary": {role: self.summary(role) for role in ROLES}, "targets": self.targets(),
                 "places": {role: self.places(role) for role in ROLES}}
 
     def write_json(self, path) -> None:
