@@ -76,7 +76,8 @@ class FieldGrid:
         """The robot's races against the racecraft targets, summed over every race: wins, damage
         under LOW_DAMAGE, ahead of the anchor, the field's damage no higher than with the anchor."""
         keys = ("tracks", "wins", "low_damage", "ahead_of_anchor", "field_damage_not_higher")
-        sums = {k: sum(r.summary()[k] for r in self.results) for k in keys}
+        summaries = [r.summary() for r in self.results]
+        sums = {k: sum(m[k] for m in summaries) for k in keys}
         return {"races": sums.pop("tracks"), **sums}
 
     def table(self) -> Table:

@@ -170,7 +170,7 @@ class PitStops:
         if r.gave_up and self.wanted:
             # pushed past the box (or not captured): drive on at the limit, try again next lap
             self.given_up += 1
-            self.wanted, self.retry = False, self.given_up < MAX_GIVEN_UP
+            self.wanted, self.retry = False, True  # _decide asks for none past MAX_GIVEN_UP
             if self.event is not None:
                 self.event.gave_up = True
         if on_path and (self.wanted or self.event is not None):
@@ -197,9 +197,8 @@ class PitStops:
             self.decided_lap = int(s.laps)
             remaining = laps_after_box(s.remaining_laps, s.dist_from_start_m, self._box_from_start_m,
                                        self.track.length_m)
-            self.wanted = self.given_up < MAX_GIVEN_UP and ((self.retry and remaining > 0) or
-                                                            self.strategy.wants_stop(laps_done, remaining,
-                                                                                     s.fuel_l, s.damage))
+            self.wanted = self.given_up < MAX_GIVEN_UP and (
+                (self.retry and remaining > 0) or self.strategy.wants_stop(laps_done, remaining, s.fuel_l, s.damage))
 
     def _steer_on_path(self, s: State, v: float) -> float:
         """Steer at the pit path a short way ahead."""

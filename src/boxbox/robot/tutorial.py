@@ -746,19 +746,17 @@ class TutorialRobot(Robot):
                 self.stuck_steps = 0
                 self._backing_from_m = None
             return self.reversing
-        slow, grinding = s.speed_x_mps < p.stuck_speed_mps, self._grinding(s)
-        if slow and abs(s.angle_rad) > self._stuck_angle and abs(s.to_middle_m) > p.stuck_offset_m \
-                and s.angle_rad * s.to_middle_m < 0:
-            self.stuck_steps += 1
-        elif abs(s.speed_x_mps) < p.stuck_speed_mps and abs(s.angle_rad) > BACKWARDS_RAD and grinding:
-            # turned round and pushing into something anywhere on the track (dirt-5: against a car
-            # stopped behind it, boxbox took 10,000 damage at full throttle in the middle); turned
-            # round alone, forward round the lock is quicker than backing (e-track-3).  At once: each
-            # step costs damage (dirt-5: 1,400 in the 2 s of stuck_time_s against a car stopped there)
-            self.stuck_steps = int(p.stuck_time_s / DRIVE_STEP_S) + 1
-        else:
-            self.stuck_steps = 0
-        if self.stuck_steps * DRIVE_STEP_S > p.stuck_time_s:
+        grinding = self._grinding(s)
+        sideways = s.speed_x_mps < p.stuck_speed_mps and abs(s.angle_rad) > self._stuck_angle \
+            and abs(s.to_middle_m) > p.stuck_offset_m and s.angle_rad * s.to_middle_m < 0
+        # turned round and pushing into something anywhere on the track (dirt-5: against a car
+        # stopped behind it, boxbox took 10,000 damage at full throttle in the middle); turned
+        # round alone, forward round the lock is quicker than backing (e-track-3).  At once: each
+        # step costs damage (dirt-5: 1,400 in the 2 s of stuck_time_s against a car stopped there)
+        turned_round = not sideways and abs(s.speed_x_mps) < p.stuck_speed_mps \
+            and abs(s.angle_rad) > BACKWARDS_RAD and grinding
+        self.stuck_steps = self.stuck_steps + 1 if sideways else 0
+        if turned_round or self.stuck_steps * DRIVE_STEP_S > p.stuck_time_s:
             self.reversing = True
             self.reverse_steps = 0
         return self.reversing
