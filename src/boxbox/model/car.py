@@ -36,6 +36,12 @@ class Car:
     mu_rl: float = 1.0
     drivetrain: int = RWD
     fuel_cons_factor: float = 1.0
+    # the engine's tickover and revs maxi (rad/s) and its brake coefficient (simuv2 engine.cpp's
+    # defaults): with the throttle closed it brakes with brake_coeff x (w - tickover) / (revs max -
+    # tickover) of its full torque, and burns fuel for it
+    engine_tickover_radps: float = 150.0
+    engine_revs_max_radps: float = 1000.0
+    engine_brake_coeff: float = 0.33
     brake_pressure_max: float = 0.0
     brake_front_rear: float = 0.5
     front_weight_share: float = 0.5  # share of the car's weight on the front axle

@@ -13,3 +13,6 @@ G_MPS2 = 9.81
 AIR_DENSITY_KGPM3 = 1.23
 DRIVE_STEP_S = 0.02  # simulated time between two drive calls
 SIM_STEP_S = 0.002  # simulated time of one physics step
+# litres of fuel an engine burns per joule of its work (|torque| x engine speed, driving or engine
+# braking), times the car's fuel consumption factor: simuv2 engine.cpp, SimEngineUpdateTq
+FUEL_L_PER_J = 1e-7

@@ -30,6 +30,8 @@ MEANINGS = {
     "mass_kg": "car mass without fuel", "tank_l": "fuel tank size", "initial_fuel_l": "fuel at the start",
     "cx": "drag coefficient", "front_clift": "front body lift coefficient", "rear_clift": "rear body lift coefficient",
     "drivetrain": "0 RWD, 1 FWD, 2 4WD", "fuel_cons_factor": "fuel consumption factor",
+    "engine_tickover_radps": "engine's tickover speed", "engine_revs_max_radps": "engine's highest speed (revs maxi)",
+    "engine_brake_coeff": "engine brake coefficient (share of full torque at revs maxi, throttle closed)",
     "rpm_redline": "rev limiter (engine speed, rad/s as TORCS keeps it)", "rpm_max": "highest engine speed (rad/s)",
     "rpm_max_torque": "engine speed of the most torque (rad/s)", "rpm_max_power": "engine speed of the most power "
     "(rad/s)", "steer_lock_rad": "the wheels' angle at steer 1", "car_index": "TORCS's index of this car",

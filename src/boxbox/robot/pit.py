@@ -89,15 +89,17 @@ class PitStops:
 
     def __init__(self, track: Track, car: Car, options: RaceOptions, params: PitParams | None = None,
                  model: CarModel | None = None, entry_offset_m: float = 0.0, exit_offset_m: float = 0.0,
-                 entry_slope: float = 0.0, exit_slope: float = 0.0, s_per_lap_per_damage: float = 0.0) -> None:
+                 entry_slope: float = 0.0, exit_slope: float = 0.0, s_per_lap_per_damage: float = 0.0,
+                 lap_fuel_l: float | None = None) -> None:
         self.track, self.car, self.options = track, car, options
         self.params = params or PitParams()
         self.model = model or CarModel.from_car(car, fuel_l=car.initial_fuel_l)
         self.events: list[PitEvent] = []
         self.event: PitEvent | None = None
-        # s_per_lap_per_damage: lap time a damage point costs (TORCS 1.3.7 raises the drag with damage)
-        self.strategy = PitStrategy(track.length_m, car.tank_l, pit_laps=options.pit_laps,
-                                    fuel_per_m_l=FUEL_L_PER_M_ESTIMATE * car.fuel_cons_factor,
+        # s_per_lap_per_damage: lap time a damage point costs (TORCS 1.3.7 raises the drag with damage);
+        # lap_fuel_l: the robot's estimate of a lap's fuel until one is measured (else per metre)
+        per_m_l = lap_fuel_l / track.length_m if lap_fuel_l else FUEL_L_PER_M_ESTIMATE * car.fuel_cons_factor
+        self.strategy = PitStrategy(track.length_m, car.tank_l, pit_laps=options.pit_laps, fuel_per_m_l=per_m_l,
                                     s_per_lap_per_damage=s_per_lap_per_damage)
         self.wanted = False  # a stop is planned for this lap and not made yet (TORCS's pit request)
         self.decided_lap = -1

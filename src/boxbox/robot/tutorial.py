@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from boxbox.cache import cached_array
-from boxbox.control import carmodel, lapsim, speed, suspension, tyre
+from boxbox.control import carmodel, fuel, lapsim, speed, suspension, tyre
 from boxbox.control.braking import brake_distance
 from boxbox.control.carmodel import CarModel
 from boxbox.control.gears import GearBox
@@ -53,7 +53,8 @@ from boxbox.robot.racecraft import (
     on_our_path,
 )
 from boxbox.robot.racingline import RacingLine, middle_line, washboard
-from boxbox.robot.strategy import OUT_DAMAGE, plan_stops
+from boxbox.robot.start_fuel import MODEL_MARGIN, start_fuel_l
+from boxbox.robot.strategy import OUT_DAMAGE
 
 TWO_PI = 2.0 * math.pi
 DAMAGE_DRAG_POINTS = 5000.0  # the damage the drag's cost per point is measured at
@@ -92,12 +93,36 @@ class TutorialRobot(Robot):
 
     # --- per track -----------------------------------------------------------------------------
     def initial_fuel_l(self, track: Track, car: Car) -> float | None:
-        """--fuel-laps if given; else the first stint of the fastest stop plan for the race."""
-        if self.options.fuel_laps is not None or not self.options.laps or track.pit is None:
+        """--fuel-laps if given; else from the fuel a simulated lap takes (robot/start_fuel.py)."""
+        if self.options.fuel_laps is not None or not self.options.laps:
             return super().initial_fuel_l(track, car)
-        per_lap = FUEL_L_PER_M_ESTIMATE * car.fuel_cons_factor * track.length_m
-        plan = plan_stops(self.options.laps, per_lap, car.tank_l)
-        return min(car.tank_l, plan.fuel_per_stint_l[0])
+        return start_fuel_l(self.options.laps, self._lap_fuel_l(track, car), car.tank_l, track.pit is not None,
+                            self.options.cars > 1)
+
+    def _lap_fuel_l(self, track: Track, car: Car) -> float:
+        """Litres a lap of the racing line takes at the speeds of its simulated lap (control/fuel.py),
+        the car carrying half of what the per-metre estimate gives the race."""
+        race_l = FUEL_L_PER_M_ESTIMATE * car.fuel_cons_factor * track.length_m * max(1, self.options.laps)
+        if len(car.torque_curve_nm) < 2:  # no engine to simulate: the per-metre estimate
+            return race_l / max(1, self.options.laps)
+        p, _ = load_params(car.name, track.name, self.options.robot_args.get("set"))
+        self.params = p
+        self._prepare_line(track, car, p)
+        model = CarModel.from_car(car, fuel_l=0.5 * min(car.tank_l, race_l))
+        step_m, curv, mu, limits = self._lap_inputs(model, p)
+        point_mass = carsetup.ideal_gearbox_car(car, model)
+
+        def lap() -> np.ndarray:
+            return lapsim.lap_speeds_mps(step_m, curv, mu, point_mass, corner_limit_mps=limits)
+
+        # cached: the same line, car and limits give the same lap (~10 ms of simulation)
+        key = [Path(str(lapsim.__file__)).read_bytes(), Path(str(carsetup.__file__)).read_bytes(),
+               repr(point_mass).encode(), *(a.tobytes() for a in (limits, step_m, curv, mu))]
+        speeds = cached_array("fuel-laps", key, lap)
+        brake_w = fuel.engine_brake_power_w(car.torque_curve_radps, car.torque_curve_nm, car.engine_tickover_radps,
+                                            car.engine_revs_max_radps, car.engine_brake_coeff)
+        return fuel.lap_fuel_l(step_m, speeds, point_mass.mass_kg, point_mass.cw_n_per_mps2, car.fuel_cons_factor,
+                               brake_w)
 
     def car_setup(self, track: Track, car: Car) -> CarSetup | None:
         """The rear wing angle that laps fastest on this track (robot/carsetup.py), with `wing_setup`."""
@@ -301,7 +326,8 @@ class TutorialRobot(Robot):
                            stop_threshold_m=p.pit_stop_threshold_m, stop_grip_share=p.pit_stop_grip_share,
                            brake_method=p.brake_method)
         self.pits = PitStops(track, car, self.options, params, self.tyre_model, entry_offset_m, exit_offset_m,
-                             entry_slope, exit_slope, self._damage_lap_cost_s(car))
+                             entry_slope, exit_slope, self._damage_lap_cost_s(car),
+                             self._lap_fuel_l(track, car) * (1.0 + MODEL_MARGIN))
 
     def _damage_lap_cost_s(self, car: Car) -> float:
         """Lap time (s) one damage point costs: TORCS 1.3.7 multiplies the body's and the wings'

@@ -79,6 +79,9 @@ HANDLE_FIELDS = [
     "mu_fr", "mu_fl", "mu_rr", "mu_rl",
     "drivetrain",  # 0 RWD, 1 FWD, 2 4WD
     "fuel_cons_factor", "brake_pressure_max", "brake_front_rear",
+    # the engine's tickover, revs maxi (rad/s) and engine brake coefficient: its braking torque and
+    # the fuel it burns with the throttle closed (simuv2 engine.cpp)
+    "engine_tickover_radps", "engine_revs_max_radps", "engine_brake_coeff",
     "front_weight_share",  # the car file's front-rear weight repartition (share on the front axle)
     # tyres: the magic formula's stiffness, dynamic friction and elasticity factor, per wheel
     "tyre_stiffness_fr", "tyre_stiffness_fl", "tyre_stiffness_rr", "tyre_stiffness_rl",

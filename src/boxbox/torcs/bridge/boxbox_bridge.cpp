@@ -266,6 +266,9 @@ static void fill_handle(bb_handle *r, void *h) {
     const char *train = GfParmGetStr(h, SECT_DRIVETRAIN, PRM_TYPE, VAL_TRANS_RWD);
     r->drivetrain = strcmp(train, VAL_TRANS_FWD) == 0 ? 1 : (strcmp(train, VAL_TRANS_4WD) == 0 ? 2 : 0);
     r->fuel_cons_factor = GfParmGetNum(h, SECT_ENGINE, PRM_FUELCONS, NULL, 1.0);
+    r->engine_tickover_radps = GfParmGetNum(h, SECT_ENGINE, PRM_TICKOVER, NULL, 150.0);  // simuv2's defaults
+    r->engine_revs_max_radps = GfParmGetNum(h, SECT_ENGINE, PRM_REVSMAX, NULL, 1000.0);
+    r->engine_brake_coeff = GfParmGetNum(h, SECT_ENGINE, PRM_ENGBRKCOEFF, NULL, 0.33);
     r->brake_pressure_max = GfParmGetNum(h, SECT_BRKSYST, PRM_BRKPRESS, NULL, 0.0);
     r->brake_front_rear = GfParmGetNum(h, SECT_BRKSYST, PRM_BRKREP, NULL, 0.5);
     r->front_weight_share = GfParmGetNum(h, SECT_CAR, PRM_FRWEIGHTREP, NULL, 0.5);
