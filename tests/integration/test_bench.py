@@ -111,3 +111,52 @@ def test_bench_races_then_reads_the_cache(tmp_path, overlay):
     for r in b2["rows"]:
         assert fmt_time(r["time"]) in second.stdout
     assert b2["wall_s"] < 0.5 * b["wall_s"]  # nothing raced the second time
+
+
+def test_sigterm_stops_a_parallel_bench_its_workers_and_their_races(tmp_path, overlay):
+    """SIGTERM reaches the bench's own process only (Ctrl-C the whole process group): the bench
+    passes it to its workers, whose races stop at once, and no new race starts; exit 130 with one
+    line saying the finished races are cached, no process of it left."""
+    import signal
+    import subprocess
+    import time
+
+    import psutil
+
+    from helpers import BOXBOX, ROOT
+
+    proc = subprocess.Popen([*BOXBOX, "bench", "--tracks", "e-track-2,e-track-4,alpine-1,wheel-2", "--laps", "60",
+                             "--robots", "boxbox", "--jobs", "2", "--no-cache", "--learning", "fresh"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
+    seen: dict[int, psutil.Process] = {}
+
+    def torcs_seen() -> bool:
+        for child in psutil.Process(proc.pid).children(recursive=True):
+            try:
+                if child.name() == "torcs-bin":
+                    seen.setdefault(child.pid, child)
+                    return True
+                seen.setdefault(child.pid, child)
+            except psutil.Error:  # gone meanwhile
+                pass
+        return False
+
+    try:
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline and not torcs_seen():
+            time.sleep(0.1)
+        assert time.monotonic() < deadline, "no race started"
+        time.sleep(1.0)
+        stopped = time.monotonic()
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=60)
+        took_s = time.monotonic() - stopped
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 130, err
+    assert took_s < 10.0, took_s  # the four 60-lap races take far longer
+    lines = [ln for ln in err.splitlines() if ln.startswith("boxbox: error:")]
+    assert len(lines) == 1 and "the bench was stopped" in lines[0], err
+    assert "Traceback" not in err
+    assert not [p for p in seen.values() if p.is_running() and p.status() != psutil.STATUS_ZOMBIE]

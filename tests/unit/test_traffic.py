@@ -115,6 +115,21 @@ def test_racecraft_brakes_for_a_car_stopped_in_our_lane_not_for_one_beside_it():
     assert craft.brake(0.0, 0.0, 30.0, [aside], lambda c: 0.0) == 0.0
 
 
+def test_racecraft_touches_the_brake_behind_a_close_car_unless_it_pulls_away():
+    craft = _craft()
+    # 1 m gap (margin 2 m) in our lane, gap filter only: half the close brake for a car as fast as us
+    same = _car(5.5, 0.0, 20.0)
+    assert craft.brake(0.0, 0.0, 20.0, [same], lambda c: 20.0, predict=False) == pytest.approx(0.25)
+    # faster than us (close_opening_mps 0): it pulls away, no brake; with 1 m/s allowed, 0.9 faster: still
+    assert craft.brake(0.0, 0.0, 20.0, [_car(5.5, 0.0, 20.9)], lambda c: 20.9, predict=False) == 0.0
+    assert craft.brake(0.0, 0.0, 18.0, [_car(5.5, 0.0, 22.0)], lambda c: 22.0, predict=False) == 0.0
+    one = _craft(close_opening_mps=1.0)
+    assert one.brake(0.0, 0.0, 20.0, [_car(5.5, 0.0, 20.9)], lambda c: 20.9, predict=False) > 0.0
+    # the old rule (faster or not) with an unlimited opening speed
+    always = _craft(close_opening_mps=math.inf)
+    assert always.brake(0.0, 0.0, 18.0, [_car(5.5, 0.0, 22.0)], lambda c: 22.0, predict=False) > 0.0
+
+
 def test_inward_step_is_held_by_the_grip_left_and_outward_never():
     from boxbox.robot.racecraft import inward_step
     # left turn (k > 0) at the grip limit: v^2 k = 20^2 * 0.03 = 12 = the grip: no move inwards (left)

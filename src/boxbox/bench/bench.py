@@ -15,6 +15,7 @@ import multiprocessing
 import os
 import queue
 import shutil
+import signal
 import statistics
 import time
 from dataclasses import dataclass, field
@@ -27,7 +28,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TaskID, TextC
 from rich.table import Table
 
 from boxbox.bench.cache import cache_key, load_cached, package_version, python_robot_version, store, torcs_robot_version
-from boxbox.errors import BoxboxError, UsageError
+from boxbox.errors import BoxboxError, Interrupted, UsageError
 from boxbox.files import write_json_atomic, write_text_atomic
 from boxbox.model.skill import DEFAULT_SKILL_LEVEL, SkillLevel
 from boxbox.options import LEARNING_MODES, LearningMode
@@ -117,6 +118,12 @@ class RaceJob:
 
 
 _worker: dict = {}
+STOPPED = "not raced: the bench was stopped (Ctrl-C, SIGTERM or SIGHUP)"
+
+
+def _note_stop(signum, frame) -> None:
+    """A worker between races was asked to stop: it starts no more (a race that runs stops itself)."""
+    _worker["stopped"] = True
 
 
 def _init_worker(counter, progress_queue) -> None:
@@ -125,11 +132,15 @@ def _init_worker(counter, progress_queue) -> None:
         counter.value += 1
     cpus = sorted(os.sched_getaffinity(0))
     _worker.update(cpu=cpus[index % len(cpus)] if cpus else None, queue=progress_queue)
+    for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+        signal.signal(sig, _note_stop)
 
 
 def _run_job(job: RaceJob, overlay: Overlay) -> dict:
     """In a worker: race, never raise; {"result": json or None, "error": text or None}."""
     q = _worker.get("queue")
+    if _worker.get("stopped"):
+        return {"result": None, "error": STOPPED}
     try:
         if q is not None:
             q.put(("start", job.key, 0, 0.0))
@@ -150,6 +161,8 @@ def _run_job(job: RaceJob, overlay: Overlay) -> dict:
         result = launch.run_race(cfg, overlay, progress)
         if not result.error:
             store(job.key, job.inputs, result)
+        elif result.error.startswith(launch.INTERRUPTED):
+            _worker["stopped"] = True
         return {"result": result.to_json(), "error": result.error}
     except Exception as exc:  # anything at all: recorded, the bench goes on
         return {"result": None, "error": f"{type(exc).__name__}: {exc}"}
@@ -493,10 +506,24 @@ def _race_all(todo: list[RaceJob], overlay: Overlay, workers: int, n_cached: int
                     if key in running:
                         bar.remove_task(running.pop(key))
                     bar.advance(overall)
+    except KeyboardInterrupt:  # Ctrl-C reaches the workers too, SIGTERM sent to this process only
+        _stop_workers(pool)
+        pool.shutdown(wait=True, cancel_futures=True)
+        raise Interrupted(f"the bench was stopped; {sum(1 for r, e, _ in outcomes.values() if r and not e)} races "
+                          "finished and are cached: the same command goes on from them") from None
     finally:
         pool.shutdown(wait=True, cancel_futures=True)
         progress_queue.close()
     return outcomes
+
+
+def _stop_workers(pool: cf.ProcessPoolExecutor) -> None:
+    """SIGTERM to each worker: its race stops and keeps its results so far, and it starts no more."""
+    for proc in list((getattr(pool, "_processes", None) or {}).values()):
+        try:
+            os.kill(proc.pid, signal.SIGTERM)
+        except ProcessLookupError:
+            pass
 
 
 def _drain(progress_queue, bar: Progress, running: dict[str, TaskID], by_key: dict[str, RaceJob], finished) -> None:
