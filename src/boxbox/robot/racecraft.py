@@ -68,7 +68,8 @@ class RacecraftParams:
     # ... unless it is faster than us by more than this (it pulls away): braking then only cost the exit
     # behind it (aalborg at 820 m, every lap: 18 m/s braking 0.2 behind tita:3 at 22, 30 m lost by
     # the next braking zone).  190 field races: 443 places with the brake whatever its speed, 343
-    # with 1 m/s, 316 with 0 (docs/racecraft.md, session 14)
+    # with 1 m/s, 316 with 0, and the same races with -1: in brake_mode "gap" a slower car this close
+    # gets the fixed-gap filter's full brake anyway (docs/racecraft.md, session 14)
     close_opening_mps: float = 0.0
     band_m: float = 4.0  # the brake rises from 0 to 1 as the predicted gap falls this much to the margin
     # lateral gap kept to a car alongside: with the inside pass kept through the turn, 1 m let boxbox
