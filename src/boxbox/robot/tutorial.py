@@ -109,20 +109,27 @@ class TutorialRobot(Robot):
         self.params = p
         self._prepare_line(track, car, p)
         model = CarModel.from_car(car, fuel_l=0.5 * min(car.tank_l, race_l))
+        step_m, _, _, speeds, point_mass = self._simulated_lap(car, model, p, "fuel-laps")
+        brake_w = fuel.engine_brake_power_w(car.torque_curve_radps, car.torque_curve_nm, car.engine_tickover_radps,
+                                            car.engine_revs_max_radps, car.engine_brake_coeff)
+        return fuel.lap_fuel_l(step_m, speeds, point_mass.mass_kg, point_mass.cw_n_per_mps2, car.fuel_cons_factor,
+                               brake_w)
+
+    def _simulated_lap(self, car: Car, model: CarModel, p: TutorialParams, kind: str
+                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, lapsim.PointMassCar]:
+        """The current line's step (m), curvature and grip per sample, the speeds (m/s) of its lap
+        simulation with the robot's own limits, and the point mass with the ideal gearbox
+        (robot/carsetup.py) it simulated; cached under `kind`: the same line, car and limits give
+        the same lap (~10-35 ms of simulation)."""
         step_m, curv, mu, limits = self._lap_inputs(model, p)
         point_mass = carsetup.ideal_gearbox_car(car, model)
 
         def lap() -> np.ndarray:
             return lapsim.lap_speeds_mps(step_m, curv, mu, point_mass, corner_limit_mps=limits)
 
-        # cached: the same line, car and limits give the same lap (~10 ms of simulation)
         key = [Path(str(lapsim.__file__)).read_bytes(), Path(str(carsetup.__file__)).read_bytes(),
                repr(point_mass).encode(), *(a.tobytes() for a in (limits, step_m, curv, mu))]
-        speeds = cached_array("fuel-laps", key, lap)
-        brake_w = fuel.engine_brake_power_w(car.torque_curve_radps, car.torque_curve_nm, car.engine_tickover_radps,
-                                            car.engine_revs_max_radps, car.engine_brake_coeff)
-        return fuel.lap_fuel_l(step_m, speeds, point_mass.mass_kg, point_mass.cw_n_per_mps2, car.fuel_cons_factor,
-                               brake_w)
+        return step_m, curv, mu, cached_array(kind, key, lap), point_mass
 
     def car_setup(self, track: Track, car: Car) -> CarSetup | None:
         """The rear wing angle that laps fastest on this track (robot/carsetup.py), with `wing_setup`."""
@@ -247,16 +254,7 @@ class TutorialRobot(Robot):
         near its grip: a car slides out of its line by more the faster it goes (g-track-1's long left
         turn at 45 m/s left the track from a line on the outer edge), never in."""
         model = CarModel.from_car(car, fuel_l=car.initial_fuel_l)
-        step_m, curv, mu, limits = self._lap_inputs(model, p)
-
-        def lap() -> np.ndarray:
-            return lapsim.lap_speeds_mps(step_m, curv, mu, carsetup.ideal_gearbox_car(car, model),
-                                         corner_limit_mps=limits)
-
-        # cached: the same line, car and limits give the same lap (~35 ms of simulation a race)
-        key = [Path(str(lapsim.__file__)).read_bytes(), Path(str(carsetup.__file__)).read_bytes(),
-               repr(dataclasses.astuple(car)).encode(), *(a.tobytes() for a in (limits, step_m, curv, mu))]
-        v = cached_array("fast-turn-laps", key, lap)
+        _, curv, mu, v, _ = self._simulated_lap(car, model, p, "fast-turn-laps")
         grip = mu * (G_MPS2 + v * v * model.ca_corner / model.mass_kg)
         use = np.clip(v * v * curv / grip, 0.0, 1.0)
         extra = p.line_speed_margin_s * v * use
