@@ -1,10 +1,20 @@
 """Opponent filters (boxbox.robot.opponents) on hand-built States: plain numbers and braking physics."""
 
+import math
+
 import pytest
 
 from boxbox.model import Opponent, State
 from boxbox.model.state import CAR_STATE_DNF, CAR_STATE_FINISH, CAR_STATE_PIT
-from boxbox.robot.opponents import Nearby, OpponentParams, collision_brake, nearby, overtake_offset, side_steer
+from boxbox.robot.opponents import (
+    Nearby,
+    OpponentParams,
+    along_track_mps,
+    collision_brake,
+    nearby,
+    overtake_offset,
+    side_steer,
+)
 
 TRACK_M = 2000.0
 LENGTH_M = 4.5
@@ -58,6 +68,30 @@ def test_nearby_ahead_and_behind():
     assert behind.lateral_m == pytest.approx(1.0)  # to our left
     assert behind.laps_ahead == 1
     assert isinstance(behind.laps_ahead, int)
+
+
+@pytest.mark.parametrize("yaw_rad, speed_x_mps, speed_y_mps, along_mps", [
+    (0.0, 20.0, 0.0, 20.0),  # along the track
+    (0.2, 20.0, 0.0, 20.0 * math.cos(0.2)),  # at an angle: its share along the track
+    (0.0, -2.0, 0.0, -2.0),  # backing
+    (math.pi, 5.0, 0.0, -5.0),  # turned round, driving forwards
+    (0.5 * math.pi, 0.0, -10.0, 10.0),  # across the track, sliding to its right: forwards
+])
+def test_along_track_speed_turns_the_cars_velocity_by_its_yaw(yaw_rad, speed_x_mps, speed_y_mps, along_mps):
+    o = make_opp(yaw_rad=1.0 + yaw_rad, speed_x_mps=speed_x_mps, speed_y_mps=speed_y_mps)
+    assert along_track_mps(o, 1.0) == pytest.approx(along_mps)
+
+
+def test_nearby_with_the_tracks_heading_sees_a_backing_car_as_stopped():
+    backing = make_opp(dist_from_start_m=505.0, speed_x_mps=-2.0, speed_mps=2.0)
+    s = make_state(dist_from_start_m=500.0, opponents=(backing,))
+    (seen,) = nearby(s, LENGTH_M, TRACK_M, 50.0, 200.0, heading_at=lambda dist_m: 0.0)
+    assert seen.speed_mps == 0.0
+    forwards = make_opp(dist_from_start_m=505.0, yaw_rad=0.2, speed_x_mps=20.0, speed_mps=20.0)
+    (ahead,) = nearby(s._replace(opponents=(forwards,)), LENGTH_M, TRACK_M, 50.0, 200.0, heading_at=lambda dist_m: 0.0)
+    assert ahead.speed_mps == 20.0  # at an angle, forwards: its speed, not its share along the track
+    (plain,) = nearby(s, LENGTH_M, TRACK_M, 50.0, 200.0)
+    assert plain.speed_mps == 2.0  # without the heading: the size of its velocity
 
 
 def test_nearby_wraps_around_the_start_line():

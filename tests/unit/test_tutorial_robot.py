@@ -52,9 +52,13 @@ def make_state(**fields) -> State:
     return zero._replace(**fields)
 
 
-def make_opp(**fields) -> Opponent:
+def make_opp(robot: TutorialRobot, **fields) -> Opponent:
+    """A car moving along the track at its speed_mps (its yaw the track's direction where it is)."""
     zero = Opponent._make([0.0] * len(Opponent._fields))
-    return zero._replace(**{"length_m": 4.52, "width_m": 1.94, "laps": 1.0, **fields})
+    d = fields.get("dist_from_start_m", 0.0) % robot.track.length_m
+    yaw = float(robot.line.middle.heading_rad[int(d / robot.step_m) % robot.n])
+    return zero._replace(**{"length_m": 4.52, "width_m": 1.94, "laps": 1.0, "yaw_rad": yaw,
+                            "speed_x_mps": fields.get("speed_mps", 0.0), **fields})
 
 
 _half_widths: dict[str, np.ndarray] = {}
@@ -297,10 +301,10 @@ def test_backing_out_waits_for_a_car_coming_from_behind():
     s = line_state(robot, 300.0, 1.0, to_middle_m=4.0, angle_rad=-0.8, gear=1.0)
     gears = [robot.drive(s).gear for _ in range(110)]
     require(gears[-1] == -1, "reversing after 2 s stuck")
-    coming = make_opp(dist_from_start_m=280.0, to_middle_m=0.0, speed_mps=30.0)
+    coming = make_opp(robot, dist_from_start_m=280.0, to_middle_m=0.0, speed_mps=30.0)
     c = robot.drive(s._replace(opponents=(coming,), n_opponents=1.0))
     assert c.gear == -1 and c.brake == 1.0 and c.accel == 0.0
-    far = make_opp(dist_from_start_m=300.0 - 45.0, to_middle_m=0.0, speed_mps=10.0)  # 4.5 s away
+    far = make_opp(robot, dist_from_start_m=300.0 - 45.0, to_middle_m=0.0, speed_mps=10.0)  # 4.5 s away
     c = robot.drive(s._replace(opponents=(far,), n_opponents=1.0))
     assert c.gear == -1 and c.brake == 0.0 and c.accel > 0.0
 
@@ -312,7 +316,7 @@ def test_backs_away_from_a_wreck_in_its_lane_and_drives_round_it_at_walking_pace
     robot = robot_for("e-track-2")
     d = straight_dist(robot)
     me = line_state(robot, d, 0.0, gear=1.0)
-    wreck = make_opp(dist_from_start_m=d + 6.4, to_middle_m=me.to_middle_m + 0.5, speed_mps=0.2, car_index=3.0)
+    wreck = make_opp(robot, dist_from_start_m=d + 6.4, to_middle_m=me.to_middle_m + 0.5, speed_mps=0.2, car_index=3.0)
     s = me._replace(opponents=(wreck,), n_opponents=1.0)
     gears = [robot.drive(s).gear for _ in range(110)]
     assert gears[90] >= 1 and gears[-1] == -1  # 1.8 s: waiting; 2.2 s: backing
@@ -329,6 +333,21 @@ def test_backs_away_from_a_wreck_in_its_lane_and_drives_round_it_at_walking_pace
     assert c.brake == 0.0 and c.accel > 0.0 and robot.target_mps <= 5.0
     robot.drive(rolling._replace(speed_x_mps=6.0))
     assert robot.target_mps <= 5.0
+
+
+def test_backs_away_at_once_from_a_car_it_pushes():
+    """Stopped against a car that backs into us (dirt-4, lap 1: its speed read as 2 m/s forwards,
+    boxbox pushed it at full throttle, 1,860 damage): it is seen as stopped, and with damage
+    coming in the car backs away after 0.3 s, not after blocked_s."""
+    robot = robot_for("e-track-2")
+    d = straight_dist(robot)
+    me = line_state(robot, d, 0.0, gear=1.0)
+    backing = make_opp(robot, dist_from_start_m=d + 4.6, to_middle_m=me.to_middle_m, speed_mps=-2.0, car_index=3.0)
+    s = me._replace(opponents=(backing,), n_opponents=1.0)
+    first = robot.drive(s)
+    assert first.accel == 0.0 and first.brake > 0.0  # not pushing it
+    gears = [robot.drive(s._replace(damage=10.0 * (k + 1))).gear for k in range(20)]
+    assert gears[10] >= 1 and gears[-1] == -1  # 0.2 s: waiting; 0.4 s: backing
 
 
 @pytest.mark.parametrize("fields", [
@@ -470,7 +489,7 @@ def test_steers_away_from_a_car_alongside(name):
     d = straight_dist(robot)
     alone = robot.drive(line_state(robot, d, 30.0)).steer
     me = line_state(robot, d, 30.0)
-    beside = make_opp(dist_from_start_m=me.dist_from_start_m + 0.5, to_middle_m=me.to_middle_m + 2.2,
+    beside = make_opp(robot, dist_from_start_m=me.dist_from_start_m + 0.5, to_middle_m=me.to_middle_m + 2.2,
                       speed_mps=30.0)
     c = robot.drive(me._replace(opponents=(beside,), n_opponents=1.0))
     assert c.steer < alone - 0.05  # it is on our left: steer right
@@ -481,7 +500,7 @@ def test_brakes_for_a_much_slower_car_close_ahead(name):
     robot = robot_for(name)
     d = straight_dist(robot)
     me = line_state(robot, d, 40.0)
-    ahead = make_opp(dist_from_start_m=(me.dist_from_start_m + 15.0) % robot.track.length_m,
+    ahead = make_opp(robot, dist_from_start_m=(me.dist_from_start_m + 15.0) % robot.track.length_m,
                      to_middle_m=me.to_middle_m, speed_mps=10.0)
     c = robot.drive(me._replace(opponents=(ahead,), n_opponents=1.0))
     assert c.brake > 0.0 and c.accel == 0.0
@@ -497,8 +516,8 @@ def test_drive_is_cheap(name):
     d = 100.0
     for k in range(2000):
         v = min(robot.profile.speed_at(d), 60.0)
-        opps = (make_opp(dist_from_start_m=(d + 30.0) % length, to_middle_m=1.0, speed_mps=v - 2.0),
-                make_opp(dist_from_start_m=(d - 20.0) % length, to_middle_m=-1.0, speed_mps=v + 2.0))
+        opps = (make_opp(robot, dist_from_start_m=(d + 30.0) % length, to_middle_m=1.0, speed_mps=v - 2.0),
+                make_opp(robot, dist_from_start_m=(d - 20.0) % length, to_middle_m=-1.0, speed_mps=v + 2.0))
         states.append(line_state(robot, d, v, opponents=opps, n_opponents=2.0, sim_time_s=k * STEP_S,
                                  cur_lap_time_s=k * STEP_S))
         d += v * STEP_S
@@ -561,7 +580,7 @@ def _pass_a_car_across_the_middle(robot):
     d, side, room = _line_at_an_edge(robot)
     require(room < 0.5 * robot.track.width_m - 1.5 - 0.5, "passing on our side would leave the track")
     me = line_state(robot, d, 30.0)
-    slower = make_opp(dist_from_start_m=d + 12.0, to_middle_m=-0.5 * side, speed_mps=20.0)
+    slower = make_opp(robot, dist_from_start_m=d + 12.0, to_middle_m=-0.5 * side, speed_mps=20.0)
     for _ in range(80):
         robot.drive(me._replace(opponents=(slower,), n_opponents=1.0))
     require(robot.offset_m * side >= 0.0, "it passes on our side")
@@ -665,7 +684,7 @@ def test_a_car_behind_leaves_the_traction_control_of_the_line():
     state = line_state(robot, dist, v)
     slip = [(v + 4.0) / r for r in robot.radii]  # 4 m/s of wheel slip: traction control acts
     state = state._replace(spin_fr_rps=slip[0], spin_fl_rps=slip[1], spin_rr_rps=slip[2], spin_rl_rps=slip[3])
-    behind = make_opp(dist_from_start_m=dist - 10.0, to_middle_m=state.to_middle_m, speed_mps=v, laps=1.0)
+    behind = make_opp(robot, dist_from_start_m=dist - 10.0, to_middle_m=state.to_middle_m, speed_mps=v, laps=1.0)
     alone = copy.deepcopy(robot).drive(state)
     followed = copy.deepcopy(robot).drive(state._replace(opponents=(behind,)))
     require(0.0 < alone.accel, "the robot accelerates there")

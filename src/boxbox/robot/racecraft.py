@@ -128,6 +128,9 @@ class RacecraftParams:
     # (mixed-2's narrow turn at 257 m: boxbox sat 33 s behind tita:3's wreck with no side wide
     # enough for the margins of a pass at speed)
     blocked_s: float = 2.0
+    # ... or this long when it takes damage meanwhile: pushing a car that does not move (dirt-4's
+    # first lap: 1,860 damage at full throttle against a car jammed ahead in the 2 s of blocked_s)
+    blocked_grinding_s: float = 0.3
     blocked_back_lengths: float = 2.5  # ... this many car lengths before driving round it
     wreck_gap_m: float = 0.5  # then round it at this lateral gap, up to the track's edge,
     wreck_speed_mps: float = 5.0  # ... no faster than this,

@@ -166,6 +166,7 @@ class TutorialRobot(Robot):
         self._prepare_line(track, car, p)
         mid = self.line.middle
         self._normals = [(-math.sin(h), math.cos(h)) for h in mid.heading_rad.tolist()]
+        self._headings = mid.heading_rad.tolist()
         self._half_left = mid.half_left_m.tolist()
         self._half_right = mid.half_right_m.tolist()
         ahead = int(OFFSET_ROOM_AHEAD_M / self.step_m)
@@ -481,7 +482,7 @@ class TutorialRobot(Robot):
     def _coming_from_behind(self, s: State) -> bool:
         """A moving car behind us that reaches us within REVERSE_CLEAR_S (e-track-2, 10 laps: boxbox
         backed off the grass at 3000 m into bt:2 and berniw:3 coming by, 242 damage)."""
-        cars = nearby(s, self.car.length_m, self.track.length_m, self.params.back_range_m, 0.0)
+        cars = nearby(s, self.car.length_m, self.track.length_m, self.params.back_range_m, 0.0, self._heading_at)
         return any(c.dist_m < 0.0 and c.speed_mps > REVERSE_MAX_MPS
                    and -c.dist_m < (c.speed_mps + REVERSE_MAX_MPS) * REVERSE_CLEAR_S for c in cars)
 
@@ -523,7 +524,7 @@ class TutorialRobot(Robot):
         passing, room side by side, letting a lapping car by); back to the line, a step at a time,
         when nobody is near."""
         p = self.params
-        cars = nearby(s, self.car.length_m, self.track.length_m, p.back_range_m, p.front_range_m) \
+        cars = nearby(s, self.car.length_m, self.track.length_m, p.back_range_m, p.front_range_m, self._heading_at) \
             if s.opponents and not math.isnan(s.dist_from_start_m) else []
         self.wreck = None
         if cars:
@@ -558,13 +559,18 @@ class TutorialRobot(Robot):
                 else min(0.0, self.offset_m + p.overtake_step_m)
         return cars
 
+    def _heading_at(self, dist_m: float) -> float:
+        """The track's direction at dist_m (rad), from the middle line's samples."""
+        return self._headings[int(dist_m / self.step_m) % self.n]
+
     def _back_from_wreck(self, s: State, v: float, cars: list[Nearby]) -> None:
         """Start backing away from a stopped car in our lane after RacecraftParams.blocked_s stopped
         behind it (robot/racecraft.py blocking): from where we stand there is no steering round it."""
         on_track = PIT_PHASE_CODES.get(self.pits.phase, -1) == 0  # not in the pit lane, where cars stop
         blocker = self.craft.blocking(v, cars) if on_track else None
         self.blocked_steps = self.blocked_steps + 1 if blocker else 0
-        if blocker and self.blocked_steps * DRIVE_STEP_S > self.craft.p.blocked_s:
+        wait_s = self.craft.p.blocked_grinding_s if self._grinding(s) else self.craft.p.blocked_s
+        if blocker and self.blocked_steps * DRIVE_STEP_S > wait_s:
             self.reversing, self.reverse_steps, self.blocked_steps = True, 0, 0
             self._backing_from_m = s.dist_from_start_m
             self._wrecks_until_s = s.sim_time_s + self.craft.p.wreck_s
