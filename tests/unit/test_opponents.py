@@ -290,6 +290,20 @@ def test_overtake_takes_the_side_with_more_room_not_the_side_away_from_us():
     assert _overtake(0.0, car, my_to_middle=3.0) == pytest.approx(-0.1)
 
 
+def test_overtake_keeps_the_side_we_are_on_when_too_close_to_cross_behind_the_car():
+    # e-track-1 at 240 m: 4.6 m right of a car in the track's middle, 9 m behind it and 14 m/s faster
+    car = [near(LENGTH_M + 4.5, lateral_m=4.6, speed_mps=33.0)]
+    keep = OpponentParams(keep_side_s=2.0)
+    assert _overtake(0.0, car, my_speed=47.0, my_to_middle=-4.6) == pytest.approx(0.1)  # the tutorial: across it
+    assert _overtake(0.0, car, my_speed=47.0, my_to_middle=-4.6, params=keep) == pytest.approx(-0.1)  # our side
+    # reached in more than 2 s (8 m at 3 m/s, within two car lengths): time to cross behind it
+    far = [near(LENGTH_M + 8.0, lateral_m=4.6, speed_mps=44.0)]
+    assert _overtake(0.0, far, my_speed=47.0, my_to_middle=-4.6, params=keep) == pytest.approx(0.1)
+    # right behind it (0.5 m aside): the side with more room, as the tutorial
+    behind = [near(LENGTH_M + 4.5, lateral_m=0.5, speed_mps=33.0)]
+    assert _overtake(0.0, behind, my_speed=47.0, my_to_middle=-0.5, params=keep) == pytest.approx(0.1)
+
+
 def test_overtake_step_is_a_parameter():
     car = [near(LENGTH_M + 5.0, lateral_m=-1.0, speed_mps=30.0)]
     assert _overtake(0.0, car, params=OpponentParams(overtake_step_m=0.25)) == pytest.approx(0.25)

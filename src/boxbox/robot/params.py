@@ -99,6 +99,7 @@ class TutorialParams:
     length_margin_m: float = 3.0
     side_margin_m: float = 1.0
     overtake_step_m: float = 0.1  # lateral offset change per drive step
+    keep_side_s: float = 2.0  # a car reached within this long is passed on the side we are on (0: off)
     # pit
     pit_lookahead_m: float = 6.0
     pit_mu: float = 0.4  # the seed's constant (used with pit_mu_source = "constant")

@@ -202,7 +202,7 @@ class TutorialRobot(Robot):
         self._peak_slip = peak if peak < tyre.MAX_SLIP else 0.0
         self.opp = OpponentParams(front_range_m=p.front_range_m, back_range_m=p.back_range_m,
                                   length_margin_m=p.length_margin_m, side_margin_m=p.side_margin_m,
-                                  overtake_step_m=p.overtake_step_m)
+                                  overtake_step_m=p.overtake_step_m, keep_side_s=p.keep_side_s)
         self.craft = Racecraft(RacecraftParams(), car.width_m, car.length_m, self.tyre_model.mu)
         self.opp_lines = OpponentLines(track.length_m, OPPONENT_LINE_STEP_M)
         self._init_race_state()
