@@ -342,7 +342,8 @@ def test_backs_away_at_once_from_a_car_it_pushes():
     robot = robot_for("e-track-2")
     d = straight_dist(robot)
     me = line_state(robot, d, 0.0, gear=1.0)
-    backing = make_opp(robot, dist_from_start_m=d + 4.6, to_middle_m=me.to_middle_m, speed_mps=-2.0, car_index=3.0)
+    backing = make_opp(robot, dist_from_start_m=d + 4.6, to_middle_m=me.to_middle_m, speed_mps=2.0,
+                       speed_x_mps=-2.0, car_index=3.0)  # TORCS: the size of its velocity
     s = me._replace(opponents=(backing,), n_opponents=1.0)
     first = robot.drive(s)
     assert first.accel == 0.0 and first.brake > 0.0  # not pushing it
