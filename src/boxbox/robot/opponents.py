@@ -23,7 +23,8 @@ class Nearby:
     dist_m: float  # centre to centre along the track, + ahead
     gap_m: float  # bumper to bumper: dist_m minus a car length (ahead) or plus one (behind)
     lateral_m: float  # its to_middle minus ours, + to our left
-    # the size of its velocity, 0 when it moves backwards along the track (reversing, or turned round)
+    # the size of its velocity; from nearby() with the track's heading, 0 when it moves backwards along
+    # the track (reversing, or turned round)
     speed_mps: float
     laps_ahead: int  # its laps minus ours: > 0 means it is lapping us
     width_m: float = 0.0  # its width (0: unknown, take ours)
