@@ -153,9 +153,9 @@ def test_going_far_off_or_damage_lowers_more():
     assert tl.turns[1].ceiling == pytest.approx(1.2 * 0.98)
 
 
-@pytest.mark.parametrize("margins, damage", [({12: -2.5}, 0.0), ({12: 1.0}, 60.0)])
+@pytest.mark.parametrize("margins, damage", [({12: -3.5}, 0.0), ({12: 1.0}, 60.0)])
 def test_a_crash_costs_the_turn_ten_per_cent_at_once(margins, damage):
-    """More than 2 m off, or 50 damage points in one lap, is a crash: the turn drops 10 % and stays
+    """More than 3 m off, or 50 damage points in one lap, is a crash: the turn drops 10 % and stays
     capped there (a few per cent a lap let dirt-3 crash in the same turn lap after lap)."""
     tl = learner(TWO_TURNS)
     tl.turns[0].factor = 1.2
@@ -171,6 +171,16 @@ def test_a_crash_costs_the_turn_ten_per_cent_at_once(margins, damage):
     tl.observe(12, 1.0, 40.0)  # below the crash level: the ordinary damage rule
     tl.end_lap()
     assert tl.turns[0].factor == pytest.approx(1.2 * 0.96)
+
+
+def test_running_wide_by_2_to_3_m_without_damage_is_not_a_crash():
+    """g-track-1's last turn ran 2.1 m wide once in a field race: a crash's 10 % there left it
+    slower than the learner alone ever makes it (it settles at two 4 % cuts)."""
+    tl = learner(TWO_TURNS)
+    tl.turns[0].factor = 1.2
+    drive_lap(tl, {12: -2.5})
+    assert tl.turns[0].factor == pytest.approx(1.2 * 0.96)
+    assert tl.turns[0].ceiling == pytest.approx(1.2 * 0.98)
 
 
 def test_observations_outside_turns_are_ignored():

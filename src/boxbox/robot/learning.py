@@ -20,9 +20,11 @@ from pathlib import Path
 
 MIN_FACTOR, MAX_FACTOR = 0.8, 1.5
 OFF_MARGIN_M = -0.3  # a wheel this far over the edge counts as leaving the track
-CRASH_MARGIN_M = -2.0  # this far over the edge, or CRASH_DAMAGE points in one lap, is a crash:
-CRASH_DAMAGE = 50.0  # the turn loses CRASH_FACTOR at once (a few per cent a lap crashed dirt-3
-CRASH_FACTOR = 0.9  # in the same turn lap after lap)
+# this far over the edge, or CRASH_DAMAGE points in one lap, is a crash (2-3 m wide with no damage
+# is running wide: a crash's cut for it left a turn slower than the learner alone ever makes it):
+CRASH_MARGIN_M = -3.0
+CRASH_DAMAGE = 50.0
+CRASH_FACTOR = 0.9  # lost at once (a few per cent a lap crashed dirt-3 in the same turn lap after lap)
 CEILING_RECOVERY = 1.01  # a clean lap in a turn lifts its ceiling by 1 %, up to MAX_FACTOR
 
 
