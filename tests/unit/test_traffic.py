@@ -90,6 +90,17 @@ def test_racecraft_gives_room_to_a_car_alongside_and_marks_the_step_spoiled():
     assert craft.spoiled(1.5) and not craft.spoiled(2.5)
 
 
+def test_a_car_predicted_across_us_gets_room_on_the_side_it_is_on():
+    """A car on our right closing in sideways so fast that 0.5 s ahead it would be on our left is
+    taken at our centre, still on our right: the room pushes us left, away from it, not into it."""
+    craft = _craft()
+    craft.predict(0.0, [_car(1.0, -3.0, 30.0)])
+    cars = craft.predict(0.02, [_car(1.0, -2.8, 30.0)])  # 10 m/s towards us: 2.2 m left of us in 0.5 s
+    assert cars[0].lateral_m < 0.0 and cars[0].mid_m < 0.0
+    off = craft.offset(0.02, 30.0, 0.0, cars, 0.0, 0.0, (6.0, -6.0), 0.0, 400.0, 0.1, 0.0)
+    assert off == pytest.approx(0.5 * (2.0 + 2.0) + 1.5 - 1e-3)
+
+
 def test_racecraft_leaves_the_line_alone_when_nobody_is_near():
     craft = _craft()
     far = _car(150.0, 0.0, 30.0)  # far ahead, no faster than us
