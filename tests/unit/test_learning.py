@@ -175,7 +175,7 @@ def test_a_crash_costs_the_turn_ten_per_cent_at_once(margins, damage):
 
 def test_running_wide_by_2_to_3_m_without_damage_is_not_a_crash():
     """g-track-1's last turn ran 2.1 m wide once in a field race: a crash's 10 % there left it
-    slower than the learner alone ever makes it (it settles at two 4 % cuts)."""
+    slower than the learner alone ever makes it (alone it settles after cuts of 2 %, 4 % and 2 %)."""
     tl = learner(TWO_TURNS)
     tl.turns[0].factor = 1.2
     drive_lap(tl, {12: -2.5})
