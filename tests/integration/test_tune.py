@@ -92,15 +92,29 @@ def test_two_workers_on_postgres_one_killed(overlay, postgres, tmp_path):
     a = subprocess.Popen(tune_cmd(*common, "--seed", "1"), stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     time.sleep(1.0)  # a first: it makes the study
     b = subprocess.Popen(tune_cmd(*common, "--seed", "2"), stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    workers = [a, b]
     try:
         killed = kill_mid_trial(a, postgres.url, study)
+        if not still_running(postgres.url, study, killed):
+            # the trial ended (a race that failed at once is told in milliseconds) between the look and
+            # the signal: once more with a third worker, so the kill lands inside a trial
+            workers.append(subprocess.Popen(tune_cmd(*common, "--seed", "3"), stdout=subprocess.DEVNULL,
+                                            stderr=subprocess.PIPE))
+            killed = kill_mid_trial(workers[-1], postgres.url, study)
         _, b_err = b.communicate(timeout=180)
         assert b.returncode == 0, b_err.decode()
     finally:
-        for p in (a, b):
+        for p in workers:
             if p.poll() is None:
                 p.kill()
     assert_retried(load(postgres.url, study), killed, 6)
+
+
+def still_running(storage_url: str, study: str, number: int) -> bool:
+    """Whether trial number is still RUNNING (its worker killed inside it) right after the kill."""
+    import optuna
+
+    return load(storage_url, study).trials[number].state == optuna.trial.TrialState.RUNNING
 
 
 def test_storage_calls_of_a_trial_on_postgres(postgres):
