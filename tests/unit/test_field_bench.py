@@ -79,6 +79,14 @@ def test_field_grid_sums_places_wins_and_damage_per_car():
     assert grid.to_json()["places"]["anchor"] == {"a": [6, 5], "b": [9, 9]}
 
 
+def test_field_grid_counts_a_car_out_of_the_race_as_last():
+    from boxbox.bench.field_grid import FieldGrid
+    grid = FieldGrid([_result(10, {"a": (0, 6), "b": (2, 9)})])  # rank 0: out on damage, not a failed race
+    assert grid.places("robot") == {"a": [10], "b": [2]}
+    assert grid.summary("robot")["places"] == 12
+    assert grid.summary("robot")["failed"] == 0
+
+
 def test_field_grid_counts_the_racecraft_targets_over_every_race():
     from boxbox.bench.field_grid import FieldGrid
     grid = FieldGrid([_result(10, {"a": (1, 6), "b": (7, 5)}, damage=299),

@@ -47,13 +47,16 @@ class FieldGrid:
                 for r in self.results]
 
     def places(self, role: str) -> dict[str, list[int | None]]:
-        """Per track, the car's place at each length (None: the race failed)."""
+        """Per track, the car's place at each length (None: the race failed).  A car the race ran
+        with but TORCS did not place (out on damage before a lap) counts as last: as 0 it made a
+        version that wrecks the car look better."""
         out: dict[str, list[int | None]] = {}
         for result in self.results:
             rows = {r["track"]: r for r in result.rows if r["role"] == role}
             for track in result.spec.tracks:
                 row = rows.get(track)
-                out.setdefault(track, []).append(None if row is None or row["error"] else row["rank"])
+                place = None if row is None or row["error"] else (row["rank"] or result.spec.start_slot)
+                out.setdefault(track, []).append(place)
         return out
 
     def damage(self, role: str) -> dict[str, int]:
