@@ -19,6 +19,9 @@ from boxbox.torcs.rundir import RunDir
 PROGRESS_LINE = re.compile(r"Sim Time:\s*([\d.]+)\s*\[s\], Leader Laps:\s*(\d+)")
 FAULT_LINE = re.compile(r"BOXBOX-FAULT (\S+) robot=(-?\d+) step=(\d+)(?: budget_ms=(\d+) answer=(\d+))?")
 HOST_LOG_TAIL = 2000  # characters of the host's log shown when it died
+# the hang traceback is taken after TORCS gave up on the robot: a host found in Host.finish had left
+# the late step and was winding down, so the step was slow, not stuck (a loaded machine, session 18)
+LATE_NOT_STUCK = re.compile(r'torcs/host\.py", line \d+ in finish\n')
 
 
 @dataclass
@@ -78,6 +81,10 @@ def _bridge_fault(run_dir: RunDir, end: Ending, marker: re.Match) -> str:
     who = end.who(robot)
     if kind == "timeout":
         hang_tb = run_dir.read_text(run_dir.hang_traceback).strip()
+        if LATE_NOT_STUCK.search(hang_tb):
+            return timeout_line(who, end, step, marker) + "; it answered late but was not stuck (asked where it " \
+                "was, its host was already finishing the race): a slow step or a loaded machine; give more time " \
+                "with --step-budget-ms, or race fewer jobs at once"
         return timeout_line(who, end, step, marker) + (f"\nwhere the robot was stuck:\n{hang_tb}" if hang_tb else "")
     if kind in ("host-gone", "connect"):
         how = exit_text(end.host_code) if end.host_code is not None else "ended"
