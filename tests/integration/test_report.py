@@ -63,7 +63,10 @@ def test_report_of_a_short_race_loads_every_figure_in_chromium(tmp_path, overlay
     page_file = report_dir / "report.html"
     page = page_file.read_text()
     n_images = page.count("<img ")
-    assert n_images == 6  # lap-time bars, the places lap by lap (two cars), track map, the pit stop, two laps
+    took = bool((np.diff(c["damage"]) > 0).any())  # then a map of where (the race's result may be after a repair)
+    assert ("No damage taken." in page) != took and ("where the damage was taken" in page) == took
+    # lap-time bars, the places lap by lap (two cars), track map, the pit stop, two laps
+    assert n_images == 6 + took
     probe = tmp_path / "probe.html"
     probe.write_text(page.replace("</body>", PROBE + "</body>"))
     dom = subprocess.run(chromium_cmd(chromium, tmp_path / "profile-dom", "--virtual-time-budget=10000", "--dump-dom",

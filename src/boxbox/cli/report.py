@@ -16,7 +16,7 @@ from boxbox.cli.types import OutputFile
 @click.option("--no-limit", is_flag=True, help="Leave out the limit lap's speed (`boxbox limit`) in the lap plots.")
 def report(run_dir: Path, out_file: Path | None, no_limit: bool) -> None:
     """Make the HTML race report of a run directory (result.json + telemetry.parquet), with the
-    car's limit lap speed over every lap's speed.
+    car's limit lap speed over every lap's speed and a map of where it took its damage.
 
     Example: boxbox report ~/.cache/boxbox/runs/20261124-101500-abcd1234 --out race.html
     """

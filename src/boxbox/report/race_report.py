@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from boxbox.errors import UsageError
+from boxbox.report.damage import Incident, damage_by_lap, damage_incidents
 from boxbox.report.tables import fmt_time
 from boxbox.torcs.positions import positions_by_lap
 from boxbox.torcs.results import is_python_module
@@ -185,16 +186,31 @@ def braking_points(c: dict) -> np.ndarray:
     return idx
 
 
-def fig_map(c: dict, lap_rows: np.ndarray, lap: int, meta_track: dict, events: list[dict], title: str):
-    """The track map, the chosen lap coloured by speed, its braking points, and the pit events."""
-    from matplotlib.collections import LineCollection
-
+def _track_axes(meta_track: dict):
+    """A figure and axes for a map, with the track's edges drawn when the telemetry has them."""
     fig = _figure(8.5, 7.0)
     ax = fig.add_subplot()
     edges = meta_track.get("edges")
     if edges:
         for side in ("left", "right"):
             ax.plot(edges[f"{side}_x"], edges[f"{side}_y"], color="#9a9a9a", linewidth=0.8)
+    return fig, ax
+
+
+def _finish_map(ax, title: str) -> None:
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.autoscale_view()
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.set_title(title)
+    ax.grid(alpha=0.2)
+
+
+def fig_map(c: dict, lap_rows: np.ndarray, lap: int, meta_track: dict, events: list[dict], title: str):
+    """The track map, the chosen lap coloured by speed, its braking points, and the pit events."""
+    from matplotlib.collections import LineCollection
+
+    fig, ax = _track_axes(meta_track)
     x, y, v = c["x_m"][lap_rows], c["y_m"][lap_rows], c["speed_mps"][lap_rows] * KMH
     if len(x) >= 2:
         pts = np.column_stack([x, y]).reshape(-1, 1, 2)
@@ -230,13 +246,8 @@ def fig_map(c: dict, lap_rows: np.ndarray, lap: int, meta_track: dict, events: l
             ax.plot(c["x_m"][i], c["y_m"][i], marker=marker, color=color, markeredgecolor="black", markersize=9,
                     linestyle="none", label=None if label in shown else label)
             shown.add(label)
-    ax.set_aspect("equal", adjustable="datalim")
-    ax.autoscale_view()
-    ax.set_xlabel("x (m)")
-    ax.set_ylabel("y (m)")
-    ax.set_title(title)
     ax.legend(fontsize=8, loc="best")
-    ax.grid(alpha=0.2)
+    _finish_map(ax, title)
     return fig
 
 
@@ -409,6 +420,41 @@ def _read_telemetry(run_dir: Path):
         return None, f"telemetry file unreadable: {type(exc).__name__}: {exc}", tel_file
 
 
+def fig_damage_map(incidents: list[Incident], meta_track: dict, race_laps: int, title: str):
+    """The track's edges with each incident where it began: the marker's area grows with the damage
+    taken, its colour is the lap."""
+    fig, ax = _track_axes(meta_track)
+    laps = np.array([i.lap for i in incidents], dtype=float)
+    dots = ax.scatter([i.x_m for i in incidents], [i.y_m for i in incidents], c=laps, cmap="viridis",
+                      vmin=min(1.0, laps.min()), vmax=max(float(race_laps), laps.max(), 2.0),
+                      s=[20.0 + i.damage / 5.0 for i in incidents], edgecolors="black", linewidths=0.6, alpha=0.8)
+    fig.colorbar(dots, ax=ax, label="lap", shrink=0.8)
+    labelled: list[Incident] = []
+    for i in sorted(incidents, key=lambda i: -i.damage):  # the worst five, one label per place
+        if len(labelled) < 5 and all(math.hypot(i.x_m - j.x_m, i.y_m - j.y_m) > 30.0 for j in labelled):
+            ax.annotate(f"{i.damage}", (i.x_m, i.y_m), textcoords="offset points", xytext=(6, 6), fontsize=8)
+            labelled.append(i)
+    _finish_map(ax, title)
+    return fig
+
+
+def _damage_section(name: str, c: dict, track: dict, race_laps: int) -> str:
+    """Where the car took its damage: a map of the incidents and their table, worst first."""
+    incidents = damage_incidents(c)
+    if not incidents:
+        return "<h3>Damage</h3><p class='note'>No damage taken.</p>"
+    by_lap = ", ".join(f"lap {lap}: {dmg}" for lap, dmg in damage_by_lap(incidents).items())
+    rows = [[str(i.lap), f"{i.dist_m:.0f}", fmt_time(i.time_s), str(i.damage), str(i.hits), f"{i.speed_mps * KMH:.0f}"]
+            for i in sorted(incidents, key=lambda i: -i.damage)]
+    total = sum(i.damage for i in incidents)
+    return ("<h3>Damage</h3>"
+            f"<p class='note'>{len(incidents)} incidents (hits less than 1 s apart are one), {total} damage "
+            f"points in all; by lap: {html.escape(by_lap)}.</p>"
+            + _img(fig_damage_map(incidents, track, race_laps, f"{name}: where the damage was taken"),
+                   "Track map: each incident where it began, sized by its damage, coloured by lap")
+            + _table(["lap", "from start (m)", "race time", "damage", "hits", "speed km/h"], rows))
+
+
 def build_report(run_dir: Path, limit: tuple[np.ndarray, np.ndarray] | None = None) -> str:
     """The HTML page for the race in run_dir (result.json required; telemetry.parquet when recorded);
     `limit`: the limit lap's speed (m/s) against distance (m), drawn in every lap's speed plot."""
@@ -475,6 +521,7 @@ def _car_section(d: dict, c: dict, track: dict, length: float, car_meta: dict, r
     what = f"lap {best}" + (f" ({fmt_time(lap_times[best - 1])}, fastest)" if best <= len(lap_times) else "")
     parts.append(_img(fig_map(c, lap_rows, best, track, events, f"{name}: {what}, coloured by speed"),
                       f"Track map: {what} coloured by speed, braking points and pit events"))
+    parts.append(_damage_section(name, c, track, race_laps))
     pit = track.get("pit")
     if events and pit:
         parts.append("<h3>Pit stops</h3>")

@@ -1,0 +1,32 @@
+"""The damage incidents of the race report, from plain telemetry arrays."""
+
+import numpy as np
+import pytest
+
+from boxbox.report.damage import damage_by_lap, damage_incidents
+
+
+def _telemetry(damage: list[float], step_s: float = 0.02) -> dict[str, np.ndarray]:
+    n = len(damage)
+    t = np.arange(n) * step_s
+    return {"time_s": t, "lap": (t // 1.0).astype(int) + 1, "dist_m": t * 50.0, "speed_mps": np.full(n, 50.0),
+            "damage": np.asarray(damage, dtype=float), "x_m": t, "y_m": -t}
+
+
+def test_hits_less_than_a_second_apart_are_one_incident_and_a_repair_is_none():
+    dmg = [0.0] * 10 + [100.0] * 20 + [150.0] * 100 + [400.0] * 10 + [0.0] * 60 + [30.0] * 5
+    inc = damage_incidents(_telemetry(dmg))
+    assert [(i.damage, i.hits) for i in inc] == [(150, 2), (250, 1), (30, 1)]
+    assert inc[0].time_s == pytest.approx(0.2) and inc[0].dist_m == pytest.approx(10.0)
+    assert inc[1].lap == 3  # 2.6 s: the third lap of the fake one-second laps
+    assert damage_by_lap(inc) == {1: 150, 3: 250, 5: 30}
+
+
+def test_no_damage_no_incident_and_bad_input_is_refused():
+    assert damage_incidents(_telemetry([0.0] * 50)) == []
+    with pytest.raises(ValueError, match="merge_s"):
+        damage_incidents(_telemetry([0.0, 1.0]), merge_s=float("nan"))
+    c = _telemetry([0.0, 1.0])
+    del c["x_m"]
+    with pytest.raises(ValueError, match="x_m"):
+        damage_incidents(c)
