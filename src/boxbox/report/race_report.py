@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from boxbox.errors import UsageError
-from boxbox.report.damage import Incident, damage_by_lap, damage_incidents
+from boxbox.report.damage import MERGE_S, Incident, damage_by_lap, damage_incidents
 from boxbox.report.tables import fmt_time
 from boxbox.torcs.positions import positions_by_lap
 from boxbox.torcs.results import is_python_module
@@ -448,7 +448,7 @@ def _damage_section(name: str, c: dict, track: dict, race_laps: int) -> str:
             for i in sorted(incidents, key=lambda i: -i.damage)]
     total = sum(i.damage for i in incidents)
     return ("<h3>Damage</h3>"
-            f"<p class='note'>{len(incidents)} incidents (hits less than 1 s apart are one), {total} damage "
+            f"<p class='note'>{len(incidents)} incidents (hits less than {MERGE_S:g} s apart are one), {total} damage "
             f"points in all; by lap: {html.escape(by_lap)}.</p>"
             + _img(fig_damage_map(incidents, track, race_laps, f"{name}: where the damage was taken"),
                    "Track map: each incident where it began, sized by its damage, coloured by lap")
