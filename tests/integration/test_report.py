@@ -59,6 +59,11 @@ def test_report_of_a_short_race_loads_every_figure_in_chromium(tmp_path, overlay
     assert np.isfinite(c["target_speed_mps"]).all() and "sig_pit_phase" in c and (c["sig_pit_phase"] > 0).any()
     assert c["in_pit"].sum() == 1 and c["speed_mps"][c["in_pit"]][0] < 1.5
     assert tel.meta["track"]["pit"]["speed_limit_mps"] > 0 and len(tel.meta["track"]["edges"]["left_x"]) > 100
+    # the nearest other car every step: bt:2, the only one, on the grid a few metres off our car
+    bt = next(d for d in r["drivers"] if d["module"] == "bt")
+    assert set(np.unique(c["near_car"])) == {bt["car_index"]}
+    start = np.hypot(c["near_ahead_m"][0], c["near_left_m"][0])
+    assert 2.0 < start < 20.0 and np.isfinite(c["near_left_m"]).all()
 
     page_file = report_dir / "report.html"
     page = page_file.read_text()

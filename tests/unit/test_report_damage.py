@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from boxbox.report.damage import damage_by_lap, damage_incidents
+from boxbox.report.damage import damage_by_lap, damage_incidents, nearest_text
 
 
 def _telemetry(damage: list[float], step_s: float = 0.02) -> dict[str, np.ndarray]:
@@ -30,3 +30,20 @@ def test_no_damage_no_incident_and_bad_input_is_refused():
     del c["x_m"]
     with pytest.raises(ValueError, match="x_m"):
         damage_incidents(c)
+
+
+def test_the_nearest_car_at_the_first_hit_is_named():
+    """The near_* columns at an incident's first hit, in words; none known (a file from before the
+    columns) or too far is said so."""
+    c = _telemetry([0.0] * 5 + [80.0] * 5 + [0.0] * 200 + [120.0] * 5)
+    n = len(c["time_s"])
+    assert [i.near_car for i in damage_incidents(c)] == [-1, -1]  # no near columns: none known
+    c["near_car"] = np.where(np.arange(n) < 100, 4, 6)
+    c["near_ahead_m"] = np.where(np.arange(n) < 100, 3.14, -40.0)
+    c["near_left_m"] = np.where(np.arange(n) < 100, -1.75, 2.0)
+    first, second = damage_incidents(c)
+    assert (first.near_car, first.near_ahead_m, first.near_left_m) == (4, 3.14, -1.75)
+    names = {4: "bt 2 (bt:2)"}
+    assert nearest_text(first, names) == "bt 2 (bt:2): 3.1 m ahead, 1.8 m right"
+    assert nearest_text(second, names) == "none within 15 m"  # 40 m behind
+    assert nearest_text(second, names, near_m=50.0) == "car 6: 40.0 m behind, 2.0 m left"

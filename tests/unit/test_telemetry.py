@@ -7,6 +7,7 @@ import io
 import json
 import math
 import re
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -20,10 +21,13 @@ from boxbox.torcs import wire
 from boxbox.torcs.telemetry import (
     COLUMNS,
     FILE_NAME,
+    NEAR_REC,
+    NO_NEAR,
     RAD_S_TO_RPM,
     ROW_DOUBLES,
     Recorder,
     load_telemetry,
+    nearest_car,
     track_info,
     write_telemetry,
 )
@@ -52,12 +56,13 @@ class Signals(Robot):
         return (state.speed_x_mps + 1.0, 2.0)
 
 
-def record(rec: Recorder, n: int, **fields) -> None:
-    """What the host does per drive step: the state, reply header and controls bytes, then the robot's tuple."""
+def record(rec: Recorder, n: int, near: bytes = NO_NEAR, **fields) -> None:
+    """What the host does per drive step: the state, reply header and controls bytes, the nearest
+    car, then the robot's tuple."""
     for i in range(n):
         rec_bytes = state_bytes(sim_time_s=0.02 * i, speed_x_mps=float(i), laps=1.0, rpm=100.0, **fields)
         reply = wire.HEADER.pack(wire.CONTROLS, 0, i, 0) + controls_bytes(steer=-0.5, accel=0.25, gear=2)
-        rec.rows += rec_bytes + reply
+        rec.rows += rec_bytes + reply + near
         if rec.tel is not None:
             try:
                 rec.sig_append(rec.tel(as_state(rec_bytes)))
@@ -86,6 +91,38 @@ def test_round_trip_columns_target_and_signals(tmp_path):
     assert t.meta["cars"][0]["signals"] == ["target_speed_mps", "phase"] and t.meta["cars"][0]["error"] is None
 
 
+def opponent(index: int, x_m: float, y_m: float):
+    return SimpleNamespace(car_index=float(index), x_m=x_m, y_m=y_m)
+
+
+def test_nearest_car_in_our_cars_frame():
+    """The nearest car by centre distance, placed ahead and to the left along our own axis: heading
+    north (yaw 90 degrees), a car 3 m north and 1 m west is 3 m ahead and 1 m to our left."""
+    cars = [opponent(4, 10.0, 40.0), opponent(7, 9.0, 23.0), opponent(2, 30.0, 20.0)]
+    index, ahead, left = NEAR_REC.unpack(nearest_car(10.0, 20.0, math.pi / 2, cars))
+    assert index == 7 and ahead == pytest.approx(3.0) and left == pytest.approx(1.0)
+    # heading east, the same car is 1 m behind and 3 m to the left
+    _, ahead, left = NEAR_REC.unpack(nearest_car(10.0, 20.0, 0.0, cars))
+    assert ahead == pytest.approx(-1.0) and left == pytest.approx(3.0)
+    assert nearest_car(0.0, 0.0, 0.0, []) == NO_NEAR
+    assert nearest_car(0.0, 0.0, 0.0, [opponent(3, math.nan, math.nan)]) == NO_NEAR  # a car TORCS lost
+
+
+def test_nearest_car_columns_null_when_alone(tmp_path):
+    """The near columns round-trip; with no other car the index is -1 and the place null (NaN back)."""
+    rec = Recorder(0, "near", "s")
+    record(rec, 3, near=nearest_car(0.0, 0.0, 0.0, [opponent(5, 2.0, -1.5)]))
+    record(rec, 2)
+    write_telemetry(tmp_path / FILE_NAME, [rec])
+    c = load_telemetry(tmp_path / FILE_NAME).columns
+    assert c["near_car"].tolist() == [5, 5, 5, -1, -1]
+    assert c["near_ahead_m"][:3].tolist() == [2.0] * 3 and c["near_left_m"][:3].tolist() == [-1.5] * 3
+    assert np.isnan(c["near_ahead_m"][3:]).all()
+    import pyarrow.parquet as pq
+
+    assert pq.read_table(tmp_path / FILE_NAME).column("near_left_m").null_count == 2
+
+
 def test_spilled_steps_come_back_in_order_and_the_spool_goes(tmp_path):
     """The host spills the buffer to a spool file every SPILL_STEPS steps (flat memory in long
     races); the file written at the end holds the same rows as a recorder that never spilled."""
@@ -104,7 +141,7 @@ def test_spilled_steps_come_back_in_order_and_the_spool_goes(tmp_path):
     a, b = kept.columns(), spilled.columns()
     assert list(a) == list(b)
     for name in a:
-        assert np.array_equal(a[name], b[name]), name
+        assert np.array_equal(a[name], b[name], equal_nan=a[name].dtype.kind == "f"), name
     out = tmp_path / "out"
     out.mkdir()
     assert write_telemetry(out / FILE_NAME, [spilled]) == 19

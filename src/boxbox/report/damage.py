@@ -8,6 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 MERGE_S = 1.0  # hits this close in time are one incident
+NEAR_M = 15.0  # another car this close (centre to centre) at the first hit is named as the nearest
 
 
 @dataclass(frozen=True)
@@ -22,11 +23,22 @@ class Incident:
     hits: int  # steps on which the count rose
     x_m: float  # where the first hit was, for the map (m)
     y_m: float
+    # the nearest other car at the first hit (telemetry near_*): its TORCS car index (-1: none, or a
+    # file written before the column), and its centre ahead of ours and to our left, in our car's frame (m)
+    near_car: int = -1
+    near_ahead_m: float = float("nan")
+    near_left_m: float = float("nan")
+
+    @property
+    def near_m(self) -> float:
+        """Centre-to-centre distance to the nearest other car (m; NaN: none known)."""
+        return float(np.hypot(self.near_ahead_m, self.near_left_m))
 
 
 def damage_incidents(c: dict[str, np.ndarray], merge_s: float = MERGE_S) -> list[Incident]:
     """The incidents of one car's telemetry `c` (columns time_s, lap, dist_m, speed_mps, damage,
-    x_m, y_m, one row per step).  A fall of the count (a repair in the pits) is not a hit."""
+    x_m, y_m, one row per step; near_car, near_ahead_m, near_left_m when recorded).  A fall of the
+    count (a repair in the pits) is not a hit."""
     if not merge_s >= 0.0:
         raise ValueError(f"merge_s must be a number of seconds >= 0, not {merge_s!r}")
     need = ("time_s", "lap", "dist_m", "speed_mps", "damage", "x_m", "y_m")
@@ -37,6 +49,10 @@ def damage_incidents(c: dict[str, np.ndarray], merge_s: float = MERGE_S) -> list
     rise = np.diff(dmg, prepend=dmg[:1])
     hits = np.flatnonzero(rise > 0.0)
     t = np.asarray(c["time_s"], dtype=float)
+    n = len(t)
+    near = np.asarray(c.get("near_car", np.full(n, -1)), dtype=int)
+    ahead = np.asarray(c.get("near_ahead_m", np.full(n, np.nan)), dtype=float)
+    left = np.asarray(c.get("near_left_m", np.full(n, np.nan)), dtype=float)
     out: list[Incident] = []
     start = 0
     for k in range(1, len(hits) + 1):
@@ -45,7 +61,9 @@ def damage_incidents(c: dict[str, np.ndarray], merge_s: float = MERGE_S) -> list
         first, group = hits[start], hits[start:k]
         out.append(Incident(lap=int(c["lap"][first]), dist_m=float(c["dist_m"][first]), time_s=float(t[first]),
                             damage=int(round(float(rise[group].sum()))), speed_mps=float(c["speed_mps"][first]),
-                            hits=len(group), x_m=float(c["x_m"][first]), y_m=float(c["y_m"][first])))
+                            hits=len(group), x_m=float(c["x_m"][first]), y_m=float(c["y_m"][first]),
+                            near_car=int(near[first]), near_ahead_m=float(ahead[first]),
+                            near_left_m=float(left[first])))
         start = k
     return out
 
@@ -56,3 +74,13 @@ def damage_by_lap(incidents: list[Incident]) -> dict[int, int]:
     for i in sorted(incidents, key=lambda i: i.lap):
         out[i.lap] = out.get(i.lap, 0) + i.damage
     return out
+
+
+def nearest_text(i: Incident, names: dict[int, str], near_m: float = NEAR_M) -> str:
+    """The nearest other car at the incident's first hit in words ("bt 2: 3.1 m ahead, 1.8 m
+    left"), or that none was within near_m; names: TORCS car index -> driver name."""
+    if i.near_car < 0 or not i.near_m <= near_m:
+        return f"none within {near_m:g} m"
+    ahead = f"{abs(i.near_ahead_m):.1f} m {'ahead' if i.near_ahead_m >= 0.0 else 'behind'}"
+    side = f"{abs(i.near_left_m):.1f} m {'left' if i.near_left_m >= 0.0 else 'right'}"
+    return f"{names.get(i.near_car, f'car {i.near_car}')}: {ahead}, {side}"

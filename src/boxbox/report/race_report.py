@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from boxbox.errors import UsageError
-from boxbox.report.damage import MERGE_S, Incident, damage_by_lap, damage_incidents
+from boxbox.report.damage import MERGE_S, Incident, damage_by_lap, damage_incidents, nearest_text
 from boxbox.report.tables import fmt_time
 from boxbox.torcs.positions import positions_by_lap
 from boxbox.torcs.results import is_python_module
@@ -438,21 +438,22 @@ def fig_damage_map(incidents: list[Incident], meta_track: dict, race_laps: int, 
     return fig
 
 
-def _damage_section(name: str, c: dict, track: dict, race_laps: int) -> str:
-    """Where the car took its damage: a map of the incidents and their table, worst first."""
+def _damage_section(name: str, c: dict, track: dict, race_laps: int, names: dict[int, str]) -> str:
+    """Where the car took its damage: a map of the incidents and their table, worst first, with
+    the car nearest at each (names: TORCS car index -> driver name)."""
     incidents = damage_incidents(c)
     if not incidents:
         return "<h3>Damage</h3><p class='note'>No damage taken.</p>"
     by_lap = ", ".join(f"lap {lap}: {dmg}" for lap, dmg in damage_by_lap(incidents).items())
-    rows = [[str(i.lap), f"{i.dist_m:.0f}", fmt_time(i.time_s), str(i.damage), str(i.hits), f"{i.speed_mps * KMH:.0f}"]
-            for i in sorted(incidents, key=lambda i: -i.damage)]
+    rows = [[str(i.lap), f"{i.dist_m:.0f}", fmt_time(i.time_s), str(i.damage), str(i.hits), f"{i.speed_mps * KMH:.0f}",
+             html.escape(nearest_text(i, names))] for i in sorted(incidents, key=lambda i: -i.damage)]
     total = sum(i.damage for i in incidents)
     return ("<h3>Damage</h3>"
             f"<p class='note'>{len(incidents)} incidents (hits less than {MERGE_S:g} s apart are one), {total} damage "
             f"points in all; by lap: {html.escape(by_lap)}.</p>"
             + _img(fig_damage_map(incidents, track, race_laps, f"{name}: where the damage was taken"),
                    "Track map: each incident where it began, sized by its damage, coloured by lap")
-            + _table(["lap", "from start (m)", "race time", "damage", "hits", "speed km/h"], rows))
+            + _table(["lap", "from start (m)", "race time", "damage", "hits", "speed km/h", "nearest car"], rows))
 
 
 def build_report(run_dir: Path, limit: tuple[np.ndarray, np.ndarray] | None = None) -> str:
@@ -521,7 +522,8 @@ def _car_section(d: dict, c: dict, track: dict, length: float, car_meta: dict, r
     what = f"lap {best}" + (f" ({fmt_time(lap_times[best - 1])}, fastest)" if best <= len(lap_times) else "")
     parts.append(_img(fig_map(c, lap_rows, best, track, events, f"{name}: {what}, coloured by speed"),
                       f"Track map: {what} coloured by speed, braking points and pit events"))
-    parts.append(_damage_section(name, c, track, race_laps))
+    names = {int(o["car_index"]): driver_label(o) for o in r.get("drivers", []) if o.get("car_index") is not None}
+    parts.append(_damage_section(name, c, track, race_laps, names))
     pit = track.get("pit")
     if events and pit:
         parts.append("<h3>Pit stops</h3>")

@@ -35,7 +35,7 @@ from boxbox.torcs.faults import Fault, FaultKind, RobotCall
 from boxbox.torcs.hostlink import HostLink
 from boxbox.torcs.pitwatch import PitWatch
 from boxbox.torcs.rundir import RunDir
-from boxbox.torcs.telemetry import SPILL_BYTES, Recorder, write_telemetry
+from boxbox.torcs.telemetry import NO_NEAR, SPILL_BYTES, Recorder, nearest_car, write_telemetry
 from boxbox.torcs.timing import HEARTBEAT_S, MIN_SPEED_MPS, STEP_S, TimeModel
 
 STATE_SIZE = wire.STATE_REC.size
@@ -201,6 +201,7 @@ def incidents(slot: Slot) -> dict:
 
 LAPS_AT = wire.STATE_FIELDS.index("laps")
 SIM_TIME_AT = wire.STATE_FIELDS.index("sim_time_s")
+X_AT, Y_AT, YAW_AT = (wire.STATE_FIELDS.index(f) for f in ("x_m", "y_m", "yaw_rad"))
 HEARTBEAT_NS = int(HEARTBEAT_S * 1e9)
 
 
@@ -286,7 +287,7 @@ class Host:
         """The drive step, a closure over everything it uses (it runs 50 times a simulated second
         per car: locals are the cheapest lookups). The CONTROLS reply is packed into the receive
         buffer right after the state record (over the opponents, decoded by then), so telemetry
-        records a step with one copy: state, reply header, controls."""
+        records a step with one copy (state, reply header, controls) and the nearest other car."""
         buf, slots, hsize = self.buf, self.slots, wire.HEADER.size
         state_rec, opp_rec = wire.STATE_REC.unpack_from, wire.OPPONENT_REC.unpack_from
         make_state, make_opp = State._make, Opponent._make
@@ -295,6 +296,7 @@ class Host:
         reply_view = memoryview(buf)[reply_at: reply_at + hsize + wire.CONTROLS_REC.size]
         row_view = memoryview(buf)[hsize: reply_at + hsize + wire.CONTROLS_REC.size]
         robot_controls = self._robot_controls
+        near, no_near = nearest_car, NO_NEAR
 
         def drive(robot: int, step: int, count: int) -> None:
             t0 = perf_counter_ns()
@@ -327,6 +329,7 @@ class Host:
             rec = slot.rec
             if rec is not None:
                 rec.rows += row_view
+                rec.rows += near(vals[X_AT], vals[Y_AT], vals[YAW_AT], opps) if opps else no_near
                 if rec.tel is not None:
                     rec.add_signals(state)
                 if len(rec.rows) >= SPILL_BYTES and not rec.spill():

@@ -1,12 +1,14 @@
 """Telemetry: every drive step of every Python car, buffered, spilled to disk, written as Parquet.
 
 The robot host records a step with one byte copy (the state record as the bridge sent it, followed
-in the host's buffer by the CONTROLS reply as it was sent: header and controls record) and, when
-the robot names telemetry fields, one list append of the tuple `Robot.telemetry(state)` returns.
-Every SPILL_STEPS steps the buffer goes to a spool file in the run dir (`spill`), so the host's
-memory stays flat over a race of any length (a 200-lap race grew it by 200 MB before).  Nothing is
-decoded while the race runs; `write_telemetry` turns spool and buffer into columns at the end (also
-after a robot fault: the host's `finally` calls it), so partial telemetry survives a failed race.
+in the host's buffer by the CONTROLS reply as it was sent: header and controls record), the nearest
+other car's index and place (three doubles) and, when the robot names telemetry fields, one list
+append of the tuple `Robot.telemetry(state)` returns.  Every SPILL_STEPS steps the buffer goes to a
+spool file in the run dir (`spill`), so the host's memory stays flat over a race of any length (a
+200-lap race grew it by 200 MB before).  Besides the nearest other car (`nearest_car`: a loop over
+the opponents the robot is given anyway, about 4 microseconds for nine), nothing is decoded while
+the race runs; `write_telemetry` turns spool and buffer into columns at the end (also after a robot
+fault: the host's `finally` calls it), so partial telemetry survives a failed race.
 
 File: RUN_DIR/telemetry.parquet, one row per drive step per Python car, columns in `COLUMNS`
 order, then `sig_<name>` for each robot signal.  The schema metadata key `boxbox` holds JSON with
@@ -18,6 +20,7 @@ from __future__ import annotations
 
 import json
 import math
+import struct
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -38,16 +41,22 @@ SIGNAL_PREFIX = "sig_"
 N_STATE = len(wire.STATE_FIELDS)
 N_CONTROLS = len(wire.CONTROLS_FIELDS)
 N_HEADER = wire.HEADER.size // 8
-# one recorded step: the state record, the reply's header (ignored), the controls record
-ROW_DOUBLES = N_STATE + N_HEADER + N_CONTROLS
+# the nearest other car at the step (torcs/telemetry.py nearest_car): its TORCS car index (-1: none)
+# and where its centre is from ours in our car's frame
+NEAR_FIELDS = ("near_car", "near_ahead_m", "near_left_m")
+NEAR_REC = struct.Struct("<3d")
+# one recorded step: the state record, the reply's header (ignored), the controls record, the nearest car
+ROW_DOUBLES = N_STATE + N_HEADER + N_CONTROLS + len(NEAR_FIELDS)
 _S = {f: i for i, f in enumerate(wire.STATE_FIELDS)}
 _C = {f: N_STATE + N_HEADER + i for i, f in enumerate(wire.CONTROLS_FIELDS)}
+_N = {f: N_STATE + N_HEADER + N_CONTROLS + i for i, f in enumerate(NEAR_FIELDS)}
 RAD_S_TO_RPM = 60.0 / (2.0 * math.pi)
 ROW_BYTES = 8 * ROW_DOUBLES
 SPILL_STEPS = 5000  # steps kept in memory before they go to the spool file (100 s of racing, ~2.5 MB)
 SPILL_BYTES = SPILL_STEPS * ROW_BYTES
 NO_CONTROLS = wire.CONTROLS_REC.pack(*[math.nan] * N_CONTROLS)  # a pit stop row: the race engine holds the car
 _NO_HEADER = bytes(wire.HEADER.size)
+NO_NEAR = NEAR_REC.pack(-1.0, math.nan, math.nan)
 
 # (column, unit / meaning) in file order; documented in docs/report.md
 COLUMNS = [
@@ -72,7 +81,27 @@ COLUMNS = [
     ("damage", "damage points"),
     ("in_pit", "captured by the race engine in the pit box (the row TORCS sends at the stop; no controls)"),
     ("pit_request", "the robot asks for a pit stop"),
+    ("near_car", "the nearest other car, centre to centre: its TORCS car index (`car_index` in result.json), "
+                 "-1 when there is none"),
+    ("near_ahead_m", "... its centre ahead of ours along our car's axis (- behind), null when none"),
+    ("near_left_m", "... its centre to the left of ours across our car's axis (- right), null when none"),
 ]
+
+
+def nearest_car(x_m: float, y_m: float, yaw_rad: float, opponents) -> bytes:
+    """The nearest of the opponents (centre to centre) packed as NEAR_REC: its car index, and its
+    centre ahead of ours and to our left in our car's frame; NO_NEAR when there are none.  Called on
+    the drive step while recording, so a plain loop (nine cars: a few microseconds)."""
+    best, best_d2 = None, math.inf
+    for o in opponents:
+        d2 = (o.x_m - x_m) ** 2 + (o.y_m - y_m) ** 2
+        if d2 < best_d2:
+            best, best_d2 = o, d2
+    if best is None or best_d2 != best_d2:
+        return NO_NEAR
+    dx, dy = best.x_m - x_m, best.y_m - y_m
+    c, s = math.cos(yaw_rad), math.sin(yaw_rad)
+    return NEAR_REC.pack(float(best.car_index), dx * c + dy * s, dy * c - dx * s)
 
 
 class Recorder:
@@ -165,11 +194,12 @@ class Recorder:
         self.names = names
         self.tel = robot.telemetry if names else None
 
-    def add(self, state_record: bytes, state, controls: bytes = NO_CONTROLS) -> None:
+    def add(self, state_record: bytes, state, controls: bytes = NO_CONTROLS, near: bytes = NO_NEAR) -> None:
         """Record one step off the hot path (the state TORCS sends when it captures the car in its pit)."""
         self.rows += state_record
         self.rows += _NO_HEADER
         self.rows += controls
+        self.rows += near
         if self.tel is not None:
             self.add_signals(state)
 
@@ -221,6 +251,9 @@ class Recorder:
             "damage": a[:, _S["damage"]].copy(),
             "in_pit": (a[:, _S["car_state"]].astype(np.int64) & 1) != 0,
             "pit_request": a[:, _C["pit_request"]] > 0.5,
+            "near_car": a[:, _N["near_car"]].astype(np.int16),
+            "near_ahead_m": a[:, _N["near_ahead_m"]].copy(),
+            "near_left_m": a[:, _N["near_left_m"]].copy(),
         }
         names = self.names
         sig = self._signal_array(spilled=True) if names else None
@@ -284,6 +317,8 @@ def write_telemetry(path: Path, recorders: list[Recorder], track=None, cars: dic
                 arrays[name] = pa.DictionaryArray.from_arrays(codes, pa.array([rec.name]))
             elif name == TARGET_FIELD and name not in cols:
                 arrays[name] = pa.nulls(n, pa.float64())
+            elif name in NEAR_FIELDS[1:]:
+                arrays[name] = pa.array(cols[name], from_pandas=True)  # NaN (no other car) as null
             else:
                 arrays[name] = pa.array(cols[name])
         for name, values in cols.items():
