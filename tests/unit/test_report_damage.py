@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from boxbox.report.damage import damage_by_lap, damage_incidents, nearest_text
+from boxbox.report.damage import damage_by_lap, damage_incidents, moved_text, nearest_text
 
 
 def _telemetry(damage: list[float], step_s: float = 0.02) -> dict[str, np.ndarray]:
@@ -47,3 +47,21 @@ def test_the_nearest_car_at_the_first_hit_is_named():
     assert nearest_text(first, names) == "bt 2 (bt:2): 3.1 m ahead, 1.8 m right"
     assert nearest_text(second, names) == "none within 15 m"  # 40 m behind
     assert nearest_text(second, names, near_m=50.0) == "car 6: 40.0 m behind, 2.0 m left"
+
+
+def test_who_moved_in_before_the_hit():
+    """Over the 0.5 s before the first hit we moved 1 m left towards a car on our left, which moved
+    0.25 m right, towards us: we 1.0 m, it 0.2 m (rounded to even). Another car nearest at the start of
+    the window, or none near: not known."""
+    c = _telemetry([0.0] * 60 + [50.0] * 5)
+    n = len(c["time_s"])
+    c["to_middle_m"] = np.where(np.arange(n) < 40, 0.0, 1.0)  # the move: at 0.8 s, inside the window
+    c["near_car"] = np.full(n, 3)
+    c["near_ahead_m"] = np.full(n, 1.0)
+    c["near_left_m"] = np.where(np.arange(n) < 40, 3.0, 1.75)  # it: 3.0 -> 2.75 across the road
+    (i,) = damage_incidents(c)
+    assert i.we_moved_in_m == 1.0 and i.it_moved_in_m == 0.25
+    assert moved_text(i) == "we 1.0 m, it 0.2 m"
+    c["near_car"] = np.where(np.arange(n) < 40, 5, 3)  # car 5 was nearest at the window's start
+    (i,) = damage_incidents(c)
+    assert np.isnan(i.we_moved_in_m) and moved_text(i) == ""

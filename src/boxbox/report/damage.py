@@ -9,6 +9,7 @@ import numpy as np
 
 MERGE_S = 1.0  # hits this close in time are one incident
 NEAR_M = 15.0  # another car this close (centre to centre) at the first hit is named as the nearest
+MOVED_S = 0.5  # who moved over towards the other is judged over this long before the first hit
 
 
 @dataclass(frozen=True)
@@ -28,6 +29,12 @@ class Incident:
     near_car: int = -1
     near_ahead_m: float = float("nan")
     near_left_m: float = float("nan")
+    # sideways moves towards each other over the MOVED_S before the first hit, across the road (m, +
+    # towards the other car; NaN: not known, e.g. another car was nearest then): ours from our
+    # to_middle, its from ours plus where it was to our left (our car's frame: near enough across the
+    # road while both point along it)
+    we_moved_in_m: float = float("nan")
+    it_moved_in_m: float = float("nan")
 
     @property
     def near_m(self) -> float:
@@ -53,6 +60,7 @@ def damage_incidents(c: dict[str, np.ndarray], merge_s: float = MERGE_S) -> list
     near = np.asarray(c.get("near_car", np.full(n, -1)), dtype=int)
     ahead = np.asarray(c.get("near_ahead_m", np.full(n, np.nan)), dtype=float)
     left = np.asarray(c.get("near_left_m", np.full(n, np.nan)), dtype=float)
+    mid = np.asarray(c.get("to_middle_m", np.full(n, np.nan)), dtype=float)
     out: list[Incident] = []
     start = 0
     for k in range(1, len(hits) + 1):
@@ -63,9 +71,20 @@ def damage_incidents(c: dict[str, np.ndarray], merge_s: float = MERGE_S) -> list
                             damage=int(round(float(rise[group].sum()))), speed_mps=float(c["speed_mps"][first]),
                             hits=len(group), x_m=float(c["x_m"][first]), y_m=float(c["y_m"][first]),
                             near_car=int(near[first]), near_ahead_m=float(ahead[first]),
-                            near_left_m=float(left[first])))
+                            near_left_m=float(left[first]), **_moved_in(t, first, near, left, mid)))
         start = k
     return out
+
+
+def _moved_in(t: np.ndarray, first: int, near: np.ndarray, left: np.ndarray, mid: np.ndarray) -> dict[str, float]:
+    """we_moved_in_m and it_moved_in_m of the incident whose first hit is at row `first` (see Incident)."""
+    before = int(np.searchsorted(t, t[first] - MOVED_S))
+    if near[first] < 0 or near[before] != near[first] or before == first:
+        return {}
+    side = 1.0 if left[first] >= 0.0 else -1.0  # the other car is on this side of us
+    we = (mid[first] - mid[before]) * side
+    it = -((mid[first] + left[first]) - (mid[before] + left[before])) * side
+    return {"we_moved_in_m": float(we), "it_moved_in_m": float(it)}
 
 
 def damage_by_lap(incidents: list[Incident]) -> dict[int, int]:
@@ -84,3 +103,11 @@ def nearest_text(i: Incident, names: dict[int, str], near_m: float = NEAR_M) -> 
     ahead = f"{abs(i.near_ahead_m):.1f} m {'ahead' if i.near_ahead_m >= 0.0 else 'behind'}"
     side = f"{abs(i.near_left_m):.1f} m {'left' if i.near_left_m >= 0.0 else 'right'}"
     return f"{names.get(i.near_car, f'car {i.near_car}')}: {ahead}, {side}"
+
+
+def moved_text(i: Incident, near_m: float = NEAR_M) -> str:
+    """Who moved over towards the other in the MOVED_S before the first hit, in words ("we 3.2 m,
+    it -1.2 m": we moved 3.2 m towards it, it 1.2 m away), or "" when not known or no car was near."""
+    if i.near_car < 0 or not i.near_m <= near_m or i.we_moved_in_m != i.we_moved_in_m:
+        return ""
+    return f"we {i.we_moved_in_m:.1f} m, it {i.it_moved_in_m:.1f} m"

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from boxbox.errors import UsageError
-from boxbox.report.damage import MERGE_S, Incident, damage_by_lap, damage_incidents, nearest_text
+from boxbox.report.damage import MERGE_S, MOVED_S, Incident, damage_by_lap, damage_incidents, moved_text, nearest_text
 from boxbox.report.tables import fmt_time
 from boxbox.torcs.positions import positions_by_lap
 from boxbox.torcs.results import is_python_module
@@ -446,14 +446,15 @@ def _damage_section(name: str, c: dict, track: dict, race_laps: int, names: dict
         return "<h3>Damage</h3><p class='note'>No damage taken.</p>"
     by_lap = ", ".join(f"lap {lap}: {dmg}" for lap, dmg in damage_by_lap(incidents).items())
     rows = [[str(i.lap), f"{i.dist_m:.0f}", fmt_time(i.time_s), str(i.damage), str(i.hits), f"{i.speed_mps * KMH:.0f}",
-             html.escape(nearest_text(i, names))] for i in sorted(incidents, key=lambda i: -i.damage)]
+             html.escape(nearest_text(i, names)), moved_text(i)] for i in sorted(incidents, key=lambda i: -i.damage)]
     total = sum(i.damage for i in incidents)
     return ("<h3>Damage</h3>"
             f"<p class='note'>{len(incidents)} incidents (hits less than {MERGE_S:g} s apart are one), {total} damage "
             f"points in all; by lap: {html.escape(by_lap)}.</p>"
             + _img(fig_damage_map(incidents, track, race_laps, f"{name}: where the damage was taken"),
                    "Track map: each incident where it began, sized by its damage, coloured by lap")
-            + _table(["lap", "from start (m)", "race time", "damage", "hits", "speed km/h", "nearest car"], rows))
+            + _table(["lap", "from start (m)", "race time", "damage", "hits", "speed km/h", "nearest car",
+                      f"moved towards it in {MOVED_S:g} s"], rows))
 
 
 def build_report(run_dir: Path, limit: tuple[np.ndarray, np.ndarray] | None = None) -> str:
