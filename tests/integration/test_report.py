@@ -61,9 +61,10 @@ def test_report_of_a_short_race_loads_every_figure_in_chromium(tmp_path, overlay
     assert tel.meta["track"]["pit"]["speed_limit_mps"] > 0 and len(tel.meta["track"]["edges"]["left_x"]) > 100
     # the nearest other car every step: bt:2, the only one, on the grid a few metres off our car
     bt = next(d for d in r["drivers"] if d["module"] == "bt")
-    assert set(np.unique(c["near_car"])) == {bt["car_index"]}
+    driving = ~c["in_pit"]  # the stop's row is recorded off the drive step, with no other car
+    assert set(np.unique(c["near_car"][driving])) == {bt["car_index"]} and c["near_car"][c["in_pit"]][0] == -1
     start = np.hypot(c["near_ahead_m"][0], c["near_left_m"][0])
-    assert 2.0 < start < 20.0 and np.isfinite(c["near_left_m"]).all()
+    assert 2.0 < start < 20.0 and np.isfinite(c["near_left_m"][driving]).all()
 
     page_file = report_dir / "report.html"
     page = page_file.read_text()

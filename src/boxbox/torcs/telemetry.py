@@ -82,7 +82,7 @@ COLUMNS = [
     ("in_pit", "captured by the race engine in the pit box (the row TORCS sends at the stop; no controls)"),
     ("pit_request", "the robot asks for a pit stop"),
     ("near_car", "the nearest other car, centre to centre: its TORCS car index (`car_index` in result.json), "
-                 "-1 when there is none"),
+                 "-1 when there is none (racing alone, and the pit stop's row)"),
     ("near_ahead_m", "... its centre ahead of ours along our car's axis (- behind), null when none"),
     ("near_left_m", "... its centre to the left of ours across our car's axis (- right), null when none"),
 ]
