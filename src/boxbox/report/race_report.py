@@ -445,8 +445,10 @@ def _damage_section(name: str, c: dict, track: dict, race_laps: int, names: dict
     if not incidents:
         return "<h3>Damage</h3><p class='note'>No damage taken.</p>"
     by_lap = ", ".join(f"lap {lap}: {dmg}" for lap, dmg in damage_by_lap(incidents).items())
+    recorded = "near_car" in c  # a run dir from before the nearest car was recorded: say so, not "none"
     rows = [[str(i.lap), f"{i.dist_m:.0f}", fmt_time(i.time_s), str(i.damage), str(i.hits), f"{i.speed_mps * KMH:.0f}",
-             html.escape(nearest_text(i, names)), moved_text(i)] for i in sorted(incidents, key=lambda i: -i.damage)]
+             html.escape(nearest_text(i, names)) if recorded else "not recorded", moved_text(i)]
+            for i in sorted(incidents, key=lambda i: -i.damage)]
     total = sum(i.damage for i in incidents)
     return ("<h3>Damage</h3>"
             f"<p class='note'>{len(incidents)} incidents (hits less than {MERGE_S:g} s apart are one), {total} damage "

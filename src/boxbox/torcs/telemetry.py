@@ -41,7 +41,7 @@ SIGNAL_PREFIX = "sig_"
 N_STATE = len(wire.STATE_FIELDS)
 N_CONTROLS = len(wire.CONTROLS_FIELDS)
 N_HEADER = wire.HEADER.size // 8
-# the nearest other car at the step (torcs/telemetry.py nearest_car): its TORCS car index (-1: none)
+# the nearest other car at the step (`nearest_car` below): its TORCS car index (-1: none)
 # and where its centre is from ours in our car's frame
 NEAR_FIELDS = ("near_car", "near_ahead_m", "near_left_m")
 NEAR_REC = struct.Struct("<3d")
