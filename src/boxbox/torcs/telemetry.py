@@ -97,7 +97,7 @@ def nearest_car(x_m: float, y_m: float, yaw_rad: float, opponents) -> bytes:
         d2 = (o.x_m - x_m) ** 2 + (o.y_m - y_m) ** 2
         if d2 < best_d2:
             best, best_d2 = o, d2
-    if best is None or best_d2 != best_d2:
+    if best is None:  # none, or only cars TORCS lost (NaN places never compare nearer)
         return NO_NEAR
     dx, dy = best.x_m - x_m, best.y_m - y_m
     c, s = math.cos(yaw_rad), math.sin(yaw_rad)
@@ -194,12 +194,13 @@ class Recorder:
         self.names = names
         self.tel = robot.telemetry if names else None
 
-    def add(self, state_record: bytes, state, controls: bytes = NO_CONTROLS, near: bytes = NO_NEAR) -> None:
-        """Record one step off the hot path (the state TORCS sends when it captures the car in its pit)."""
+    def add(self, state_record: bytes, state, controls: bytes = NO_CONTROLS) -> None:
+        """Record one step off the hot path (the state TORCS sends when it captures the car in its pit;
+        no opponents come with it, so no nearest car)."""
         self.rows += state_record
         self.rows += _NO_HEADER
         self.rows += controls
-        self.rows += near
+        self.rows += NO_NEAR
         if self.tel is not None:
             self.add_signals(state)
 
