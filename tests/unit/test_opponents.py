@@ -378,3 +378,21 @@ def test_laps_ahead_counts_the_start_line_between_the_cars():
     s = make_state(dist_from_start_m=500.0, laps=2.0, opponents=(make_opp(dist_from_start_m=480.0, laps=4.0),))
     (c,) = cars_of(s)
     assert c.laps_ahead == 2
+
+
+def test_overtake_passes_a_car_at_our_speed_that_is_slower_than_we_go_alone_with_draft_on():
+    # f-speedway: 3 m behind a car at 81.7 m/s, both flat out; alone our lap simulation goes 85.8 here
+    car = [near(LENGTH_M + 3.0, lateral_m=-0.8, speed_mps=81.7)]
+    draft = OpponentParams(draft_mps=4.0)
+
+    def off(params, alone_mps, cars=car):
+        return overtake_offset(0.0, 81.7, 0.0, cars, HALF_WIDTH_M, LENGTH_M, params, alone_mps)
+
+    assert off(draft, 85.8) == pytest.approx(0.1)  # 4.1 m/s slower than alone: towards its free side
+    assert off(draft, 85.6) == 0.0  # 3.9 m/s: too little to get by out of its slipstream
+    assert off(P, 85.8) == 0.0  # off by default: the tutorial passes only a car slower than us
+    # a car slower than us is passed whatever our speed alone (the tutorial's rule stands)
+    slower = [near(LENGTH_M + 3.0, lateral_m=-0.8, speed_mps=80.0)]
+    assert off(draft, 0.0, slower) == pytest.approx(0.1)
+    # nor a car out of reach: too far ahead for the tutorial's window (two car lengths at our speed)
+    assert off(draft, 85.8, [near(LENGTH_M + 12.0, lateral_m=-0.8, speed_mps=81.7)]) == 0.0

@@ -734,3 +734,22 @@ def test_a_car_ahead_is_judged_where_our_line_meets_it_on_the_line_it_drove_befo
     robot.opp_lines.observe(1000.0, [Nearby(34.5, 30.0, 0.0, 10.0, 0, 1.94, ours_m, 3)])
     [seen] = robot._on_our_path([car], 20.0)
     assert seen.lateral_m == pytest.approx(0.0) and seen.mid_m == pytest.approx(ours_m)
+
+
+def test_the_slipstream_pass_moves_over_for_a_car_at_our_speed_only_with_draft_on():
+    # michigan: 7.5 m behind a car in our lane, both at 60 m/s, well below what the car does alone
+    offsets = {}
+    for draft in (0.0, 4.0):
+        robot, _ = build("michigan", robot_args={"set": {"draft_mps": draft}})
+        d = straight_dist(robot)
+        for k in range(5):
+            me = line_state(robot, d + 1.2 * k, 60.0)._replace(sim_time_s=10.0 + STEP_S * k)
+            ahead = make_opp(robot, dist_from_start_m=(me.dist_from_start_m + 7.5) % robot.track.length_m,
+                             to_middle_m=me.to_middle_m, speed_mps=60.0, car_index=1.0)
+            robot.drive(me._replace(opponents=(ahead,), n_opponents=1.0))
+        offsets[draft] = robot.offset_m
+        if draft:
+            j = int(d / robot.step_m) % robot.n
+            assert robot._alone_mps[j] > 64.0  # the test's premise: alone the car is faster here
+    assert offsets[0.0] == 0.0  # the tutorial: a car at our speed is followed
+    assert abs(offsets[4.0]) >= 0.3  # five steps of 0.1 m towards its free side (the first may not move)

@@ -43,6 +43,9 @@ class OpponentParams:
     # far aside of it (0: the tutorial's side, the one with more room, even across the car's path)
     keep_side_s: float = 0.0
     keep_side_lateral_m: float = 1.0
+    # passing a car at our speed (in its slipstream): a car close ahead at least this much slower
+    # than we would go there alone is passed too, not only one slower than us (0: off, the tutorial's)
+    draft_mps: float = 0.0
 
 
 def along_track_mps(o: Opponent, track_heading_rad: float) -> float:
@@ -119,13 +122,16 @@ def _too_close_to_cross(c: Nearby, my_speed_mps: float, p: OpponentParams) -> bo
 
 
 def overtake_offset(offset_m: float, my_speed_mps: float, my_to_middle_m: float, cars: list[Nearby],
-                    half_width_m: float, length_m: float, p: OpponentParams) -> float:
-    """Lateral offset added to the line: towards the free side of a slower car close ahead,
-    aside for a lapping car close behind, else back towards zero."""
+                    half_width_m: float, length_m: float, p: OpponentParams, alone_mps: float = 0.0) -> float:
+    """Lateral offset added to the line: towards the free side of a slower car close ahead (slower
+    than us, or with p.draft_mps, by that much slower than `alone_mps`, the speed we would go here
+    alone: a car we follow at its speed holds us up too), aside for a lapping car close behind,
+    else back towards zero."""
     target = None
+    slower_than = max(my_speed_mps, alone_mps - p.draft_mps) if p.draft_mps > 0.0 else my_speed_mps
     for c in cars:
         if c.dist_m > 0 and c.gap_m < max(2.0 * length_m, (my_speed_mps - c.speed_mps) * 2.0) \
-                and c.speed_mps < my_speed_mps:
+                and c.speed_mps < slower_than:
             # pass on the side with more room: its position is my_to_middle + lateral
             other = my_to_middle_m + c.lateral_m
             target = -half_width_m if other > 0 else half_width_m

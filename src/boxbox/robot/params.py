@@ -100,6 +100,11 @@ class TutorialParams:
     side_margin_m: float = 1.0
     overtake_step_m: float = 0.1  # lateral offset change per drive step
     keep_side_s: float = 2.0  # a car reached within this long is passed on the side we are on (0: off)
+    # a car close ahead this much slower than our lap simulation goes there is passed even at our
+    # speed (we follow it in its slipstream; 0: only a car slower than us, the tutorial's)
+    draft_mps: float = 0.0
+    draft_after_s: float = 0.0  # ... once we have followed it (close ahead in our lane) this long
+    draft_straight_m: float = 0.0  # ... with this much road before the next braking zone (400: none in sight)
     # pit
     pit_lookahead_m: float = 6.0
     pit_mu: float = 0.4  # the seed's constant (used with pit_mu_source = "constant")

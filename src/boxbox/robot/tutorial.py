@@ -67,6 +67,7 @@ GRINDING_S = 0.5  # damage this recent: still pushing into something
 BOXED_MPS = 1.0  # backing out slower than this and grinding: boxed in (cars stopped front and back)
 BOXED_HOLD_S = 1.0  # boxed in: held on the brakes this long before trying again
 REVERSE_CLEAR_S = 3.0  # no backing while a car coming from behind would reach us within this
+FOLLOW_LENGTHS = 3.0  # a car this many of our lengths ahead (centre to centre) in our lane: we follow it
 LOCK_SHARE = 0.95  # |steer| from which the steering counts as at its lock
 LOCK_MIN_SPEED_MPS = 10.0  # below this (leaving the grid onto the line) full lock is no sign of a slide
 OPPONENT_LINE_STEP_M = 5.0  # the step other cars' lines are remembered at (a car length)
@@ -190,6 +191,10 @@ class TutorialRobot(Robot):
         if p.elevation and p.packer_impact_mps < NO_PACKER_LIMIT_MPS:
             self._packer_caps = self._packer_speed_caps(car)
             self._build_profile()
+        # how fast the car goes alone on its line (lap simulation): a car ahead slower than that holds us
+        # up (only the slipstream pass asks: an empty list with it off)
+        self._alone_mps = self._simulated_lap(car, self.tyre_model, p, "alone-laps")[3].tolist() \
+            if p.draft_mps > 0.0 else []
         self.gears = GearBox(car, shift=p.shift, shift_margin_mps=p.shift_margin_mps)
         self.slip = SlipParams(abs_slip_mps=p.abs_slip_mps, abs_range_mps=p.abs_range_mps,
                                tcl_slip_mps=p.tcl_slip_mps, tcl_slip_ratio=p.tcl_slip_ratio,
@@ -202,7 +207,8 @@ class TutorialRobot(Robot):
         self._peak_slip = peak if peak < tyre.MAX_SLIP else 0.0
         self.opp = OpponentParams(front_range_m=p.front_range_m, back_range_m=p.back_range_m,
                                   length_margin_m=p.length_margin_m, side_margin_m=p.side_margin_m,
-                                  overtake_step_m=p.overtake_step_m, keep_side_s=p.keep_side_s)
+                                  overtake_step_m=p.overtake_step_m, keep_side_s=p.keep_side_s,
+                                  draft_mps=p.draft_mps)
         self.craft = Racecraft(RacecraftParams(), car.width_m, car.length_m, self.tyre_model.mu)
         self.opp_lines = OpponentLines(track.length_m, OPPONENT_LINE_STEP_M)
         self._init_race_state()
@@ -227,6 +233,7 @@ class TutorialRobot(Robot):
         self.wreck: Nearby | None = None  # the stopped car ahead driven round this step
         self.laps_seen = 0
         self.last_damage = 0.0
+        self._following, self._following_since_s = -1, 0.0  # the car close ahead in our lane, and since when
 
     def _prepare_line(self, track: Track, car: Car, p: TutorialParams) -> None:
         """The racing line and what the speed limits need of it per sample (once: car_setup made it
@@ -547,7 +554,7 @@ class TutorialRobot(Robot):
                 if self.craft.p.path_pass else cars
             base = None if self.craft.p.plan_passes else \
                 overtake_offset(self.offset_m, v, s.to_middle_m, passing, 0.5 * self.track.width_m - 1.5,
-                                self.car.length_m, self.opp)
+                                self.car.length_m, self.opp, self._held_up(s, cars, j, straight))
             turn = max(abs(self.line.curvature_at(dist + x))
                        for x in range(0, int(max(0.0, v) * self.craft.p.turn_ahead_s) + 1, 10))
             self.offset_m = self.craft.offset(s.sim_time_s, v, s.to_middle_m, cars, self.offset_m,
@@ -558,6 +565,23 @@ class TutorialRobot(Robot):
             self.offset_m = max(0.0, self.offset_m - p.overtake_step_m) if self.offset_m > 0 \
                 else min(0.0, self.offset_m + p.overtake_step_m)
         return cars
+
+    def _held_up(self, s: State, cars: list[Nearby], j: int, straight_m: float) -> float:
+        """Our lap simulation's speed here once we have followed the same car close ahead in our lane
+        for TutorialParams.draft_after_s (a train: passing it at our speed is worth a try) with at
+        least draft_straight_m of road before the next braking zone, else 0 (the tutorial's rule)."""
+        if not self._alone_mps:
+            return 0.0
+        reach_m = FOLLOW_LENGTHS * self.car.length_m
+        lane_m = self.car.width_m + self.opp.side_margin_m
+        ahead = [c for c in cars if 0.0 < c.dist_m < reach_m and abs(c.lateral_m) < lane_m]
+        index = min(ahead, key=lambda c: c.dist_m).index if ahead else -1
+        if index != self._following:
+            self._following, self._following_since_s = index, s.sim_time_s
+        if index < 0 or s.sim_time_s - self._following_since_s < self.params.draft_after_s \
+                or straight_m < self.params.draft_straight_m:
+            return 0.0
+        return self._alone_mps[j]
 
     def _heading_at(self, dist_m: float) -> float:
         """The track's direction at dist_m (rad), from the middle line's samples."""
