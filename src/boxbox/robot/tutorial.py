@@ -561,7 +561,9 @@ class TutorialRobot(Robot):
                                               self.line.offset_at(dist), (self._half_left[j], -self._half_right[j]),
                                               inside, straight, p.overtake_step_m, base, turn,
                                               self.line.curvature_at(dist))
-        elif self.offset_m:
+        else:
+            self._following = -1  # nobody near: a car met again is followed afresh (_held_up)
+        if not cars and self.offset_m:
             self.offset_m = max(0.0, self.offset_m - p.overtake_step_m) if self.offset_m > 0 \
                 else min(0.0, self.offset_m + p.overtake_step_m)
         return cars
