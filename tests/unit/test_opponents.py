@@ -11,6 +11,7 @@ from boxbox.robot.opponents import (
     OpponentParams,
     along_track_mps,
     collision_brake,
+    in_lane,
     nearby,
     overtake_offset,
     side_steer,
@@ -206,6 +207,30 @@ def test_collision_brake_not_for_a_faster_car_or_one_behind():
     assert collision_brake(0.0, 30.0, [near(LENGTH_M + 2.0, speed_mps=35.0)], WIDTH_M, P, nonneg) == 0.0
     assert _brake([near(LENGTH_M + 5.0, speed_mps=30.0)]) == 0.0  # same speed
     assert _brake([near(-LENGTH_M - 2.0, speed_mps=10.0)]) == 0.0  # slower, but behind us
+
+
+def test_collision_brake_soft_is_the_share_of_a_full_brake_the_gap_needs():
+    soft = OpponentParams(soft_gap_m=1.0)
+    # 30 -> 29.5 m/s needs (900 - 870.25) / (2 g) = 1.52 m; 4 m between bumpers leaves 3 m beyond the
+    # soft gap: half a full brake slows us to its speed there
+    need = brakedist(30.0, 29.5)
+    assert collision_brake(0.0, 30.0, [near(LENGTH_M + 4.0, speed_mps=29.5)], WIDTH_M, soft, brakedist) \
+        == pytest.approx(need / 3.0)
+    assert _brake([near(LENGTH_M + 4.0, speed_mps=29.5)]) == 1.0  # the tutorial's: full whenever it fires
+    # within the soft gap, or with less room than the braking distance: full
+    assert collision_brake(0.0, 30.0, [near(LENGTH_M + 0.8, speed_mps=29.5)], WIDTH_M, soft, brakedist) == 1.0
+    assert collision_brake(0.0, 30.0, [near(LENGTH_M + 20.0, speed_mps=20.0)], WIDTH_M, soft, brakedist) == 1.0
+    # never less than the brake it is given, and none where the tutorial's does not fire
+    assert collision_brake(0.7, 30.0, [near(LENGTH_M + 4.0, speed_mps=29.5)], WIDTH_M, soft, brakedist) == 0.7
+    assert collision_brake(0.0, 30.0, [near(LENGTH_M + 30.0, speed_mps=20.0)], WIDTH_M, soft, brakedist) == 0.0
+
+
+def test_in_lane_is_within_our_width_plus_the_side_margin():
+    lane = WIDTH_M + P.side_margin_m
+    assert in_lane(near(10.0, lateral_m=lane - 0.01), WIDTH_M, P)
+    assert in_lane(near(10.0, lateral_m=-(lane - 0.01)), WIDTH_M, P)
+    assert not in_lane(near(10.0, lateral_m=lane), WIDTH_M, P)
+    assert not in_lane(near(10.0, lateral_m=-(lane + 1.0)), WIDTH_M, P)
 
 
 def test_collision_brake_any_dangerous_car_among_several():

@@ -46,6 +46,10 @@ class OpponentParams:
     # passing a car at our speed (in its slipstream): a car close ahead at least this much slower
     # than we would go there alone is passed too, not only one slower than us (0: off, the tutorial's)
     draft_mps: float = 0.0
+    # the fixed-gap brake as the share of a full brake that slows us to the car's speed before the gap
+    # is down to this many metres (full brake closer), not a full brake whenever it fires (0: the
+    # tutorial's full brake).  In a slipstream it fired a full brake at 82 m/s every 0.6 s
+    soft_gap_m: float = 0.0
 
 
 def along_track_mps(o: Opponent, track_heading_rad: float) -> float:
@@ -87,15 +91,26 @@ def nearby(state: State, length_m: float, track_length_m: float, back_range_m: f
     return out
 
 
+def in_lane(c: Nearby, width_m: float, p: OpponentParams) -> bool:
+    """Whether car c is in our lane: its centre within our width plus the side margin of ours (the
+    tutorial's lane, for braking for it and for following it)."""
+    return abs(c.lateral_m) < width_m + p.side_margin_m
+
+
 def collision_brake(brake: float, speed_mps: float, cars: list[Nearby], width_m: float, p: OpponentParams,
                     brakedist) -> float:
-    """Full brake when the gap to a slower car in our lane is within our braking distance."""
+    """Full brake when the gap to a slower car in our lane is within our braking distance (with
+    p.soft_gap_m: the share of a full brake that slows us to its speed within the gap beyond that)."""
+    want = 0.0
     for c in cars:
-        if c.dist_m > 0 and c.speed_mps < speed_mps and abs(c.lateral_m) < width_m + p.side_margin_m:
+        if c.dist_m > 0 and c.speed_mps < speed_mps and in_lane(c, width_m, p):
             need = brakedist(speed_mps, c.speed_mps)
             if need + p.length_margin_m > c.gap_m or c.gap_m < p.length_margin_m:
-                return 1.0
-    return brake
+                if p.soft_gap_m <= 0.0:
+                    return 1.0
+                room_m = c.gap_m - p.soft_gap_m
+                want = max(want, 1.0 if room_m <= need else need / room_m)
+    return max(brake, want)
 
 
 def side_steer(steer: float, cars: list[Nearby], length_m: float, width_m: float, steer_lock_rad: float,

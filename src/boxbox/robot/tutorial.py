@@ -41,7 +41,7 @@ from boxbox.robot.carsetup import best_rear_wing_rad
 from boxbox.robot.drivable import centre_room
 from boxbox.robot.learning import TurnLearner
 from boxbox.robot.opponent_lines import OpponentLines
-from boxbox.robot.opponents import Nearby, OpponentParams, collision_brake, nearby, overtake_offset, side_steer
+from boxbox.robot.opponents import Nearby, OpponentParams, collision_brake, in_lane, nearby, overtake_offset, side_steer
 from boxbox.robot.params import BOUNDS, CHOICES, TutorialParams, load_params
 from boxbox.robot.pit import PitParams, PitStops
 from boxbox.robot.racecraft import (
@@ -550,7 +550,7 @@ class TutorialRobot(Robot):
             inside = 0.0 if abs(k) < TURN_CURVATURE_1PM else math.copysign(1.0, k)
             straight = next((x for x in range(0, 400, 10) if self.profile.speed_at(dist + x) < 0.95 * v), 400)
             passing = [c for c in self._on_our_path(cars, v)
-                       if c.laps_ahead > 0 or abs(c.lateral_m) < self.car.width_m + self.opp.side_margin_m] \
+                       if c.laps_ahead > 0 or in_lane(c, self.car.width_m, self.opp)] \
                 if self.craft.p.path_pass else cars
             base = None if self.craft.p.plan_passes else \
                 overtake_offset(self.offset_m, v, s.to_middle_m, passing, 0.5 * self.track.width_m - 1.5,
@@ -575,8 +575,7 @@ class TutorialRobot(Robot):
         if not self._alone_mps:
             return 0.0
         reach_m = FOLLOW_LENGTHS * self.car.length_m
-        lane_m = self.car.width_m + self.opp.side_margin_m
-        ahead = [c for c in cars if 0.0 < c.dist_m < reach_m and abs(c.lateral_m) < lane_m]
+        ahead = [c for c in cars if 0.0 < c.dist_m < reach_m and in_lane(c, self.car.width_m, self.opp)]
         index = min(ahead, key=lambda c: c.dist_m).index if ahead else -1
         if index != self._following:
             self._following, self._following_since_s = index, s.sim_time_s
@@ -720,9 +719,8 @@ class TutorialRobot(Robot):
         """Full brake for a car up to three lengths ahead, beside our lane now, whose line crosses
         ours while we overlap (robot/racecraft.py conflict_time_s): it turns in and does not see us."""
         length, width = self.car.length_m, self.car.width_m
-        lane = width + self.opp.side_margin_m
         for c in cars:
-            if 0.0 < c.dist_m < 3.0 * length and abs(c.lateral_m) >= lane and c.laps_ahead <= 0:
+            if 0.0 < c.dist_m < 3.0 * length and not in_lane(c, width, self.opp) and c.laps_ahead <= 0:
                 clear = 0.5 * (width + (c.width_m or width)) + 0.5
                 if conflict_time_s(c, v, length, clear, self.craft.p.conflict_s, self._line_mid_ahead,
                                    self._their_mid_ahead) < math.inf:
