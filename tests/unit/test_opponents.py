@@ -11,10 +11,13 @@ from boxbox.robot.opponents import (
     OpponentParams,
     along_track_mps,
     collision_brake,
+    hazard_brake,
     in_lane,
     nearby,
+    out_of_control,
     overtake_offset,
     side_steer,
+    track_velocity_mps,
 )
 
 TRACK_M = 2000.0
@@ -148,6 +151,75 @@ def test_nearby_ranges_are_parameters():
 
 def test_nearby_no_opponents():
     assert cars_of(make_state(dist_from_start_m=10.0)) == []
+
+
+def test_track_velocity_turns_the_car_frame_velocity_by_its_yaw_to_the_track():
+    # yawed 30 degrees left of the track, moving straight ahead at 20 m/s: 17.3 along, 10 to the left
+    o = make_opp(yaw_rad=math.radians(30.0), speed_x_mps=20.0)
+    along, across = track_velocity_mps(o, 0.0)
+    assert (along, across) == pytest.approx((20.0 * math.cos(math.radians(30.0)), 10.0))
+    # the track itself turned 30 degrees left as well: all along it
+    assert track_velocity_mps(o, math.radians(30.0)) == pytest.approx((20.0, 0.0))
+    # sliding sideways to its right at 5 m/s while heading along the track
+    assert track_velocity_mps(make_opp(speed_x_mps=20.0, speed_y_mps=-5.0), 0.0) == pytest.approx((20.0, -5.0))
+
+
+def test_nearby_gives_a_sliding_cars_slip_and_its_speed_across_the_track():
+    sliding = make_opp(dist_from_start_m=560.0, speed_x_mps=20.0, speed_y_mps=-20.0, speed_mps=28.28)
+    s = make_state(dist_from_start_m=500.0, opponents=(sliding,))
+    (seen,) = nearby(s, LENGTH_M, TRACK_M, 50.0, 200.0, heading_at=lambda dist_m: 0.0)
+    assert seen.slip_rad == pytest.approx(-math.pi / 4)
+    assert seen.across_mps == pytest.approx(-20.0)
+    (plain,) = nearby(s, LENGTH_M, TRACK_M, 50.0, 200.0)
+    assert (plain.slip_rad, plain.across_mps) == (0.0, 0.0)  # without the heading: unknown
+
+
+# --- hazard_brake: a car out of control ahead ----------------------------------------------------
+
+HAZARD = OpponentParams(hazard_slip_deg=25.0)
+
+
+def sliding(dist_m, mid_m, speed_mps, across_mps, slip_deg=0.0, my_mid_m=0.0) -> Nearby:
+    gap = dist_m - LENGTH_M
+    return Nearby(dist_m, gap, mid_m - my_mid_m, speed_mps, 0, WIDTH_M, mid_m, 2, across_mps, math.radians(slip_deg))
+
+
+def test_out_of_control_is_a_big_slip_or_crossing_the_road():
+    assert not out_of_control(sliding(50.0, 0.0, 30.0, 2.0, slip_deg=5.0), HAZARD)  # racing
+    assert out_of_control(sliding(50.0, 0.0, 30.0, 2.0, slip_deg=40.0), HAZARD)  # spinning
+    assert out_of_control(sliding(50.0, 0.0, 30.0, 16.0, slip_deg=0.0), HAZARD)  # across the road
+    assert not out_of_control(sliding(50.0, 0.0, 2.0, 2.0, slip_deg=90.0), HAZARD)  # stopped: other rules
+
+
+def test_hazard_brake_for_a_car_sliding_into_our_lane_before_we_reach_it():
+    """b-speedway's lap 3 on plain numbers: at 85 m/s, a car 80 m ahead and 20 m to our left at 31
+    m/s, 14 m/s of it across the road towards us.  We close at 57 m/s: 1.4 s, in which it slides
+    19.6 m across, into our lane; slowing to 28 m/s takes (85^2 - 28^2) / (2 g) = 328 m: brake now."""
+    car = sliding(80.0 + LENGTH_M, 20.0, 31.0, -14.0, slip_deg=40.0)
+    assert hazard_brake(0.0, 85.0, 0.0, [car], WIDTH_M, HAZARD, brakedist) == 1.0
+    # the fixed-gap filter sees it out of our lane: nothing until it is there
+    assert collision_brake(0.0, 85.0, [car], WIDTH_M, HAZARD, brakedist) == 0.0
+    # off: nothing
+    assert hazard_brake(0.0, 85.0, 0.0, [car], WIDTH_M, P, brakedist) == 0.0
+
+
+def test_hazard_brake_not_for_a_slide_that_stays_clear_of_our_lane():
+    away = sliding(80.0 + LENGTH_M, 10.0, 31.0, 14.0, slip_deg=40.0)  # sliding away from us
+    assert hazard_brake(0.0, 85.0, 0.0, [away], WIDTH_M, HAZARD, brakedist) == 0.0
+    # the same slide with us 8 m to the left of the middle: it crosses our lane
+    assert hazard_brake(0.0, 85.0, 8.0, [away], WIDTH_M, HAZARD, brakedist) == 1.0
+    slow_slide = sliding(80.0 + LENGTH_M, 20.0, 31.0, -3.0, slip_deg=40.0)  # 4.2 m across in 1.4 s
+    assert hazard_brake(0.3, 85.0, 0.0, [slow_slide], WIDTH_M, HAZARD, brakedist) == 0.3
+
+
+def test_hazard_brake_not_for_a_car_behind_or_faster_or_far_enough():
+    behind = Nearby(-10.0, -10.0 + LENGTH_M, 0.0, 30.0, 0, WIDTH_M, 0.0, 2, 0.0, math.radians(40.0))
+    assert hazard_brake(0.0, 40.0, 0.0, [behind], WIDTH_M, HAZARD, brakedist) == 0.0
+    faster = sliding(20.0, 0.0, 50.0, 0.0, slip_deg=40.0)
+    assert hazard_brake(0.0, 40.0, 0.0, [faster], WIDTH_M, HAZARD, brakedist) == 0.0
+    # in our lane, slower, but slowing to its speed takes (40^2 - 30^2) / (2 g) = 35.7 m, far less than 150 m
+    far = sliding(150.0, 0.0, 30.0, 0.0, slip_deg=40.0)
+    assert hazard_brake(0.0, 40.0, 0.0, [far], WIDTH_M, HAZARD, brakedist) == 0.0
 
 
 # --- collision_brake ------------------------------------------------------------------------------

@@ -753,3 +753,20 @@ def test_the_slipstream_pass_moves_over_for_a_car_at_our_speed_only_with_draft_o
             assert robot._alone_mps[j] > 64.0  # the test's premise: alone the car is faster here
     assert offsets[0.0] == 0.0  # the tutorial: a car at our speed is followed
     assert abs(offsets[4.0]) >= 0.3  # five steps of 0.1 m towards its free side (the first may not move)
+
+
+def test_the_slipstream_pass_with_draft_last_lap_waits_for_the_last_lap():
+    # as above, with the pass kept to the last lap: on lap 3 of 10 the car is followed, on lap 10 passed
+    offsets = {}
+    for lap in (3.0, 10.0):
+        robot, _ = build("michigan", robot_args={"set": {"draft_mps": 4.0, "draft_last_lap": True}})
+        d = straight_dist(robot)
+        for k in range(5):
+            me = line_state(robot, d + 1.2 * k, 60.0)._replace(sim_time_s=10.0 + STEP_S * k, laps=lap,
+                                                                 total_laps=10.0)
+            ahead = make_opp(robot, dist_from_start_m=(me.dist_from_start_m + 7.5) % robot.track.length_m,
+                             to_middle_m=me.to_middle_m, speed_mps=60.0, car_index=1.0, laps=lap)
+            robot.drive(me._replace(opponents=(ahead,), n_opponents=1.0))
+        offsets[lap] = robot.offset_m
+    assert offsets[3.0] == 0.0
+    assert abs(offsets[10.0]) >= 0.3

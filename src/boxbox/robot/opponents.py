@@ -30,6 +30,10 @@ class Nearby:
     width_m: float = 0.0  # its width (0: unknown, take ours)
     mid_m: float = 0.0  # its to_middle (m, + left of the track's middle)
     index: int = -1  # its car index (-1: unknown)
+    # its velocity across the track (m/s, + to the left) and the angle of its velocity off its own
+    # heading (rad, its slip): from nearby() with the track's heading, else 0
+    across_mps: float = 0.0
+    slip_rad: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -50,14 +54,27 @@ class OpponentParams:
     # is down to this many metres (full brake closer), not a full brake whenever it fires (0: the
     # tutorial's full brake).  In a slipstream it fired a full brake at 82 m/s every 0.6 s
     soft_gap_m: float = 0.0
+    # a car out of control ahead (sliding more than this many degrees off its heading, or crossing the
+    # road at more than half its speed) is braked for where its slide takes it by the time we reach
+    # it, not only where it is (0: off).  b-speedway, lap 3: a car spinning across the road from
+    # 20 m to our left, 80 m ahead; the lane of now saw it 21 m ahead, 0.4 s before contact at 85 m/s
+    hazard_slip_deg: float = 0.0
+    hazard_horizon_s: float = 2.0  # ... its slide followed this far ahead at most
 
 
 def along_track_mps(o: Opponent, track_heading_rad: float) -> float:
     """A car's velocity along the track's direction (m/s, + forwards): its car-frame velocity
     turned by its yaw relative to the track.  A car backing into us, or turned round, moves at
     its full speed, and only the projection tells which way (bt's opponent speed is the same)."""
+    return track_velocity_mps(o, track_heading_rad)[0]
+
+
+def track_velocity_mps(o: Opponent, track_heading_rad: float) -> tuple[float, float]:
+    """A car's velocity (along the track + forwards, across it + to the left), m/s: its car-frame
+    velocity turned by its yaw relative to the track."""
     rel = o.yaw_rad - track_heading_rad
-    return o.speed_x_mps * math.cos(rel) - o.speed_y_mps * math.sin(rel)
+    cos_rel, sin_rel = math.cos(rel), math.sin(rel)
+    return (o.speed_x_mps * cos_rel - o.speed_y_mps * sin_rel, o.speed_x_mps * sin_rel + o.speed_y_mps * cos_rel)
 
 
 def nearby(state: State, length_m: float, track_length_m: float, back_range_m: float,
@@ -83,11 +100,14 @@ def nearby(state: State, length_m: float, track_length_m: float, back_range_m: f
         if -back_range_m < d < front_range_m:
             # whole laps between us, counting the start line between the two cars
             laps_ahead = round(((o.laps - my_laps) * track_length_m + raw - d) / track_length_m)
-            speed = o.speed_mps
-            if heading_at is not None and along_track_mps(o, heading_at(o.dist_from_start_m)) < 0.0:
-                speed = 0.0  # backing into us, or turned round: stopped for our filters, not moving away
+            speed, across, slip = o.speed_mps, 0.0, 0.0
+            if heading_at is not None:
+                along, across = track_velocity_mps(o, heading_at(o.dist_from_start_m))
+                slip = math.atan2(o.speed_y_mps, o.speed_x_mps) if o.speed_x_mps or o.speed_y_mps else 0.0
+                if along < 0.0:
+                    speed = 0.0  # backing into us, or turned round: stopped for our filters, not moving away
             out.append(Nearby(d, gap, o.to_middle_m - my_mid, speed, laps_ahead, o.width_m, o.to_middle_m,
-                              int(o.car_index)))
+                              int(o.car_index), across, slip))
     return out
 
 
@@ -111,6 +131,43 @@ def collision_brake(brake: float, speed_mps: float, cars: list[Nearby], width_m:
                 room_m = c.gap_m - p.soft_gap_m
                 want = max(want, 1.0 if room_m <= need else need / room_m)
     return max(brake, want)
+
+
+HAZARD_MIN_SPEED_MPS = 3.0  # a car slower than this is a stopped car for the filters, not a slide
+
+
+def out_of_control(c: Nearby, p: OpponentParams) -> bool:
+    """Whether car c slides more than p.hazard_slip_deg off its heading, or crosses the road at more
+    than half its speed (its course 30 degrees or more off the track's): a spin or a crash, where
+    it is now says little about where it will be."""
+    if c.speed_mps < HAZARD_MIN_SPEED_MPS:
+        return False
+    return abs(c.slip_rad) > math.radians(p.hazard_slip_deg) or abs(c.across_mps) > 0.5 * c.speed_mps
+
+
+def hazard_brake(brake: float, speed_mps: float, my_mid_m: float, cars: list[Nearby], width_m: float,
+                 p: OpponentParams, brakedist) -> float:
+    """Full brake for a car out of control ahead whose slide crosses our lane before we reach it
+    (followed at its speed across the track for the time we take to close the gap, at most
+    p.hazard_horizon_s) when we could not slow to its speed along the track within the gap: the
+    fixed-gap filter for where it is going, not where it is.  Not stopped at the track's edge: there
+    the slide ends, but our lane is inside it, so the answer is the same while we are on the road."""
+    if p.hazard_slip_deg <= 0.0:
+        return brake
+    lane_m = width_m + p.side_margin_m
+    for c in cars:
+        if c.dist_m <= 0.0 or not out_of_control(c, p):
+            continue
+        along = math.sqrt(max(0.0, c.speed_mps * c.speed_mps - c.across_mps * c.across_mps))
+        if speed_mps <= along:
+            continue
+        t_s = min(p.hazard_horizon_s, max(0.0, c.gap_m) / (speed_mps - along))
+        there = c.mid_m + c.across_mps * t_s
+        lo, hi = min(c.mid_m, there), max(c.mid_m, there)
+        if lo < my_mid_m + lane_m and hi > my_mid_m - lane_m \
+                and (brakedist(speed_mps, along) + p.length_margin_m > c.gap_m or c.gap_m < p.length_margin_m):
+            return 1.0
+    return brake
 
 
 def side_steer(steer: float, cars: list[Nearby], length_m: float, width_m: float, steer_lock_rad: float,

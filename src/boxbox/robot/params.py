@@ -105,6 +105,7 @@ class TutorialParams:
     draft_mps: float = 0.0
     draft_after_s: float = 0.0  # ... once we have followed it (close ahead in our lane) this long
     draft_straight_m: float = 0.0  # ... with this much road before the next braking zone (400: none in sight)
+    draft_last_lap: bool = False  # ... on the last lap only (a finish in a car's slipstream: 0.1-0.2 s behind it)
     # pit
     pit_lookahead_m: float = 6.0
     pit_mu: float = 0.4  # the seed's constant (used with pit_mu_source = "constant")

@@ -41,7 +41,16 @@ from boxbox.robot.carsetup import best_rear_wing_rad
 from boxbox.robot.drivable import centre_room
 from boxbox.robot.learning import TurnLearner
 from boxbox.robot.opponent_lines import OpponentLines
-from boxbox.robot.opponents import Nearby, OpponentParams, collision_brake, in_lane, nearby, overtake_offset, side_steer
+from boxbox.robot.opponents import (
+    Nearby,
+    OpponentParams,
+    collision_brake,
+    hazard_brake,
+    in_lane,
+    nearby,
+    overtake_offset,
+    side_steer,
+)
 from boxbox.robot.params import BOUNDS, CHOICES, TutorialParams, load_params
 from boxbox.robot.pit import PitParams, PitStops
 from boxbox.robot.racecraft import (
@@ -541,7 +550,7 @@ class TutorialRobot(Robot):
             self._back_from_wreck(s, v, cars)
             self.wreck = self._wreck_ahead(s, cars)
             dist = s.dist_from_start_m
-            self._now_s, self._dist_m = s.sim_time_s, dist
+            self._now_s, self._dist_m, self._my_mid_m = s.sim_time_s, dist, s.to_middle_m
             j = int(dist / self.step_m) % self.n
             k = self.line.curvature_at(dist + self.craft.p.horizon_s * v) if not self.craft.p.next_turn_s \
                 else next((c for c in (self.line.curvature_at(dist + x) for x in
@@ -571,8 +580,9 @@ class TutorialRobot(Robot):
     def _held_up(self, s: State, cars: list[Nearby], j: int, straight_m: float) -> float:
         """Our lap simulation's speed here once we have followed the same car close ahead in our lane
         for TutorialParams.draft_after_s (a train: passing it at our speed is worth a try) with at
-        least draft_straight_m of road before the next braking zone, else 0 (the tutorial's rule)."""
-        if not self._alone_mps:
+        least draft_straight_m of road before the next braking zone (with draft_last_lap: on the last
+        lap only), else 0 (the tutorial's rule)."""
+        if not self._alone_mps or (self.params.draft_last_lap and s.laps < s.total_laps):
             return 0.0
         reach_m = FOLLOW_LENGTHS * self.car.length_m
         ahead = [c for c in cars if 0.0 < c.dist_m < reach_m and in_lane(c, self.car.width_m, self.opp)]
@@ -711,6 +721,8 @@ class TutorialRobot(Robot):
         brake = self.craft.brake(self._now_s, brake, v, cars, self._other_target, predict=mode != "gap")
         if mode != "ttc":
             brake = collision_brake(brake, v, cars, self.car.width_m, self.opp, self._brakedist)
+        if self.opp.hazard_slip_deg > 0.0:
+            brake = hazard_brake(brake, v, self._my_mid_m, cars, self.car.width_m, self.opp, self._brakedist)
         if self.craft.p.conflict_s > 0.0:
             brake = self._conflict_brake(brake, v, cars)
         return brake
