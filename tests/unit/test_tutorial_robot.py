@@ -770,3 +770,28 @@ def test_the_slipstream_pass_with_draft_last_lap_waits_for_the_last_lap():
         offsets[lap] = robot.offset_m
     assert offsets[3.0] == 0.0
     assert abs(offsets[10.0]) >= 0.3
+
+
+def test_the_hazard_brake_brakes_for_a_car_sliding_across_the_road_ahead_only_with_it_on():
+    # michigan's straight at 80 m/s: a car 60 m ahead and 10 m to our left, spinning (slip 60 degrees)
+    # across the road towards us at 14 m/s while moving on at 25 m/s: in our lane within the 1.1 s
+    # it takes us to get there; the tutorial's lane sees it 10 m aside until then
+    brakes = {}
+    for slip_deg in (0.0, 25.0):
+        robot, _ = build("michigan", robot_args={"set": {"hazard_slip_deg": slip_deg}})
+        d = straight_dist(robot)
+        me = line_state(robot, d, 80.0)._replace(sim_time_s=10.0)
+        there = (d + 60.0) % robot.track.length_m
+        j = int(there / robot.step_m) % robot.n
+        heading = float(robot.line.middle.heading_rad[j])
+        # its velocity in its own frame, turned 60 degrees to its heading: 25 m/s on, 14 m/s towards us
+        along, across = 25.0, -14.0  # towards us: to the right
+        yaw = heading + math.radians(60.0)
+        rel = yaw - heading
+        vx = along * math.cos(rel) + across * math.sin(rel)
+        vy = -along * math.sin(rel) + across * math.cos(rel)
+        car = make_opp(robot, dist_from_start_m=there, to_middle_m=me.to_middle_m + 10.0, speed_mps=math.hypot(vx, vy),
+                       yaw_rad=yaw, speed_x_mps=vx, speed_y_mps=vy, car_index=1.0)
+        brakes[slip_deg] = robot.drive(me._replace(opponents=(car,), n_opponents=1.0)).brake
+    assert brakes[0.0] == 0.0
+    assert brakes[25.0] == 1.0

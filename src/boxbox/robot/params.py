@@ -106,6 +106,12 @@ class TutorialParams:
     draft_after_s: float = 0.0  # ... once we have followed it (close ahead in our lane) this long
     draft_straight_m: float = 0.0  # ... with this much road before the next braking zone (400: none in sight)
     draft_last_lap: bool = False  # ... on the last lap only (a finish in a car's slipstream: 0.1-0.2 s behind it)
+    # the fixed-gap brake as the share of a full brake that slows us to the car's speed before the gap
+    # is down to this many metres (0: the tutorial's full brake; docs/racecraft.md, session 22)
+    soft_gap_m: float = 0.0
+    # brake for a car out of control ahead (sliding more than this many degrees off its heading, or
+    # crossing the road) where its slide takes it by the time we reach it (0: off; session 22)
+    hazard_slip_deg: float = 0.0
     # pit
     pit_lookahead_m: float = 6.0
     pit_mu: float = 0.4  # the seed's constant (used with pit_mu_source = "constant")
@@ -149,6 +155,7 @@ BOUNDS = {
     "tcl_slip_ratio": Bound(0.0, 0.5),
     "counter_lock_accel": Bound(0.0, 1.0), "lock_accel": Bound(0.0, 1.0),
     "pit_brake_mu_scale": Bound(0.1, 1.5), "pit_stop_grip_share": Bound(0.1, 1.0), "pit_mu": Bound(0.05, 2.0),
+    "soft_gap_m": Bound(0.0, 10.0), "hazard_slip_deg": Bound(0.0, 90.0),
     "learn_gain": Bound(0.0, 1.0), "learn_margin_m": Bound(0.0, 3.0), "learn_steady_error_m": Bound(0.1, 5.0),
 }
 
