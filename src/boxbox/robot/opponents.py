@@ -117,6 +117,12 @@ def in_lane(c: Nearby, width_m: float, p: OpponentParams) -> bool:
     return abs(c.lateral_m) < width_m + p.side_margin_m
 
 
+def gap_too_short(need_m: float, gap_m: float, p: OpponentParams) -> bool:
+    """The fixed-gap filter's rule: the braking distance need_m plus the length margin is more than
+    the bumper gap, or the gap is under the margin anyway."""
+    return need_m + p.length_margin_m > gap_m or gap_m < p.length_margin_m
+
+
 def collision_brake(brake: float, speed_mps: float, cars: list[Nearby], width_m: float, p: OpponentParams,
                     brakedist) -> float:
     """Full brake when the gap to a slower car in our lane is within our braking distance (with
@@ -125,7 +131,7 @@ def collision_brake(brake: float, speed_mps: float, cars: list[Nearby], width_m:
     for c in cars:
         if c.dist_m > 0 and c.speed_mps < speed_mps and in_lane(c, width_m, p):
             need = brakedist(speed_mps, c.speed_mps)
-            if need + p.length_margin_m > c.gap_m or c.gap_m < p.length_margin_m:
+            if gap_too_short(need, c.gap_m, p):
                 if p.soft_gap_m <= 0.0:
                     return 1.0
                 room_m = c.gap_m - p.soft_gap_m
@@ -164,8 +170,7 @@ def hazard_brake(brake: float, speed_mps: float, my_mid_m: float, cars: list[Nea
         t_s = min(p.hazard_horizon_s, max(0.0, c.gap_m) / (speed_mps - along))
         there = c.mid_m + c.across_mps * t_s
         lo, hi = min(c.mid_m, there), max(c.mid_m, there)
-        if lo < my_mid_m + lane_m and hi > my_mid_m - lane_m \
-                and (brakedist(speed_mps, along) + p.length_margin_m > c.gap_m or c.gap_m < p.length_margin_m):
+        if lo < my_mid_m + lane_m and hi > my_mid_m - lane_m and gap_too_short(brakedist(speed_mps, along), c.gap_m, p):
             return 1.0
     return brake
 
