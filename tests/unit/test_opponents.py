@@ -9,7 +9,6 @@ from boxbox.model.state import CAR_STATE_DNF, CAR_STATE_FINISH, CAR_STATE_PIT
 from boxbox.robot.opponents import (
     Nearby,
     OpponentParams,
-    along_track_mps,
     collision_brake,
     hazard_brake,
     in_lane,
@@ -83,7 +82,7 @@ def test_nearby_ahead_and_behind():
 ])
 def test_along_track_speed_turns_the_cars_velocity_by_its_yaw(yaw_rad, speed_x_mps, speed_y_mps, along_mps):
     o = make_opp(yaw_rad=1.0 + yaw_rad, speed_x_mps=speed_x_mps, speed_y_mps=speed_y_mps)
-    assert along_track_mps(o, 1.0) == pytest.approx(along_mps)
+    assert track_velocity_mps(o, 1.0)[0] == pytest.approx(along_mps)
 
 
 def test_nearby_with_the_tracks_heading_sees_a_backing_car_as_stopped():

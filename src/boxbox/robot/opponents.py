@@ -62,16 +62,10 @@ class OpponentParams:
     hazard_horizon_s: float = 2.0  # ... its slide followed this far ahead at most
 
 
-def along_track_mps(o: Opponent, track_heading_rad: float) -> float:
-    """A car's velocity along the track's direction (m/s, + forwards): its car-frame velocity
-    turned by its yaw relative to the track.  A car backing into us, or turned round, moves at
-    its full speed, and only the projection tells which way (bt's opponent speed is the same)."""
-    return track_velocity_mps(o, track_heading_rad)[0]
-
-
 def track_velocity_mps(o: Opponent, track_heading_rad: float) -> tuple[float, float]:
     """A car's velocity (along the track + forwards, across it + to the left), m/s: its car-frame
-    velocity turned by its yaw relative to the track."""
+    velocity turned by its yaw relative to the track.  A car backing into us, or turned round, moves
+    at its full speed, and only the projection tells which way (bt's opponent speed is the same)."""
     rel = o.yaw_rad - track_heading_rad
     cos_rel, sin_rel = math.cos(rel), math.sin(rel)
     return (o.speed_x_mps * cos_rel - o.speed_y_mps * sin_rel, o.speed_x_mps * sin_rel + o.speed_y_mps * cos_rel)

@@ -721,8 +721,7 @@ class TutorialRobot(Robot):
         brake = self.craft.brake(self._now_s, brake, v, cars, self._other_target, predict=mode != "gap")
         if mode != "ttc":
             brake = collision_brake(brake, v, cars, self.car.width_m, self.opp, self._brakedist)
-        if self.opp.hazard_slip_deg > 0.0:
-            brake = hazard_brake(brake, v, self._my_mid_m, cars, self.car.width_m, self.opp, self._brakedist)
+        brake = hazard_brake(brake, v, self._my_mid_m, cars, self.car.width_m, self.opp, self._brakedist)
         if self.craft.p.conflict_s > 0.0:
             brake = self._conflict_brake(brake, v, cars)
         return brake
