@@ -51,7 +51,7 @@ CASES = [
     (["--nonsense"], "No such option: --nonsense"),
     (["--track", "mixed-2", "--laps", "5", "--pit-laps", "2"], "track 'mixed-2' has no pit lane"),
     (["--set", "mu_scal=1"], "unknown parameter 'mu_scal' (did you mean mu_scale?)"),
-    (["--set", "mu_scale=fast"], "mu_scale must be a float"),
+    (["--set", "mu_scale=fast"], "mu_scale must be a number, got 'fast'; e.g. --set mu_scale=1"),
 ]
 
 
@@ -99,9 +99,9 @@ def test_unwritable_outputs_fail_before_racing(command):
 SETUP_CASES = [
     # (file under the setups folder, its text, the message)
     ("default.toml", "mu_scal = 0.7\n", "unknown parameter 'mu_scal' (did you mean mu_scale?)"),
-    ("default.toml", 'mu_scale = "fast"\n', "mu_scale must be a float, got 'fast'"),
+    ("default.toml", 'mu_scale = "fast"\n', "mu_scale must be a number, got 'fast'; e.g. mu_scale = 1"),
     ("default.toml", "mu_scale = \n", "not valid TOML"),
-    ("car1-trb1/default.toml", "learning = 1\n", "learning must be a bool, got 1"),
+    ("car1-trb1/default.toml", "learning = 1\n", "learning must be true or false, got 1; e.g. learning = true"),
     ("car1-trb1/g-track-1.toml", 'steering = "sideways"\n', "steering must be one of line, lookahead"),
 ]
 

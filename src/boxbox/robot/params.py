@@ -168,13 +168,23 @@ CHOICES = {"steering": ("line", "lookahead"), "brake_method": ("exact", "approx"
            "pit_mu_source": ("surface", "constant"), "pit_entry_braking": ("computed", "ahead")}
 
 
+def _example(name: str, origin: str) -> str:
+    """The default written the way origin takes it: a --set pair, or a TOML line in a file."""
+    default = getattr(TutorialParams(), name)
+    text = ("true" if default else "false") if isinstance(default, bool) else (
+        f"{default:g}" if isinstance(default, float) else default)
+    if origin == "--set":
+        return f"e.g. --set {name}={text}"
+    return f"e.g. {name} = {text!r}" if isinstance(default, str) else f"e.g. {name} = {text}"
+
+
 def _coerce(name: str, value, kind, origin: str):
     if kind is float and isinstance(value, (int, float)) and not isinstance(value, bool):
         b = bound_of(name)
         if not (math.isfinite(value) and b.lo <= value <= b.hi):
             upper = "" if math.isinf(b.hi) else f" to {b.hi:g}"
             raise UsageError(f"{origin}: {name} must be a finite number from {b.lo:g}{upper}, got {value!r}; "
-                             f"e.g. --set {name}={getattr(TutorialParams(), name):g}")
+                             f"{_example(name, origin)}")
         return float(value)
     if kind is bool and isinstance(value, bool):
         return value
@@ -182,7 +192,8 @@ def _coerce(name: str, value, kind, origin: str):
         if name in CHOICES and value not in CHOICES[name]:
             raise UsageError(f"{origin}: {name} must be one of {', '.join(CHOICES[name])}, got '{value}'")
         return value
-    raise UsageError(f"{origin}: {name} must be a {kind.__name__}, got {value!r}")
+    wanted = {bool: "true or false", float: "a number"}.get(kind, f"a {kind.__name__}")
+    raise UsageError(f"{origin}: {name} must be {wanted}, got {value!r}; {_example(name, origin)}")
 
 
 def _apply(values: dict, overrides: dict, origin: str, sources: dict) -> None:

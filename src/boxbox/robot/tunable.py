@@ -106,7 +106,10 @@ class ParamSpace:
             if allowed and value not in allowed:
                 raise UsageError(f"{origin}: {key} must be one of {', '.join(allowed)}, got '{value}'")
             return value
-        raise UsageError(f"{origin}: {key} must be a {kind.__name__}, got {value!r}")
+        wanted = {bool: "true or false", float: "a number", int: "a whole number"}.get(kind, f"a {kind.__name__}")
+        default = self.defaults[key]
+        shown = ("true" if default else "false") if isinstance(default, bool) else repr(default)
+        raise UsageError(f"{origin}: {key} must be {wanted}, got {value!r}; its default is {shown}")
 
 
 def param_space(cls: type) -> ParamSpace:
