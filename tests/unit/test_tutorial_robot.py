@@ -795,3 +795,23 @@ def test_the_hazard_brake_brakes_for_a_car_sliding_across_the_road_ahead_only_wi
         brakes[slip_deg] = robot.drive(me._replace(opponents=(car,), n_opponents=1.0)).brake
     assert brakes[0.0] == 0.0
     assert brakes[25.0] == 1.0
+
+
+def test_a_car_we_lap_is_braked_for_where_our_line_meets_it_only_with_lapped_path_lane():
+    # g-track-1, where the line swings across the road: a lapped car 20 m ahead at 10 m/s, more than
+    # our lane aside now but where our line is when we reach it (1 s on, 30 m on at 30 m/s)
+    brakes = {}
+    for on, car_laps in ((False, 1.0), (True, 1.0), (True, 2.0)):
+        robot, _ = build("g-track-1", robot_args={"set": {"lapped_path_lane": on}})
+        swing = [abs(robot.line.offset_at(d + 30.0) - robot.line.offset_at(d)) for d in range(0, 2000, 5)]
+        d = 5.0 * int(np.argmax(swing))
+        require(max(swing) > 4.5, "a stretch where the line moves 4.5 m across in 30 m")
+        me = line_state(robot, d, 30.0)._replace(sim_time_s=10.0, laps=2.0)
+        require(robot.drive(me).brake == 0.0, "no brake at 30 m/s there alone")
+        robot, _ = build("g-track-1", robot_args={"set": {"lapped_path_lane": on}})
+        car = make_opp(robot, dist_from_start_m=d + 24.52, to_middle_m=robot.line.offset_at(d + 30.0), speed_mps=10.0,
+                       laps=car_laps, car_index=1.0)
+        brakes[on, car_laps] = robot.drive(me._replace(opponents=(car,), n_opponents=1.0)).brake
+    assert brakes[False, 1.0] == 0.0
+    assert brakes[True, 1.0] == 1.0
+    assert brakes[True, 2.0] == 0.0  # a car on our lap: where it is, as before

@@ -112,6 +112,9 @@ class TutorialParams:
     # brake for a car out of control ahead (sliding more than this many degrees off its heading, or
     # crossing the road) where its slide takes it by the time we reach it (0: off; session 22)
     hazard_slip_deg: float = 0.0
+    # a car we are lapping is braked for where our line meets it, not where it is now (its rear corner
+    # was where a late pass swung out into it: a fifth of our damage; docs/racecraft.md, session 23)
+    lapped_path_lane: bool = False
     # pit
     pit_lookahead_m: float = 6.0
     pit_mu: float = 0.4  # the seed's constant (used with pit_mu_source = "constant")

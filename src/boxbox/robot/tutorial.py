@@ -718,6 +718,8 @@ class TutorialRobot(Robot):
             cars = [c for c in cars if c.index != self.wreck.index]
         if self.craft.p.path_lane:
             cars = self._on_our_path(cars, v)
+        elif self.params.lapped_path_lane:
+            cars = self._lapped_on_our_path(cars, v)
         brake = self.craft.brake(self._now_s, brake, v, cars, self._other_target, predict=mode != "gap")
         if mode != "ttc":
             brake = collision_brake(brake, v, cars, self.car.width_m, self.opp, self._brakedist)
@@ -743,6 +745,12 @@ class TutorialRobot(Robot):
         """The cars ahead judged where we reach them (robot/racecraft.py on_our_path)."""
         their = self._their_mid_ahead if self.craft.p.learn_lines else None
         return on_our_path(cars, v, self.craft.p.path_lane_s, self._line_mid_ahead, their)
+
+    def _lapped_on_our_path(self, cars: list[Nearby], v: float) -> list[Nearby]:
+        """The cars we are lapping judged where we reach them, the others where they are."""
+        moved = iter(on_our_path([c for c in cars if c.laps_ahead < 0], v, self.craft.p.path_lane_s,
+                                 self._line_mid_ahead))
+        return [next(moved) if c.laps_ahead < 0 else c for c in cars]
 
     def _their_mid_ahead(self, c: Nearby, ahead_m: float) -> tuple[float, bool]:
         """Car c's to_middle ahead_m further along, from where it was seen there before."""
