@@ -400,6 +400,18 @@ def test_overtake_keeps_the_side_we_are_on_when_too_close_to_cross_behind_the_ca
     assert _overtake(0.0, behind, my_speed=47.0, my_to_middle=-0.5, params=keep) == pytest.approx(0.1)
 
 
+def test_overtake_passes_a_car_we_lap_on_our_side_of_it_with_lapped_own_side():
+    # we are 1.3 m right of the middle, the car 0.3 m to our left (1 m right of the middle): the
+    # tutorial's side (more room) is its left, across its path as it moves left, away from us, to let
+    # us by; with the option, the side we are on: its right
+    car = [near(LENGTH_M + 5.0, lateral_m=0.3, speed_mps=30.0, laps_ahead=-1)]
+    own = OpponentParams(lapped_own_side=True)
+    assert _overtake(0.0, car, my_to_middle=-1.3) == pytest.approx(0.1)  # the tutorial: left of it, across it
+    assert _overtake(0.0, car, my_to_middle=-1.3, params=own) == pytest.approx(-0.1)  # our side: its right
+    same_lap = [near(LENGTH_M + 5.0, lateral_m=0.3, speed_mps=30.0, laps_ahead=0)]
+    assert _overtake(0.0, same_lap, my_to_middle=-1.3, params=own) == pytest.approx(0.1)  # as the tutorial
+
+
 def test_overtake_step_is_a_parameter():
     car = [near(LENGTH_M + 5.0, lateral_m=-1.0, speed_mps=30.0)]
     assert _overtake(0.0, car, params=OpponentParams(overtake_step_m=0.25)) == pytest.approx(0.25)

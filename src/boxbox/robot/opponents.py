@@ -60,6 +60,9 @@ class OpponentParams:
     # 20 m to our left, 80 m ahead; the lane of now saw it 21 m ahead, 0.4 s before contact at 85 m/s
     hazard_slip_deg: float = 0.0
     hazard_horizon_s: float = 2.0  # ... its slide followed this far ahead at most
+    # a car we are lapping is passed on the side we are on of it, not the side with more room: the
+    # TORCS robots move away from a car lapping them, towards the other side (False: the tutorial's)
+    lapped_own_side: bool = False
 
 
 def track_velocity_mps(o: Opponent, track_heading_rad: float) -> tuple[float, float]:
@@ -206,7 +209,7 @@ def overtake_offset(offset_m: float, my_speed_mps: float, my_to_middle_m: float,
             # pass on the side with more room: its position is my_to_middle + lateral
             other = my_to_middle_m + c.lateral_m
             target = -half_width_m if other > 0 else half_width_m
-            if _too_close_to_cross(c, my_speed_mps, p):
+            if _too_close_to_cross(c, my_speed_mps, p) or (p.lapped_own_side and c.laps_ahead < 0):
                 target = half_width_m if c.lateral_m < 0 else -half_width_m
             break
         if c.laps_ahead > 0 and -4.0 * length_m < c.dist_m < 0:

@@ -115,6 +115,7 @@ class TutorialParams:
     # a car we are lapping is braked for where our line meets it, not where it is now (its rear corner
     # was where a late pass swung out into it: a fifth of our damage; docs/racecraft.md, session 23)
     lapped_path_lane: bool = False
+    lapped_own_side: bool = False  # ... and passed on the side we are on of it (it moves away from us)
     # pit
     pit_lookahead_m: float = 6.0
     pit_mu: float = 0.4  # the seed's constant (used with pit_mu_source = "constant")

@@ -217,7 +217,8 @@ class TutorialRobot(Robot):
         self.opp = OpponentParams(front_range_m=p.front_range_m, back_range_m=p.back_range_m,
                                   length_margin_m=p.length_margin_m, side_margin_m=p.side_margin_m,
                                   overtake_step_m=p.overtake_step_m, keep_side_s=p.keep_side_s,
-                                  draft_mps=p.draft_mps, soft_gap_m=p.soft_gap_m, hazard_slip_deg=p.hazard_slip_deg)
+                                  draft_mps=p.draft_mps, soft_gap_m=p.soft_gap_m, hazard_slip_deg=p.hazard_slip_deg,
+                                  lapped_own_side=p.lapped_own_side)
         self.craft = Racecraft(RacecraftParams(), car.width_m, car.length_m, self.tyre_model.mu)
         self.opp_lines = OpponentLines(track.length_m, OPPONENT_LINE_STEP_M)
         self._init_race_state()
