@@ -60,8 +60,9 @@ class OpponentParams:
     # 20 m to our left, 80 m ahead; the lane of now saw it 21 m ahead, 0.4 s before contact at 85 m/s
     hazard_slip_deg: float = 0.0
     hazard_horizon_s: float = 2.0  # ... its slide followed this far ahead at most
-    # a car we are lapping is passed on the side we are on of it, not the side with more room: the
-    # TORCS robots move away from a car lapping them, towards the other side (False: the tutorial's)
+    # a car we are lapping is passed on our side of it, not on the side with more room, for a robot
+    # that moves away from a car lapping it (False: the tutorial's; not all do: 6 % more damage in
+    # 190 field races, docs/racecraft.md session 23)
     lapped_own_side: bool = False
 
 

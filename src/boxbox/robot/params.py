@@ -117,7 +117,7 @@ class TutorialParams:
     # damage, places within chance, but lapping is slower (michigan's standard race 5.9 s); off,
     # docs/racecraft.md session 23
     lapped_path_lane: bool = False
-    lapped_own_side: bool = False  # ... and passed on the side we are on of it (it moves away from us)
+    lapped_own_side: bool = False  # ... passed on our side of it (for a robot moving away from us; off)
     # pit
     pit_lookahead_m: float = 6.0
     pit_mu: float = 0.4  # the seed's constant (used with pit_mu_source = "constant")
