@@ -251,6 +251,10 @@ def test_a_car_ahead_counts_where_our_line_meets_it():
     # unknown there, and our line moving away from it: still counts where it is now (the closer)
     [away] = on_our_path([ahead], 20.0, 3.0, lambda ahead_m: -swing(ahead_m))
     assert away.lateral_m == pytest.approx(-6.0)
+    # lapped_only: a car on our lap is where it is, a car we are lapping where we meet it
+    lapped = replace(ahead, laps_ahead=-1)
+    assert [c.lateral_m for c in on_our_path([ahead, lapped], 20.0, 3.0, swing, lapped_only=True)] \
+        == [pytest.approx(-6.0), pytest.approx(-1.0)]
 
 
 def test_opponent_lines_remember_where_each_car_drove():

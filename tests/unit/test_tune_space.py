@@ -87,7 +87,7 @@ def test_settings_checked_and_applied():
     assert robot_params(robot) == GainParams(gain=2.5, mode="wild")
     for bad, message in (({"gain": 20.0}, "from 0.1 to 10"), ({"mode": "mad"}, "one of calm, wild"),
                          ({"steps": 2.5}, "whole number"),
-                         ({"wide": 1}, "wide must be true or false, got 1; its default")):
+                         ({"wide": 1}, "wide must be true or false, got 1; e.g. --set wide=false")):
         with pytest.raises(UsageError, match=message):
             GainRobot.check_setup(RaceOptions(robot_args={"set": bad}), "g-track-1", "car1-trb1")
 

@@ -174,14 +174,18 @@ CHOICES = {"steering": ("line", "lookahead"), "brake_method": ("exact", "approx"
            "pit_mu_source": ("surface", "constant"), "pit_entry_braking": ("computed", "ahead")}
 
 
-def _example(name: str, origin: str) -> str:
-    """The default written the way origin takes it: a --set pair, or a TOML line in a file."""
-    default = getattr(TutorialParams(), name)
+def example_setting(name: str, default: bool | int | float | str, origin: str) -> str:
+    """A right value for a setting, its default, written the way origin takes it: a --set pair, or a
+    TOML line in a file (for the hint of an error)."""
     text = ("true" if default else "false") if isinstance(default, bool) else (
-        f"{default:g}" if isinstance(default, float) else default)
+        f"{default:g}" if isinstance(default, float) else str(default))
     if origin == "--set":
         return f"e.g. --set {name}={text}"
     return f"e.g. {name} = {text!r}" if isinstance(default, str) else f"e.g. {name} = {text}"
+
+
+def _example(name: str, origin: str) -> str:
+    return example_setting(name, getattr(TutorialParams(), name), origin)
 
 
 def _coerce(name: str, value, kind, origin: str):

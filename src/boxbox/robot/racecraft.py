@@ -157,14 +157,18 @@ def converging(cars: list[Nearby], rates_mps: list[float], ahead_s: float) -> li
 
 
 def on_our_path(cars: list[Nearby], my_speed_mps: float, horizon_s: float, line_mid_at,
-                their_mid_at=None) -> list[Nearby]:
+                their_mid_at=None, lapped_only: bool = False) -> list[Nearby]:
     """The cars with the lateral of a slower car clear ahead taken against our line where we reach
     it, after closing_time_s within horizon_s (line_mid_at(ahead_m) -> our line's to_middle that far
     ahead).  their_mid_at(car, ahead_m) -> (its to_middle that far ahead of where it is, whether
     that is known): known, the lateral there is the car's; unknown, the car keeps its to_middle and
-    counts there only when that is closer than now.  A car alongside is where it is."""
+    counts there only when that is closer than now.  A car alongside is where it is, and with
+    lapped_only so is every car we are not lapping."""
     out = []
     for c in cars:
+        if lapped_only and c.laps_ahead >= 0:
+            out.append(c)
+            continue
         t_s = closing_time_s(c.gap_m, my_speed_mps, c.speed_mps) if c.gap_m > 0.0 else math.inf
         if t_s < horizon_s:
             mid, known = their_mid_at(c, c.speed_mps * t_s) if their_mid_at else (c.mid_m, False)

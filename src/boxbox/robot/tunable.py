@@ -31,7 +31,7 @@ from pathlib import Path
 from typing import Any
 
 from boxbox.errors import UsageError
-from boxbox.robot.params import Bound
+from boxbox.robot.params import Bound, example_setting
 
 
 @dataclass(frozen=True)
@@ -107,9 +107,8 @@ class ParamSpace:
                 raise UsageError(f"{origin}: {key} must be one of {', '.join(allowed)}, got '{value}'")
             return value
         wanted = {bool: "true or false", float: "a number", int: "a whole number"}.get(kind, f"a {kind.__name__}")
-        default = self.defaults[key]
-        shown = ("true" if default else "false") if isinstance(default, bool) else repr(default)
-        raise UsageError(f"{origin}: {key} must be {wanted}, got {value!r}; its default is {shown}")
+        raise UsageError(f"{origin}: {key} must be {wanted}, got {value!r}; "
+                         f"{example_setting(key, self.defaults[key], origin)}")
 
 
 def param_space(cls: type) -> ParamSpace:

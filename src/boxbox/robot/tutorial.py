@@ -717,10 +717,8 @@ class TutorialRobot(Robot):
         mode = self.craft.p.brake_mode
         if self.wreck is not None:  # driven round at walking pace
             cars = [c for c in cars if c.index != self.wreck.index]
-        if self.craft.p.path_lane:
-            cars = self._on_our_path(cars, v)
-        elif self.params.lapped_path_lane:
-            cars = self._lapped_on_our_path(cars, v)
+        if self.craft.p.path_lane or self.params.lapped_path_lane:
+            cars = self._on_our_path(cars, v, lapped_only=not self.craft.p.path_lane)
         brake = self.craft.brake(self._now_s, brake, v, cars, self._other_target, predict=mode != "gap")
         if mode != "ttc":
             brake = collision_brake(brake, v, cars, self.car.width_m, self.opp, self._brakedist)
@@ -742,16 +740,11 @@ class TutorialRobot(Robot):
                     return 1.0
         return brake
 
-    def _on_our_path(self, cars: list[Nearby], v: float) -> list[Nearby]:
-        """The cars ahead judged where we reach them (robot/racecraft.py on_our_path)."""
+    def _on_our_path(self, cars: list[Nearby], v: float, lapped_only: bool = False) -> list[Nearby]:
+        """The cars ahead (or only those we are lapping) judged where we reach them (robot/racecraft.py
+        on_our_path)."""
         their = self._their_mid_ahead if self.craft.p.learn_lines else None
-        return on_our_path(cars, v, self.craft.p.path_lane_s, self._line_mid_ahead, their)
-
-    def _lapped_on_our_path(self, cars: list[Nearby], v: float) -> list[Nearby]:
-        """The cars we are lapping judged where we reach them, the others where they are."""
-        moved = iter(on_our_path([c for c in cars if c.laps_ahead < 0], v, self.craft.p.path_lane_s,
-                                 self._line_mid_ahead))
-        return [next(moved) if c.laps_ahead < 0 else c for c in cars]
+        return on_our_path(cars, v, self.craft.p.path_lane_s, self._line_mid_ahead, their, lapped_only)
 
     def _their_mid_ahead(self, c: Nearby, ahead_m: float) -> tuple[float, bool]:
         """Car c's to_middle ahead_m further along, from where it was seen there before."""
