@@ -140,3 +140,70 @@ def test_fuel_offset_counts_in_the_cache_key_only_when_given():
     plain = cache.cache_key("t", "c", 3, robots, None, "fresh")
     assert cache.cache_key("t", "c", 3, robots, None, "fresh", fuel_offset_l=0.0) == plain
     assert cache.cache_key("t", "c", 3, robots, None, "fresh", fuel_offset_l=0.05) != plain
+
+
+# --- against an earlier run (bench/field_compare.py) ------------------------------------------------
+
+def _grid_doc(*passes, field_damage=(0, 0)):
+    """A grid JSON document: one FieldResult per pass, {track: (robot rank, anchor rank)} each."""
+    from boxbox.bench.field_grid import FieldGrid
+    doc = FieldGrid([_result(10, ranks) for ranks in passes]).to_json()
+    for run in doc["runs"]:
+        for row in run["rows"]:
+            row["field_damage"] = field_damage[row["role"] == "anchor"]
+    return doc
+
+
+def test_compare_pairs_races_and_sums_the_robot_s_figures():
+    from boxbox.bench.field_compare import compare
+    base = _grid_doc({"a": (1, 6), "b": (3, 9)}, {"a": (2, 6), "b": (None, 9)}, {"a": (1, 6), "b": (4, 9)})
+    new = _grid_doc({"a": (1, 6), "b": (1, 9)}, {"a": (1, 6), "b": (2, 9)}, {"a": (1, 6), "b": (5, 9)},
+                    field_damage=(50, 10))
+    c = compare(base, new)
+    # b's race of the second pass failed in the base: not paired, so 5 races of 6
+    assert c.places_by_track == {"a": ([1, 2, 1], [1, 1, 1]), "b": ([3, 4], [1, 5])}
+    assert (c.base.races, c.base.places, c.base.wins) == (5, 11, 2)
+    assert (c.new.races, c.new.places, c.new.wins) == (5, 9, 4)
+    assert c.base.pass_places == [4, 2, 5] and c.new.pass_places == [2, 1, 6]
+    assert c.base.field_damage_not_higher == 5 and c.new.field_damage_not_higher == 0
+    assert c.damage_by_track == {"a": (300, 300), "b": (200, 200)}
+    # sqrt(3 var(4, 2, 5) + 3 var(2, 1, 6)) = sqrt(3 x 2.333 + 3 x 7) = 5.29
+    assert abs(c.chance_places - 5.29) < 0.01
+    lines = c.lines("base.json")
+    assert lines[0].startswith("against base.json, 5 races paired: places 11 -> 9 (-2), wins 2 -> 4, damage 500 -> 500")
+    assert lines[1].endswith("-2 is within two of them")
+    assert c.table("base.json").row_count == 2
+
+
+def test_compare_refuses_runs_of_other_tracks_or_lengths_and_needs_repeats_for_chance():
+    import pytest
+
+    from boxbox.bench.field_compare import compare, passes_of
+    one = _grid_doc({"a": (1, 6)})
+    assert compare(one, one).chance_places is None
+    assert "no spread" in compare(one, one).lines("x")[1]
+    with pytest.raises(ValueError, match="same --tracks"):
+        compare(one, _grid_doc({"b": (1, 6)}))
+    with pytest.raises(ValueError, match="same --tracks"):
+        compare(one, _grid_doc({"a": (1, 6)}, {"a": (1, 6)}))
+    single = _result(10, {"a": (2, 6)}).to_json()  # one run's file: rows, not runs
+    assert compare(single, one).places_by_track == {"a": ([2], [1])}
+    with pytest.raises(ValueError, match="not a `boxbox bench-field --json` file"):
+        passes_of({"rows": None})
+
+
+def test_against_file_is_read_and_checked_before_any_race(tmp_path):
+    import json
+
+    import click
+    import pytest
+
+    from boxbox.cli.types import FieldRunFile
+    good = tmp_path / "base.json"
+    good.write_text(json.dumps(_grid_doc({"a": (1, 6)})))
+    path, doc = FieldRunFile().convert(str(good), None, None)
+    assert path == good and doc["runs"][0]["tracks"] == ["a"]
+    (tmp_path / "bad.json").write_text("{}")
+    for name in ("bad.json", "missing.json"):
+        with pytest.raises(click.BadParameter, match="bench-field --json"):
+            FieldRunFile().convert(str(tmp_path / name), None, None)

@@ -82,7 +82,7 @@ class FieldResult:
         return {"tracks": len(robot), "wins": sum(r["rank"] == 1 for r in robot),
                 "max_damage": max((r["damage"] for r in robot), default=0),
                 "low_damage": sum(not r["error"] and r["damage"] < LOW_DAMAGE for r in robot),
-                "ahead_of_anchor": sum(_ahead(r, anchor.get(r["track"])) for r in robot),
+                "ahead_of_anchor": sum(ahead_of_anchor(r, anchor.get(r["track"])) for r in robot),
                 "field_damage_not_higher": sum(r["field_damage"] <= anchor[r["track"]]["field_damage"]
                                                for r in robot if r["track"] in anchor and not r["error"])}
 
@@ -119,7 +119,9 @@ def _first_line(text: str, n: int = 80) -> str:
     return f"[red]{escape(line if len(line) <= n else line[: n - 1] + '…')}[/]"
 
 
-def _ahead(r: dict, anchor: dict | None) -> bool:
+def ahead_of_anchor(r: dict, anchor: dict | None) -> bool:
+    """Whether the robot's row r finished ahead of the anchor's row of the same track (an anchor
+    not placed counts as behind; a robot not placed, or a failed race, as not ahead)."""
     if anchor is None or r["error"] or not r["rank"]:
         return False
     return not anchor["rank"] or r["rank"] < anchor["rank"]

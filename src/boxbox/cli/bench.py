@@ -10,6 +10,7 @@ from boxbox.cli.common import err, out, ready
 from boxbox.cli.types import (
     LAPS,
     CommaList,
+    FieldRunFile,
     GridPosition,
     LapLengths,
     OutputFile,
@@ -196,8 +197,12 @@ def bench_telemetry(track, laps, runs, robot, json_file, skill_level) -> None:
                    "where the tank is full): the spread of places that is the field's chaos, not the robot.")
 @bench_race_options
 @click.option("--json", "json_file", type=OutputFile(), help="Write the rows as JSON.")
+@click.option("--against", type=FieldRunFile(),
+              help="An earlier run's --json file with the same tracks, laps and repeats: the robot's races "
+                   "set against it race by race, with how much of the difference chance alone makes.")
 @skill_level_option
-def bench_field(tracks, robot, laps, jobs, repeats, no_cache, learning, settings, json_file, skill_level) -> None:
+def bench_field(tracks, robot, laps, jobs, repeats, no_cache, learning, settings, json_file, against,
+                skill_level) -> None:
     """The robot from last of ten behind nine TORCS robots, and inferno:3 from the same slot.
 
     \b
@@ -208,6 +213,7 @@ def bench_field(tracks, robot, laps, jobs, repeats, no_cache, learning, settings
       boxbox bench-field --tracks g-track-1 --laps 5 --json f.json
       boxbox bench-field --laps 6-14 --jobs 2     # 54 races each: places per length and track
       boxbox bench-field --repeats 5 --jobs 2     # each race 5 times: how much is chance
+      boxbox bench-field --repeats 5 --set side_margin_m=0.5 --against base.json
     """
     from boxbox.bench.bench import expand_all
     from boxbox.bench.field import FieldSpec, run_field, runs_root
@@ -218,8 +224,10 @@ def bench_field(tracks, robot, laps, jobs, repeats, no_cache, learning, settings
     spec = FieldSpec(tracks=expand_all(tracks, list(catalog.tracks())), robot=robot, laps=laps[0], jobs=jobs,
                      use_cache=not no_cache, learning=learning, settings=parse_set(settings) if settings else None,
                      skill_level=skill_level)
+    if against is not None:
+        _check_against(against, spec.tracks, laps, repeats)
     if len(laps) > 1 or repeats > 1:
-        _field_grid(spec, laps, overlay, json_file, repeats)
+        _field_grid(spec, laps, overlay, json_file, repeats, against)
         return
     result = run_field(spec, overlay, err)
     out.print(result.table())
@@ -230,9 +238,32 @@ def bench_field(tracks, robot, laps, jobs, repeats, no_cache, learning, settings
               + (f"; [red]{failed} rows with errors[/]" if failed else "") + "[/]")
     if json_file:
         result.write_json(json_file)
+    if against is not None:
+        _print_against(against, result.to_json())
 
 
-def _field_grid(spec, lengths: list[int], overlay, json_file, repeats: int) -> None:
+def _check_against(against, tracks: list[str], lengths: list[int], repeats: int) -> None:
+    """Exit 2 before any race when the base run did not race these tracks, lengths and repeats."""
+    from boxbox.bench.field_compare import shape_of
+
+    path, doc = against
+    want = [(n, tuple(tracks)) for n in lengths for _ in range(repeats)]
+    if shape_of(doc) != want:
+        raise click.BadParameter(f"{path} raced other tracks, laps or repeats; race the same --tracks, --laps and "
+                                 "--repeats as it, or leave --against out.", param_hint="--against")
+
+
+def _print_against(against, doc: dict) -> None:
+    from boxbox.bench.field_compare import compare
+
+    path, base = against
+    comparison = compare(base, doc)
+    out.print(comparison.table(path.name))
+    for line in comparison.lines(path.name):
+        out.print(line)
+
+
+def _field_grid(spec, lengths: list[int], overlay, json_file, repeats: int, against=None) -> None:
     """bench-field at several lengths or repeats: the places per track and race, wins and damage."""
     from boxbox.bench.field import runs_root
     from boxbox.bench.field_grid import run_field_grid
@@ -247,3 +278,5 @@ def _field_grid(spec, lengths: list[int], overlay, json_file, repeats: int) -> N
     err.print(f"[dim]{raced} raced, {cached} cached, {wall:.1f} s wall[/]")
     if json_file:
         grid.write_json(json_file)
+    if against is not None:
+        _print_against(against, grid.to_json())

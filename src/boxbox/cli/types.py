@@ -165,6 +165,33 @@ class OutputFile(click.ParamType):
         return path
 
 
+class FieldRunFile(click.ParamType):
+    """A `boxbox bench-field --json` file to compare with: read and checked before any race."""
+
+    name = "file"
+    _hint = "give a file `boxbox bench-field --json` wrote."
+
+    def get_metavar(self, param: click.Parameter, ctx: click.Context) -> str:
+        return "FILE"
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        import json
+
+        from boxbox.bench.field_compare import passes_of
+
+        if isinstance(value, tuple):
+            return value
+        path = Path(os.path.abspath(os.path.expanduser(value)))
+        try:
+            doc = json.loads(path.read_text())
+            passes_of(doc)
+        except OSError as exc:
+            self.fail(f"cannot read {path} ({exc.strerror or exc}); {self._hint}", param, ctx)
+        except ValueError as exc:
+            self.fail(f"{path}: {str(exc).splitlines()[0]}; {self._hint}", param, ctx)
+        return path, doc
+
+
 class OutputDir(click.ParamType):
     """A folder boxbox will write into: made absolute; it, or the nearest folder above it that
     exists (where it will be created), must take a new file."""
