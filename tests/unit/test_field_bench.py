@@ -190,6 +190,8 @@ def test_compare_refuses_runs_of_other_tracks_or_lengths_and_needs_repeats_for_c
     assert compare(single, one).places_by_track == {"a": ([2], [1])}
     with pytest.raises(ValueError, match="not a `boxbox bench-field --json` file"):
         passes_of({"rows": None})
+    with pytest.raises(ValueError, match="rows without track, role, rank"):  # caught before racing, not after
+        passes_of({"runs": [{"tracks": ["a"], "rows": [{"track": "a"}]}]})
 
 
 def test_against_file_is_read_and_checked_before_any_race(tmp_path):

@@ -20,14 +20,25 @@ from rich.table import Table
 
 from boxbox.bench.field import ANCHOR, LOW_DAMAGE, ahead_of_anchor
 
+ROW_KEYS = ("track", "role", "rank", "damage", "field_damage", "error")
+
 
 def passes_of(doc: dict) -> list[dict]:
-    """The runs (one pass over the tracks each) of a bench-field JSON document."""
+    """The runs (one pass over the tracks each) of a bench-field JSON document, each checked for
+    what the comparison reads (ValueError otherwise: found before any race, not after them)."""
     if isinstance(doc, dict) and isinstance(doc.get("runs"), list):
-        return doc["runs"]
-    if isinstance(doc, dict) and isinstance(doc.get("rows"), list):
-        return [doc]
-    raise ValueError("not a `boxbox bench-field --json` file (no runs or rows)")
+        passes = doc["runs"]
+    elif isinstance(doc, dict) and isinstance(doc.get("rows"), list):
+        passes = [doc]
+    else:
+        raise ValueError("not a `boxbox bench-field --json` file (no runs or rows)")
+    for p in passes:
+        rows = p.get("rows") if isinstance(p, dict) else None
+        if not isinstance(rows, list) or not isinstance(p.get("tracks"), list) \
+                or not all(isinstance(r, dict) and all(k in r for k in ROW_KEYS) for r in rows):
+            raise ValueError(f"not a `boxbox bench-field --json` file (a run without tracks, or rows without "
+                             f"{', '.join(ROW_KEYS)})")
+    return passes
 
 
 def shape_of(doc: dict) -> list[tuple[int, tuple[str, ...]]]:

@@ -188,7 +188,8 @@ class FieldRunFile(click.ParamType):
         except OSError as exc:
             self.fail(f"cannot read {path} ({exc.strerror or exc}); {self._hint}", param, ctx)
         except ValueError as exc:
-            self.fail(f"{path}: {str(exc).splitlines()[0]}; {self._hint}", param, ctx)
+            why = (str(exc).splitlines() or [type(exc).__name__])[0]
+            self.fail(f"{path}: {why}; {self._hint}", param, ctx)
         return path, doc
 
 
