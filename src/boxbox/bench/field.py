@@ -18,7 +18,7 @@ import statistics
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 from rich.console import Console
 from rich.markup import escape
@@ -79,12 +79,12 @@ class FieldResult:
     def summary(self) -> dict:
         robot = [r for r in self.rows if r["role"] == "robot"]
         anchor = {r["track"]: r for r in self.rows if r["role"] == "anchor"}
-        return {"tracks": len(robot), "wins": sum(r["rank"] == 1 for r in robot),
+        races = [race_targets(r, anchor.get(r["track"])) for r in robot]
+        return {"tracks": len(robot), "wins": sum(t.won for t in races),
                 "max_damage": max((r["damage"] for r in robot), default=0),
-                "low_damage": sum(not r["error"] and r["damage"] < LOW_DAMAGE for r in robot),
-                "ahead_of_anchor": sum(ahead_of_anchor(r, anchor.get(r["track"])) for r in robot),
-                "field_damage_not_higher": sum(r["field_damage"] <= anchor[r["track"]]["field_damage"]
-                                               for r in robot if r["track"] in anchor and not r["error"])}
+                "low_damage": sum(t.low_damage for t in races),
+                "ahead_of_anchor": sum(t.ahead_of_anchor for t in races),
+                "field_damage_not_higher": sum(t.field_damage_not_higher for t in races)}
 
     def table(self) -> Table:
         s = self.spec
@@ -125,6 +125,23 @@ def ahead_of_anchor(r: dict, anchor: dict | None) -> bool:
     if anchor is None or r["error"] or not r["rank"]:
         return False
     return not anchor["rank"] or r["rank"] < anchor["rank"]
+
+
+class RaceTargets(NamedTuple):
+    """One race of the robot against the racecraft targets."""
+
+    won: bool
+    low_damage: bool  # damage under LOW_DAMAGE
+    ahead_of_anchor: bool
+    field_damage_not_higher: bool  # than in the anchor's race
+
+
+def race_targets(r: dict, anchor: dict | None) -> RaceTargets:
+    """The robot's row r against the targets, with the anchor's row of the same track (None: no
+    anchor race); a failed race has no damage figure, so it counts under none of them."""
+    ok = not r["error"]
+    return RaceTargets(r["rank"] == 1, ok and r["damage"] < LOW_DAMAGE, ahead_of_anchor(r, anchor),
+                       ok and anchor is not None and r["field_damage"] <= anchor["field_damage"])
 
 
 def _gap_text(r: dict) -> str:

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 
 from rich.table import Table
 
-from boxbox.bench.field import ANCHOR, LOW_DAMAGE, ahead_of_anchor
+from boxbox.bench.field import ANCHOR, LOW_DAMAGE, race_targets
 
 ROW_KEYS = ("track", "role", "rank", "damage", "field_damage", "error")
 
@@ -43,7 +43,11 @@ def passes_of(doc: dict) -> list[dict]:
 
 def shape_of(doc: dict) -> list[tuple[int, tuple[str, ...]]]:
     """Per pass, its race length and tracks: two runs compare race by race only when these match."""
-    return [(int(p.get("laps", 0)), tuple(p.get("tracks", []))) for p in passes_of(doc)]
+    return _shape(passes_of(doc))
+
+
+def _shape(passes: list[dict]) -> list[tuple[int, tuple[str, ...]]]:
+    return [(int(p.get("laps", 0)), tuple(p["tracks"])) for p in passes]
 
 
 @dataclass
@@ -61,13 +65,14 @@ class Totals:
 
     def add(self, row: dict, anchor: dict | None, start_slot: int) -> int:
         place = row["rank"] or start_slot  # not placed (out before a lap): last, as bench/field_grid.py
+        targets = race_targets(row, anchor)
         self.races += 1
         self.places += place
-        self.wins += place == 1
+        self.wins += targets.won
         self.damage += int(row["damage"])
-        self.low_damage += int(row["damage"]) < LOW_DAMAGE
-        self.ahead += ahead_of_anchor(row, anchor)
-        self.field_damage_not_higher += anchor is not None and row["field_damage"] <= anchor["field_damage"]
+        self.low_damage += targets.low_damage
+        self.ahead += targets.ahead_of_anchor
+        self.field_damage_not_higher += targets.field_damage_not_higher
         return place
 
 
@@ -128,13 +133,14 @@ def _percent(before: int, after: int) -> str:
 def compare(base_doc: dict, new_doc: dict) -> Comparison:
     """The robot's races in new_doc against the same races in base_doc (ValueError when the two
     did not race the same lengths and tracks in the same passes)."""
-    if shape_of(base_doc) != shape_of(new_doc):
+    base_passes, new_passes = passes_of(base_doc), passes_of(new_doc)
+    if _shape(base_passes) != _shape(new_passes):
         raise ValueError("the two runs differ in tracks, laps or repeats: race the same --tracks, --laps and "
                          "--repeats as the base run")
     base, new = Totals(), Totals()
     places: dict[str, tuple[list[int], list[int]]] = {}
     damage: dict[str, tuple[int, int]] = {}
-    for run_b, run_n in zip(passes_of(base_doc), passes_of(new_doc), strict=True):
+    for run_b, run_n in zip(base_passes, new_passes, strict=True):
         slot = len(run_n.get("field", [])) + 1
         rb, rn = _rows(run_b, "robot"), _rows(run_n, "robot")
         ab, an = _rows(run_b, "anchor"), _rows(run_n, "anchor")
