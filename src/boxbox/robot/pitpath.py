@@ -103,9 +103,14 @@ class PitPath:
         self.kind = kind
         self.exit_m = x[6]
 
-        # per-step lookup tables: offset, slope and bend on a grid, kept in the cache (a race then
-        # needs no scipy import: scipy.interpolate alone takes about a second to load)
-        self.grid_m = float(grid_m)
+        self._build_tables(float(grid_m))
+        self._track = track
+        self.surface_friction = self._lane_friction(track, car)
+
+    def _build_tables(self, grid_m: float) -> None:
+        """Per-step lookup tables: offset, slope and bend on a grid, kept in the cache (a race then
+        needs no scipy import: scipy.interpolate alone takes about a second to load)."""
+        self.grid_m = grid_m
         n = int(math.ceil(self.exit_m / self.grid_m)) + 1
         self._grid_s = np.minimum(np.arange(n) * self.grid_m, self.exit_m)
 
@@ -113,15 +118,12 @@ class PitPath:
             sp = self.spline
             return np.vstack([sp(self._grid_s), sp(self._grid_s, 1), sp(self._grid_s, 2)])
 
-        table = cached_array("pit-paths", [Path(__file__).read_bytes(),
-                                           repr((kind, self.grid_m, x, y, self.knot_slopes)).encode()], tables)
+        key = repr((self.kind, self.grid_m, list(self.knots_m), list(self.knot_offsets_m), self.knot_slopes))
+        table = cached_array("pit-paths", [Path(__file__).read_bytes(), key.encode()], tables)
         self._offsets: list[float] = table[0].tolist()
         self._slopes: list[float] = table[1].tolist()  # d offset / d s
         self._bends = table[2]  # d2 offset / d s2
         self._n = n
-
-        self._track = track
-        self.surface_friction = self._lane_friction(track, car)
 
     # --- per step -----------------------------------------------------------------------------
     def to_spline_coord(self, dist_from_start_m: float) -> float:
