@@ -312,17 +312,3 @@ def test_a_wreck_is_driven_round_on_the_side_with_our_width():
     target = craft.wreck_target(_car(6.4, 1.0, 0.2), 3.8, -3.8)
     assert target == pytest.approx(1.0 - (2.0 + 0.5))
     assert craft.wreck_target(_car(6.4, 0.0, 0.2), 2.9, -2.9) is None  # neither side has room
-
-
-def test_the_side_a_car_alongside_holds_us_back_from_is_kept():
-    """A car alongside on our left at +3 m while the line here is at +3 m: the room holds us right
-    of it, and room_side says the left (+1) held us back; nobody alongside: 0."""
-    craft = _craft()
-    off = craft.offset(1.0, 30.0, 0.0, [_car(1.0, 3.0, 30.0)], 0.0, 3.0, (6.0, -6.0), 0.0, 400.0, 0.1, 0.0)
-    assert off < 0.0 and craft.room_side == 1.0
-    craft.offset(1.0, 30.0, 0.0, [_car(1.0, -3.0, 30.0)], 0.0, -3.0, (6.0, -6.0), 0.0, 400.0, 0.1, 0.0)
-    assert craft.room_side == -1.0
-    craft.offset(1.0, 30.0, 0.0, [_car(1.0, -3.0, 30.0)], 0.0, 3.0, (6.0, -6.0), 0.0, 400.0, 0.1, 0.0)
-    assert craft.room_side == 0.0  # the line leads away from it
-    craft.offset(1.0, 30.0, 0.0, [_car(150.0, 3.0, 30.0)], 0.0, 3.0, (6.0, -6.0), 0.0, 400.0, 0.1, 0.0)
-    assert craft.room_side == 0.0

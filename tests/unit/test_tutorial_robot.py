@@ -815,29 +815,3 @@ def test_a_car_we_lap_is_braked_for_where_our_line_meets_it_only_with_lapped_pat
     assert brakes[False, 1.0] == 0.0
     assert brakes[True, 1.0] == 1.0
     assert brakes[True, 2.0] == 0.0  # a car on our lap: where it is, as before
-
-
-@pytest.mark.parametrize("room_heading", [True, False])
-def test_held_back_by_a_car_alongside_the_steering_follows_the_track_not_the_line(room_heading):
-    """Where the line heads across the track towards a car alongside that holds our offset back
-    (RacecraftParams.room_heading), the steering's heading and curvature are the track's at our
-    distance from its middle; towards the other side, or without the option, the line's."""
-    robot = robot_for("aalborg")
-    robot.craft.p = RacecraftParams(room_heading=room_heading)
-    n = robot.n
-    rel = (robot.line.heading_rad[:n] - robot.line.middle.heading_rad[:n] + np.pi) % (2 * np.pi) - np.pi
-    j = int(np.argmax(rel))  # the line heading furthest to the left of the track's direction
-    assert rel[j] > 0.05
-    ahead = j * robot.step_m + 0.1
-    robot.offset_m = -1.0
-    line = (robot.line.heading_at(ahead), robot.line.curvature_at(ahead))
-    robot.craft.room_side = 1.0  # a car on our left holds us back
-    heading, k = robot._line_heading(ahead, 2.0)
-    if room_heading:
-        k_mid = robot.line.middle.curvature_1pm[j]
-        assert heading == robot.line.middle.heading_rad[j]
-        assert k == pytest.approx(k_mid / (1.0 - 2.0 * k_mid))
-    else:
-        assert (heading, k) == line
-    robot.craft.room_side = -1.0  # a car on our right: the line heads away from it
-    assert robot._line_heading(ahead, 2.0) == line

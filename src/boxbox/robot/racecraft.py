@@ -135,11 +135,6 @@ class RacecraftParams:
     wreck_gap_m: float = 0.5  # then round it at this lateral gap, up to the track's edge,
     wreck_speed_mps: float = 5.0  # ... no faster than this,
     wreck_s: float = 15.0  # ... for at most this long
-    # with a car alongside holding us to our side (room), steer along the track, not along the line's
-    # heading, where the line heads towards that car: the line's heading is the steering's
-    # feed-forward, and against a line swinging 10 degrees across only the distance term held us,
-    # about 3 m too late (a third of the side contacts after lap 1 were our line moving across)
-    room_heading: bool = False
 
 
 def converging(cars: list[Nearby], rates_mps: list[float], ahead_s: float) -> list[Nearby]:
@@ -241,7 +236,6 @@ class Racecraft:
         self._taint_lap = -1
         self._tainted: set[int] = set()  # turns where traffic shaped a step this lap
         self._inside = 0.0  # the inside of the turn we are coming to (+1 left, -1 right, 0 none), from offset()
-        self.room_side = 0.0  # the side (+1 left, -1 right) a car alongside held our offset back from, 0 none
 
     def predict(self, now_s: float, cars: list[Nearby]) -> list[Nearby]:
         """The cars as they will be laterally lateral_ahead_s from now (closing in on us only),
@@ -317,12 +311,9 @@ class Racecraft:
             new = max(0.0, offset_m - step_m) if offset_m > 0.0 else min(0.0, offset_m + step_m)
         new = inward_step(offset_m, new, here_1pm, v, self.decel_mps2, step_m, p.inward_grip_share)
         alongside = [(c.mid_m, c.width_m or self.width_m) for c in cars if abs(c.dist_m) < self.length_m + 1.0]
-        self.room_side = 0.0
         if alongside:
             lo, hi = room(my_mid_m, alongside, self.width_m, p.side_gap_m, left, right)
-            wanted = line_off_m + new
-            self.room_side = 1.0 if wanted > hi else (-1.0 if wanted < lo else 0.0)
-            new = min(hi, max(lo, wanted)) - line_off_m
+            new = min(hi, max(lo, line_off_m + new)) - line_off_m
         if new or any(abs(c.dist_m) < p.spoil_m for c in cars):
             self.mark_spoiled(now_s)
         return new

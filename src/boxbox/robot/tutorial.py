@@ -657,27 +657,12 @@ class TutorialRobot(Robot):
         if self.offset_m:
             j = int(dist / self.step_m) % self.n
             line_off = self._moved_line(j, line_off)
-        heading, curvature = self._line_heading(ahead, line_off)
-        heading_error = (heading - s.yaw_rad + math.pi) % TWO_PI - math.pi
+        heading_error = (self.line.heading_at(ahead) - s.yaw_rad + math.pi) % TWO_PI - math.pi
         # slip angle per lateral acceleration falls as downforce loads the tyres
         understeer = p.line_understeer_rad_per_mps2 / (1.0 + self._downforce_per_mg * v * v)
-        return steer_to_line(heading_error, line_off - s.to_middle_m, curvature, v,
+        return steer_to_line(heading_error, line_off - s.to_middle_m, self.line.curvature_at(ahead), v,
                              s.yaw_rate_rps, self.wheelbase_m, self.car.steer_lock_rad, p.line_lateral_gain,
                              p.line_yaw_damping_s, understeer_rad_per_mps2=understeer)
-
-    def _line_heading(self, ahead_m: float, to_middle_m: float) -> tuple[float, float]:
-        """(heading, curvature) the steering follows at ahead_m: the line's; with a car alongside
-        holding our offset back (RacecraftParams.room_heading) and the line heading towards it, the
-        track's, at our distance from its middle (curvature k / (1 - k d) there)."""
-        heading, curvature = self.line.heading_at(ahead_m), self.line.curvature_at(ahead_m)
-        side = self.craft.room_side if self.offset_m and self.craft.p.room_heading else 0.0
-        if side:
-            j = int(ahead_m / self.step_m) % self.n
-            track = self._headings[j]
-            if ((heading - track + math.pi) % TWO_PI - math.pi) * side > 0.0:
-                k_mid = float(self.line.middle.curvature_1pm[j])
-                return track, k_mid / max(0.5, 1.0 - k_mid * to_middle_m)
-        return heading, curvature
 
     def _moved_line(self, j: int, line_off: float) -> float:
         """The line at sample j moved by the overtaking offset: never nearer the edge of the room than
