@@ -118,7 +118,7 @@ class PitPath:
             sp = self.spline
             return np.vstack([sp(self._grid_s), sp(self._grid_s, 1), sp(self._grid_s, 2)])
 
-        key = repr((self.kind, self.grid_m, list(self.knots_m), list(self.knot_offsets_m), self.knot_slopes))
+        key = repr((self.kind, self.grid_m, self.knots_m, self.knot_offsets_m, self.knot_slopes))
         table = cached_array("pit-paths", [Path(__file__).read_bytes(), key.encode()], tables)
         self._offsets: list[float] = table[0].tolist()
         self._slopes: list[float] = table[1].tolist()  # d offset / d s
