@@ -93,10 +93,17 @@ def test_field_grid_counts_the_racecraft_targets_over_every_race():
                       _result(10, {"a": (2, 5), "b": (None, 9)}, damage=300)])
     # b's second race failed: no win, not ahead, no damage figure; every race counts in "races"
     assert grid.targets() == {"races": 4, "wins": 1, "low_damage": 2, "ahead_of_anchor": 2,
-                              "field_damage_not_higher": 3}
+                              "field_damage_not_higher": 3, "every_target": 1}
     assert grid.summary_lines()[2] == ("boxbox in 4 races: wins 1/4, damage under 300 2/4, ahead of inferno:3 "
-                                       "2/4, field damage no higher than with inferno:3 3/4")
+                                       "2/4, field damage no higher than with inferno:3 3/4, all four in one race 1/4")
     assert grid.to_json()["targets"]["low_damage"] == 2
+
+
+def test_a_win_under_300_with_more_field_damage_than_the_anchor_misses_every_target():
+    result = _result(10, {"a": (1, 6), "b": (1, 5)}, damage=10)
+    result.rows[0]["field_damage"] = 1  # track a: the field took more than in inferno:3's race (0)
+    assert result.summary()["wins"] == 2 and result.summary()["low_damage"] == 2
+    assert result.summary()["every_target"] == 1
 
 
 def test_field_grid_needs_a_length():

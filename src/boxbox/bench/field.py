@@ -84,7 +84,8 @@ class FieldResult:
                 "max_damage": max((r["damage"] for r in robot), default=0),
                 "low_damage": sum(t.low_damage for t in races),
                 "ahead_of_anchor": sum(t.ahead_of_anchor for t in races),
-                "field_damage_not_higher": sum(t.field_damage_not_higher for t in races)}
+                "field_damage_not_higher": sum(t.field_damage_not_higher for t in races),
+                "every_target": sum(all(t) for t in races)}
 
     def table(self) -> Table:
         s = self.spec
