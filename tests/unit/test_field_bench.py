@@ -173,6 +173,7 @@ def test_compare_pairs_races_and_sums_the_robot_s_figures():
     assert (c.new.races, c.new.places, c.new.wins) == (5, 9, 4)
     assert c.base.pass_places == [4, 2, 5] and c.new.pass_places == [2, 1, 6]
     assert c.base.field_damage_not_higher == 5 and c.new.field_damage_not_higher == 0
+    assert c.base.every_target == 2 and c.new.every_target == 0  # new's four wins: the field took more
     assert c.damage_by_track == {"a": (300, 300), "b": (200, 200)}
     # sqrt(3 var(4, 2, 5) + 3 var(2, 1, 6)) = sqrt(3 x 2.333 + 3 x 7) = 5.29
     assert abs(c.chance_places - 5.29) < 0.01

@@ -61,6 +61,7 @@ class Totals:
     low_damage: int = 0
     ahead: int = 0
     field_damage_not_higher: int = 0
+    every_target: int = 0  # all four in the same race
     pass_places: list[int] = field(default_factory=list)  # the place sum of each pass
 
     def add(self, row: dict, anchor: dict | None, start_slot: int) -> int:
@@ -73,6 +74,7 @@ class Totals:
         self.low_damage += targets.low_damage
         self.ahead += targets.ahead_of_anchor
         self.field_damage_not_higher += targets.field_damage_not_higher
+        self.every_target += all(targets)
         return place
 
 
@@ -103,7 +105,8 @@ class Comparison:
                f"wins {b.wins} -> {n.wins}, damage {b.damage} -> {n.damage} "
                f"({_percent(b.damage, n.damage)}), under {LOW_DAMAGE} {b.low_damage} -> {n.low_damage}, "
                f"ahead of {ANCHOR} {b.ahead} -> {n.ahead}, field damage no higher "
-               f"{b.field_damage_not_higher} -> {n.field_damage_not_higher}"]
+               f"{b.field_damage_not_higher} -> {n.field_damage_not_higher}, all four in one race "
+               f"{b.every_target} -> {n.every_target}"]
         sd = self.chance_places
         if sd is None:
             out.append("chance: one race a track, no spread to judge by; race both with --repeats 3 or more")
