@@ -340,3 +340,49 @@ def test_the_stall_limit_covers_the_longest_call_and_a_heartbeat():
     model = TimeModel(step_budget_ms=200, setup_budget_ms=120_000)
     assert model.stall_limit_s() == pytest.approx(120.2 + HEARTBEAT_S + STALL_MARGIN_S)
     assert model.stall_limit_s() < model.wall_limit_s(1, 2000.0, 1, 10) / 10
+
+
+# --- TORCS losing every car (torcs/host.py every_car_lost, _check_breakdown) --------------------
+
+NAN = float("nan")
+
+
+def opponent(x_m: float, car_state: int = 0):
+    from boxbox.model import Opponent
+    return Opponent(**{**dict.fromkeys(Opponent._fields, 0.0), "x_m": x_m, "car_state": float(car_state)})
+
+
+def with_opponents(s: State, *opps) -> State:
+    return s._replace(opponents=tuple(opps))
+
+
+def test_every_car_lost_only_when_ours_and_every_racing_car_have_no_position():
+    from boxbox.model.state import CAR_STATE_OUT
+    lost = state(x_m=NAN)
+    assert host.every_car_lost(with_opponents(lost, opponent(NAN), opponent(NAN)))
+    # a car in its pit, or out of the race, is not simulated: its finite position does not count
+    assert host.every_car_lost(with_opponents(lost, opponent(NAN), opponent(5.0, CAR_STATE_PIT),
+                                              opponent(7.0, CAR_STATE_OUT)))
+    assert not host.every_car_lost(with_opponents(lost, opponent(NAN), opponent(5.0)))  # one still racing
+    assert not host.every_car_lost(with_opponents(state(x_m=3.0), opponent(NAN)))  # ours is there
+
+
+def test_a_breakdown_stops_the_race_after_a_second_of_every_car_lost():
+    slot = host.Slot(robot=None, spec="x", name="x 1")
+    for t in (467.2, 467.6, 468.1):
+        host.Host._check_breakdown(slot, with_opponents(state(x_m=NAN, sim_time_s=t), opponent(NAN)))
+    with pytest.raises(host.RobotFault) as raised:
+        host.Host._check_breakdown(slot, with_opponents(state(x_m=NAN, sim_time_s=468.3), opponent(NAN)))
+    assert raised.value.kind == "sim-breakdown" and "broke down at 467.2 s" in str(raised.value)
+    # a car found again resets the clock
+    slot2 = host.Slot(robot=None, spec="x", name="x 1")
+    host.Host._check_breakdown(slot2, with_opponents(state(x_m=NAN, sim_time_s=1.0), opponent(NAN)))
+    host.Host._check_breakdown(slot2, with_opponents(state(x_m=NAN, sim_time_s=1.5), opponent(4.0)))
+    host.Host._check_breakdown(slot2, with_opponents(state(x_m=NAN, sim_time_s=2.2), opponent(NAN)))
+    assert slot2.lost_since_s == 2.2
+
+
+def test_a_breakdown_is_the_race_s_fault_not_the_robot_s():
+    from boxbox.torcs.faults import Fault
+    fault = Fault(kind="sim-breakdown", message="TORCS's simulation broke down at 467.2 s", where="drive")
+    assert fault.line("my.py:Bot") == "TORCS's simulation broke down at 467.2 s"

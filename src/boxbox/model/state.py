@@ -13,6 +13,7 @@ CAR_STATE_PIT = 0x1  # stopped in its pit right now
 CAR_STATE_DNF = 0x2
 CAR_STATE_FINISH = 0x100
 CAR_STATE_OUT = CAR_STATE_DNF | CAR_STATE_FINISH
+CAR_STATE_NO_SIMU = 0xFF  # any of these: TORCS neither simulates the car nor calls its robot (pits, out)
 
 
 class Opponent(NamedTuple):

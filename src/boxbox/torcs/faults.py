@@ -1,8 +1,9 @@
 """A robot fault: what stopped the race, as one typed record.
 
-The robot host makes a `Fault` when a robot call raises, exits, returns something invalid, or the
-race outlives its simulated-time limit; it sends it to the launcher (torcs/hostlink.py, in memory)
-and keeps it in RUN_DIR/fault.json (written atomically).  `Fault.from_json` is the only reader.
+The robot host makes a `Fault` when a robot call raises, exits, returns something invalid, the
+race outlives its simulated-time limit, or TORCS has lost every car (`sim-breakdown`); it sends it
+to the launcher (torcs/hostlink.py, in memory) and keeps it in RUN_DIR/fault.json (written
+atomically).  `Fault.from_json` is the only reader.
 """
 
 from __future__ import annotations
@@ -14,7 +15,8 @@ from typing import Literal
 
 from boxbox.files import write_json_atomic
 
-FaultKind = Literal["exception", "exit", "invalid-controls", "invalid-value", "sim-time-limit"]
+FaultKind = Literal["exception", "exit", "invalid-controls", "invalid-value", "sim-time-limit", "sim-breakdown"]
+RACE_KINDS = ("sim-time-limit", "sim-breakdown")  # the race's fault, not the robot's: no "robot X failed"
 RobotCall = Literal["__init__", "initial_fuel_l", "on_track", "drive", "pit_stop", "on_race_end"]
 
 
@@ -54,7 +56,7 @@ class Fault:
 
     def line(self, default_spec: str = "") -> str:
         """The one-line cause, with the robot's traceback below it when there is one."""
-        if self.kind == "sim-time-limit":
+        if self.kind in RACE_KINDS:
             text = self.message
         else:
             text = f"{self.who(default_spec)} failed: {self.message}"

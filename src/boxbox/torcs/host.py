@@ -26,7 +26,7 @@ from time import perf_counter_ns
 import numpy as np
 
 from boxbox.model import Car, CarSetup, Controls, Opponent, PitLane, PitOrder, State, Track
-from boxbox.model.state import CAR_STATE_OUT, CAR_STATE_PIT
+from boxbox.model.state import CAR_STATE_NO_SIMU, CAR_STATE_OUT, CAR_STATE_PIT
 from boxbox.model.track import LEFT
 from boxbox.robot.base import RaceOptions, Robot
 from boxbox.robot.loader import load_robot_class
@@ -41,6 +41,7 @@ from boxbox.torcs.timing import HEARTBEAT_S, MIN_SPEED_MPS, STEP_S, TimeModel
 STATE_SIZE = wire.STATE_REC.size
 OPP_SIZE = wire.OPPONENT_REC.size
 STUCK_SPEED_MPS = 1.0  # slower than this outside the pit counts as stuck
+BREAKDOWN_S = 1.0  # simulated time TORCS may have lost every car before the race is stopped
 MAX_STEP_SAMPLES = 1 << 16  # step times kept per car: every step up to this, then every 2nd, 4th...
 
 
@@ -71,6 +72,7 @@ class Slot:
     recorder: Recorder | None = None  # telemetry (None: not recorded)
     rec: Recorder | None = None  # the recorder while recording (the drive step's check), else None
     start_fuel_l: float | None = None
+    lost_since_s: float | None = None  # when TORCS lost every car still racing (every_car_lost)
 
 
 class RobotFault(Exception):
@@ -180,6 +182,15 @@ def watch_step(slot: Slot, state: State) -> None:
             slot.longest_stuck_steps = slot.stuck_run
     else:
         slot.stuck_run = 0
+
+
+def every_car_lost(state: State) -> bool:
+    """Whether TORCS has lost our car and every other car still racing (not in its pit, not out):
+    all their positions NaN.  TORCS's physics has been seen to do this to every car in one step
+    (docs/reliability.md); no car can finish after it, and TORCS goes on simulating them for good."""
+    if state.x_m == state.x_m:
+        return False
+    return all(o.x_m != o.x_m for o in state.opponents if not int(o.car_state) & CAR_STATE_NO_SIMU)
 
 
 def record_step_time(slot: Slot, ns: int) -> None:
@@ -342,6 +353,8 @@ class Host:
         """The robot's controls for this step, checked; a RobotFault for anything else."""
         if state.sim_time_s > self.sim_limit_s:
             raise RobotFault("sim-time-limit", self._sim_limit_text())
+        if state.x_m != state.x_m:  # NaN: TORCS lost our car (cheap to ask every step)
+            self._check_breakdown(slot, state)
         if step == 1:
             slot.start_fuel_l = state.fuel_l
         try:
@@ -354,6 +367,19 @@ class Host:
             raise RobotFault("invalid-controls", f"drive() returned invalid controls: {problem} "
                                                  f"(step {step}, t={state.sim_time_s:.2f} s)")
         return c
+
+    @staticmethod
+    def _check_breakdown(slot: Slot, state: State) -> None:
+        """A RobotFault once TORCS has lost every car for BREAKDOWN_S: the race cannot finish."""
+        if not every_car_lost(state):
+            slot.lost_since_s = None
+            return
+        if slot.lost_since_s is None:
+            slot.lost_since_s = state.sim_time_s
+        elif state.sim_time_s - slot.lost_since_s >= BREAKDOWN_S:
+            raise RobotFault("sim-breakdown", f"TORCS's simulation broke down at {slot.lost_since_s:.1f} s of "
+                                              "simulated time: every car's position is NaN, so no car can finish; "
+                                              "the race was stopped (race it again, or with other fuel)")
 
     def _sim_limit_text(self) -> str:
         length = self.slots[0].track.length_m if self.slots and self.slots[0].track else 0.0
