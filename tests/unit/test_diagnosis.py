@@ -34,3 +34,32 @@ def test_a_host_found_finishing_answered_late_and_was_not_stuck(tmp_path):
 def test_a_host_found_in_the_robot_shows_where_it_was_stuck(tmp_path):
     line = _diagnose(tmp_path, STUCK)
     assert "where the robot was stuck:" in line and "my_robot.py" in line
+
+
+# --- where a stalled TORCS was (gdb's backtrace, torcs/launch.py _dump_torcs_stack) -------------
+
+LOOPING_ROBOT = """\
+[Thread debugging using libthread_db enabled]
+#0  0x00007f5dc248bfb4 in spline(int, double, double const*, double const*) () from /c/lib//drivers/lliaw/lliaw.so
+#1  0x00007f5dc248ffa0 in Pathfinder::correctPath(int, CarElt*, MyCar*) () from /c/lib//drivers/lliaw/lliaw.so
+#2  0x00007f5dc3941319 in ?? () from /usr/lib/x86_64-linux-gnu/torcs/lib/libraceengine.so
+"""
+IN_A_LIBRARY = """\
+#0  __math_invalidf (x=-nan(0x400000)) at ../sysdeps/ieee754/flt-32/math_errf.c:75
+#1  0x00007f924b7832e6 in sgMakeCoordMat4(float (*) [4], float) () from /lib/x86_64-linux-gnu/libplibsg.so.1
+#2  0x00007f924b2a381b in ?? () from /c/lib//modules/simu/simuv2.so
+"""
+IN_THE_BRIDGE = """\
+#0  0x00007fc7b6a56929 in __libc_recv (fd=3, buf=0x7fc7b58f8a80 <g_in>, len=60064, flags=0) at recv.c:28
+#1  0x00007fc7b58f29ed in bb_recv(int, int, int, int, int*) () from /c/lib//drivers/boxbox/boxbox.so
+#2  0x00007fc7b58f332b in drive(int, CarElt*, Situation*) () from /c/lib//drivers/boxbox/boxbox.so
+"""
+
+
+def test_stack_top_names_the_torcs_robot_or_library_a_stalled_torcs_was_in():
+    from boxbox.torcs.diagnosis import stack_top
+    assert stack_top(LOOPING_ROBOT) == "the TORCS robot 'lliaw' (spline in lliaw.so)"
+    assert stack_top(IN_A_LIBRARY) == "sgMakeCoordMat4 in libplibsg.so.1"  # the first frame with a library
+    assert stack_top(IN_THE_BRIDGE) == "boxbox's bridge (bb_recv in boxbox.so)"
+    assert stack_top("") is None
+    assert stack_top("ptrace: Operation not permitted.\n") is None  # gdb could not attach

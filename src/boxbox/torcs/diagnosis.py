@@ -2,8 +2,8 @@
 
 The sources, in order: the robot host's `Fault` (a robot raised, exited, returned bad values, or
 the race outlived its simulated-time limit), the bridge's `BOXBOX-FAULT` line in TORCS's stderr (a
-robot that did not answer in time, a host that went away), the wall limit, and how TORCS and the
-host exited.
+robot that did not answer in time, a host that went away), the stall limit (with where gdb found
+TORCS, when it is installed), the wall limit, and how TORCS and the host exited.
 """
 
 from __future__ import annotations
@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 from boxbox.torcs import wire
 from boxbox.torcs.faults import Fault
+from boxbox.torcs.paths import ROBOT_MODULE
 from boxbox.torcs.rundir import RunDir
 
 PROGRESS_LINE = re.compile(r"Sim Time:\s*([\d.]+)\s*\[s\], Leader Laps:\s*(\d+)")
@@ -22,6 +23,9 @@ HOST_LOG_TAIL = 2000  # characters of the host's log shown when it died
 # the hang traceback is taken after TORCS gave up on the robot: a host found in Host.finish had left
 # the late step and was winding down, so the step was slow, not stuck (a loaded machine, session 18)
 LATE_NOT_STUCK = re.compile(r'torcs/host\.py", line \d+ in finish\n')
+# a frame of gdb's backtrace: "#0  0x... in Name::fn(int, ...) () from /x/drivers/lliaw/lliaw.so"
+GDB_FRAME = re.compile(r"^#\d+\s+(?:0x[0-9a-f]+ in )?(\S+?)(?:\(| \().*? from (\S+)$", re.MULTILINE)
+ROBOT_LIB = re.compile(r"/drivers/([^/]+)/[^/]+\.so$")
 
 
 @dataclass
@@ -55,8 +59,10 @@ def diagnose(run_dir: RunDir, end: Ending) -> str | None:
     if marker := FAULT_LINE.search(err_text):
         return _bridge_fault(run_dir, end, marker)
     if end.timed_out and end.stalled_s is not None:
+        where = stack_top(run_dir.read_text(run_dir.torcs_stack))
         return f"TORCS stopped calling the robots (last heard of at {end.stalled_sim_s:.1f} s of simulated time) " \
-            f"and did not resume for {end.stalled_s:.0f} s; it was stopped (logs {run_dir.path}/torcs.*)"
+            f"and did not resume for {end.stalled_s:.0f} s; it was stopped" + \
+            (f", inside {where}; {run_dir.torcs_stack.name}" if where else "") + f" (logs {run_dir.path}/torcs.*)"
     if end.timed_out:
         hang_tb = run_dir.read_text(run_dir.hang_traceback).strip()
         limit = f"{end.wall_limit_s:.0f}" if end.wall_limit_s >= 10 else f"{end.wall_limit_s:.2g}"
@@ -74,6 +80,26 @@ def diagnose(run_dir: RunDir, end: Ending) -> str | None:
         log = run_dir.read_text(run_dir.host_log).strip()
         return f"the robot process {exit_text(end.host_code)}" + (f"\n{log[-HOST_LOG_TAIL:]}" if log else "")
     return None
+
+
+def stack_top(gdb_text: str) -> str | None:
+    """Whose code a stuck TORCS was running, from gdb's backtrace of it: the innermost frame in a
+    TORCS robot's library ("the TORCS robot 'lliaw' (correctPath in lliaw.so)"), else the innermost
+    frame in any library; None without a backtrace."""
+    frames = [(fn, lib) for fn, lib in GDB_FRAME.findall(gdb_text)]
+    for fn, lib in frames:
+        if robot := ROBOT_LIB.search(lib):
+            name = robot.group(1)
+            whose = "boxbox's bridge" if name == ROBOT_MODULE else f"the TORCS robot '{name}'"
+            return f"{whose} ({_short(fn)} in {lib.rsplit('/', 1)[-1]})"
+    if frames:
+        fn, lib = frames[0]
+        return f"{_short(fn)} in {lib.rsplit('/', 1)[-1]}"
+    return None
+
+
+def _short(fn: str) -> str:
+    return fn.rsplit("::", 1)[-1] if fn != "??" else "unknown code"
 
 
 def _bridge_fault(run_dir: RunDir, end: Ending, marker: re.Match) -> str:

@@ -50,6 +50,7 @@ from boxbox.torcs.timing import MIN_SPEED_MPS, TimeModel
 Progress = Callable[[int, float], None]  # (leader laps done, sim time)
 INTERRUPTED = "the race was interrupted (Ctrl-C, SIGTERM or SIGHUP); TORCS was stopped, the results so far are kept"
 SOCK_PREFIX = "boxbox-sock-"
+GDB_TIMEOUT_S = 20.0  # a backtrace of a stalled TORCS (gdb attaching and reading symbols takes 1-3 s)
 
 
 @dataclass
@@ -346,6 +347,8 @@ class Race:
         if self.stop.stopped or self.timed_out:
             if self.timed_out:
                 self._dump_hang()
+            if self.stalled:
+                self._dump_torcs_stack()
             kill_group(self.torcs)
         self.torcs.wait()
         hung = self.host is not None and "BOXBOX-FAULT timeout" in self.run_dir.read_text(self.run_dir.torcs_err)
@@ -365,6 +368,19 @@ class Race:
             with contextlib.suppress(ProcessLookupError):
                 self.host.send_signal(signal.SIGUSR1)
                 time.sleep(0.3)
+
+    def _dump_torcs_stack(self) -> None:
+        """Where a TORCS that stopped calling the robots is, when gdb is installed: its backtrace
+        into RUN_DIR/torcs-stack.txt, which the diagnosis reads (a TORCS robot looping in its own
+        drive, docs/reliability.md).  Nothing without gdb, or when gdb cannot attach."""
+        gdb = shutil.which("gdb")
+        if gdb is None or self.torcs is None or self.torcs.poll() is not None:
+            return
+        cmd = [gdb, "-p", str(self.torcs.pid), "-batch", "-nx", "-ex", "bt 40"]
+        with contextlib.suppress(OSError, subprocess.SubprocessError):
+            done = subprocess.run(cmd, capture_output=True, text=True, timeout=GDB_TIMEOUT_S,
+                                  stdin=subprocess.DEVNULL, start_new_session=True)
+            self.run_dir.torcs_stack.write_text(done.stdout)
 
     def _stop_processes(self) -> None:
         kill_group(self.torcs)

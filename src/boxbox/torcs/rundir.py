@@ -89,6 +89,10 @@ class RunDir:
         return self.path / "hang-traceback.txt"
 
     @property
+    def torcs_stack(self) -> Path:
+        return self.path / "torcs-stack.txt"
+
+    @property
     def telemetry(self) -> Path:
         return self.path / TELEMETRY_FILE
 
@@ -121,7 +125,8 @@ class RunDir:
 
     def clear_stale(self) -> None:
         """Remove what an earlier race in this folder left, so nothing of it is read as this race's."""
-        for path in (self.fault, self.hang_traceback, self.telemetry, self.result, self.torcs_err, self.torcs_out):
+        for path in (self.fault, self.hang_traceback, self.torcs_stack, self.telemetry, self.result, self.torcs_err,
+                     self.torcs_out):
             path.unlink(missing_ok=True)
         for spool in self.path.glob(".telemetry-*"):
             spool.unlink(missing_ok=True)
