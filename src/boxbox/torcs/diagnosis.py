@@ -86,7 +86,7 @@ def stack_top(gdb_text: str) -> str | None:
     """Whose code a stuck TORCS was running, from gdb's backtrace of it: the innermost frame in a
     TORCS robot's library ("the TORCS robot 'lliaw' (correctPath in lliaw.so)"), else the innermost
     frame in any library; None without a backtrace."""
-    frames = [(fn, lib) for fn, lib in GDB_FRAME.findall(gdb_text)]
+    frames = GDB_FRAME.findall(gdb_text)  # [(function, library)], innermost first
     for fn, lib in frames:
         if robot := ROBOT_LIB.search(lib):
             name = robot.group(1)
