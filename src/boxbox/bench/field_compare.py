@@ -74,7 +74,7 @@ class Totals:
         self.low_damage += targets.low_damage
         self.ahead += targets.ahead_of_anchor
         self.field_damage_not_higher += targets.field_damage_not_higher
-        self.every_target += all(targets)
+        self.every_target += targets.all_met
         return place
 
 
