@@ -72,6 +72,8 @@ class Slot:
     recorder: Recorder | None = None  # telemetry (None: not recorded)
     rec: Recorder | None = None  # the recorder while recording (the drive step's check), else None
     start_fuel_l: float | None = None
+    started: bool = False  # on_track has returned: the robot is in the race
+    ended: bool = False  # on_race_end has been called (once, however the race ended)
     lost_since_s: float | None = None  # when TORCS lost every car still racing (every_car_lost)
 
 
@@ -256,14 +258,21 @@ class Host:
     def _fail(self, conn, robot: int, step: int, where: RobotCall, fault: RobotFault, reply_kind: int) -> None:
         """Record the fault (the first one of the race) and tell the bridge: it brakes the car and
         ends the race."""
-        slot = self.slots[robot] if 0 <= robot < len(self.slots) else None
-        if self.fault is None:
-            last = slot.last_state if slot else None
-            self.fault = Fault(kind=fault.kind, message=fault.message, where=where, robot_index=robot,
-                               robot=slot.spec if slot else "", name=slot.name if slot else "", step=step,
-                               sim_time_s=last.sim_time_s if last else 0.0, traceback=fault.tb)
-            report_fault(self.run_dir, self.link, self.fault)
+        self._record_fault(robot, step, where, fault)
         self._reply(conn, reply_kind, robot, step, flags=wire.FLAG_FAULT)
+
+    def _record_fault(self, robot: int, step: int, where: RobotCall, fault: RobotFault) -> None:
+        """Keep the race's first fault (fault.json, and the launcher told); a later one is only printed."""
+        slot = self.slots[robot] if 0 <= robot < len(self.slots) else None
+        if self.fault is not None:
+            print(f"boxbox host: after the race's first fault, {slot.name if slot else robot}: {fault.message}\n"
+                  f"{fault.tb}", file=sys.stderr)
+            return
+        last = slot.last_state if slot else None
+        self.fault = Fault(kind=fault.kind, message=fault.message, where=where, robot_index=robot,
+                           robot=slot.spec if slot else "", name=slot.name if slot else "", step=step,
+                           sim_time_s=last.sim_time_s if last else 0.0, traceback=fault.tb)
+        report_fault(self.run_dir, self.link, self.fault)
 
     @staticmethod
     def _call(where: str, fn, *args):
@@ -280,7 +289,7 @@ class Host:
         header = wire.HEADER.unpack_from
         drive = self._drive_step(conn)
         handlers = {wire.NEW_TRACK: self._new_track, wire.NEW_RACE: self._new_race, wire.PIT_CMD: self._pit_cmd,
-                    wire.END_RACE: self._end_race, wire.HELLO: self._hello}
+                    wire.END_RACE: self._end_race, wire.SHUTDOWN: self._shutdown, wire.HELLO: self._hello}
         while True:
             try:
                 n = conn.recv_into(buf)
@@ -443,6 +452,7 @@ class Host:
         except RobotFault as fault:
             self._fail(conn, robot, step, "on_track", fault, wire.ACK)
             return
+        slot.started = True
         if slot.recorder is not None:
             slot.recorder.start(slot.robot)
         # what exists now (imports, the robot's per-track tables) lives for the race: out of the
@@ -469,15 +479,46 @@ class Host:
         self._reply(conn, wire.PIT_ORDER, robot, step, wire.PIT_ORDER_REC, (float(order.fuel_l), float(order.repair)))
 
     def _end_race(self, conn, robot: int, step: int, count: int, n: int) -> None:
-        slot = self.slots[robot]
-        state = State._make(wire.STATE_REC.unpack_from(self.buf, wire.HEADER.size) + ((),))
-        self._lap(slot, state)
-        try:
-            self._call("on_race_end", slot.robot.on_race_end, state)
-        except RobotFault as fault:
+        """END_RACE (a TORCS that calls rbEndRace: 1.3 does not), answered."""
+        fault = self._race_end(self.slots[robot], self._message_state(n))
+        if fault is not None:
             self._fail(conn, robot, step, "on_race_end", fault, wire.ACK)
             return
         self._reply(conn, wire.ACK, robot, step)
+
+    def _shutdown(self, conn, robot: int, step: int, count: int, n: int) -> None:
+        """SHUTDOWN: TORCS cleans the race up (its finish, or its end after a stop); not answered."""
+        fault = self._race_end(self.slots[robot], self._message_state(n))
+        if fault is not None:
+            self._record_fault(robot, step, "on_race_end", fault)
+
+    def _message_state(self, n: int) -> State | None:
+        """The STATE record a message of n bytes carries, if it carries one."""
+        if n < wire.HEADER.size + STATE_SIZE:
+            return None
+        return State._make(wire.STATE_REC.unpack_from(self.buf, wire.HEADER.size) + ((),))
+
+    def _race_end(self, slot: Slot, state: State | None) -> RobotFault | None:
+        """The robot's on_race_end, once per race, for a robot that took part (its on_track
+        returned), with the car's state at the end (else the last one it drove with); the fault
+        if it failed."""
+        state = state or slot.last_state
+        if slot.ended or not slot.started or state is None:
+            return None
+        slot.ended = True
+        self._lap(slot, state)  # the finish: TORCS often ends the race before the next drive step
+        try:
+            self._call("on_race_end", slot.robot.on_race_end, state)
+        except RobotFault as fault:
+            return fault
+        return None
+
+    def end_races(self) -> None:
+        """on_race_end for every robot TORCS did not tell (a fault, Ctrl-C, TORCS gone)."""
+        for i, slot in enumerate(self.slots):
+            fault = self._race_end(slot, None)
+            if fault is not None:
+                self._record_fault(i, slot.steps_timed, "on_race_end", fault)
 
     def _hello(self, conn, robot: int, step: int, count: int, n: int) -> None:
         self._reply(conn, wire.HELLO, robot, step, wire.HELLO_REC, (wire.PROTOCOL_VERSION, 0.0, 0.0))
@@ -508,7 +549,9 @@ class Host:
 
     def finish(self) -> None:
         """At the end, whatever happened: the summary to the launcher first (it is the result), then
-        RUN_DIR/telemetry.parquet from what was recorded (also after a fault), and what became of it."""
+        RUN_DIR/telemetry.parquet from what was recorded (also after a fault), and what became of it.
+        Each robot's on_race_end has run by then (end_races), and its race_report comes after it."""
+        self.end_races()
         self.link.send("summary", **self.cars_json())
         telemetry_errors = self.write_telemetry()
         if telemetry_errors:

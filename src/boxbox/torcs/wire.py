@@ -11,8 +11,8 @@ Message flow (bridge -> host, host answers each with one message unless noted):
   NEW_RACE    CAR record                                  -> ACK
   DRIVE       STATE + count x OPPONENT                    -> CONTROLS
   PIT_CMD     STATE                                       -> PIT_ORDER
-  END_RACE    STATE                                       -> ACK
-  SHUTDOWN    nothing                                     (no answer)
+  END_RACE    STATE                                       -> ACK  (TORCS 1.3 never calls rbEndRace)
+  SHUTDOWN    STATE (the car at the race's clean-up)      (no answer)
 A reply's header carries the same kind, robot index and step; its `count` holds FLAG_* bits.
 """
 
@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import struct
 
-PROTOCOL_VERSION = 5  # 5: the suspension in HANDLE, the wheels' travel in STATE
+PROTOCOL_VERSION = 6  # 6: SHUTDOWN carries the car's STATE; 5: the suspension in HANDLE, the wheels' travel
 
 # message kinds
 HELLO, NEW_TRACK, NEW_RACE, DRIVE, PIT_CMD, END_RACE, SHUTDOWN, FUEL, ACK, CONTROLS, PIT_ORDER = range(1, 12)

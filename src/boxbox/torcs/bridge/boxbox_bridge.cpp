@@ -34,6 +34,8 @@ static int g_step_budget_ms = 200;   // drive step budget
 static int g_setup_budget_ms = 30000;
 static int g_current_timeout_ms = -1;
 static int g_step[BB_MAX_ROBOTS];
+static tCarElt *g_car[BB_MAX_ROBOTS];  // each car and the situation, for rbShutdown (given neither)
+static tSituation *g_situation = NULL;
 static char g_names[BB_MAX_ROBOTS][32];
 static unsigned char g_out[BB_MAX_MESSAGE_BYTES + 64];
 static unsigned char g_in[BB_MAX_MESSAGE_BYTES + 64];
@@ -324,6 +326,8 @@ static void newTrack(int index, tTrack *track, void *carHandle, void **carParmHa
 
 static void newRace(int index, tCarElt *car, tSituation *s) {
     g_step[index] = 0;
+    g_car[index] = car;
+    g_situation = s;
     if (g_dead || !bb_connect()) return;
     bb_car r;
     memset(&r, 0, sizeof r);
@@ -464,8 +468,19 @@ static void endRace(int index, tCarElt *car, tSituation *s) {
     if (bb_send(BB_END_RACE, index, step, 0, &st, sizeof st)) bb_recv(BB_ACK, index, step, g_setup_budget_ms, &flags);
 }
 
+// TORCS 1.3 never calls rbEndRace: the end of a race reaches a robot only as rbShutdown, when the
+// race is cleaned up (the cars and the track are still there).  The car's state then goes with it,
+// so the host can call on_race_end with the finish (the last drive step was often before it).
 static void rbShutdownCb(int index) {
-    if (g_fd >= 0 && !g_dead) bb_send(BB_SHUTDOWN, index, g_step[index], 0, NULL, 0);
+    if (g_fd < 0 || g_dead) return;
+    if (index >= 0 && index < BB_MAX_ROBOTS && g_car[index] && g_situation) {
+        bb_state st;
+        fill_state(&st, g_car[index], g_situation);
+        st.n_opponents = 0;
+        bb_send(BB_SHUTDOWN, index, g_step[index], 0, &st, sizeof st);
+    } else {
+        bb_send(BB_SHUTDOWN, index, g_step[index], 0, NULL, 0);
+    }
 }
 
 static int initFuncPt(int index, void *pt) {
