@@ -130,9 +130,7 @@ def _finish(result, laps: int, report_dir: Path | None) -> None:
             err.print(f"[yellow]warning:[/] {d.name} asked for a pit stop on lap {miss['lap']} that was not made: "
                       f"{miss['reason']} ({miss['detail']})")
     if report_dir is not None:  # a faulted race's partial telemetry is the point of its report
-        from boxbox.report.race_report import write_report
-
-        err.print(f"report: {write_report(Path(result.run_dir), report_dir / 'report.html')}")
+        _write_report(Path(result.run_dir), report_dir)
     if result.error:
         raise race_error(result)
     for d in result.drivers:
@@ -142,6 +140,19 @@ def _finish(result, laps: int, report_dir: Path | None) -> None:
         if d.step_us_median is not None:
             err.print(f"[dim]{d.name}: drive step median {d.step_us_median:.1f} us, "
                       f"p99 {d.step_us_p99:.1f} us; run dir {result.run_dir}[/]")
+
+
+def _write_report(run_dir: Path, report_dir: Path) -> None:
+    """The race's report; one that fails is a warning: the race's own outcome and exit status stand."""
+    from rich.markup import escape
+
+    from boxbox.report.race_report import write_report
+
+    try:
+        err.print(f"report: {write_report(run_dir, report_dir / 'report.html')}")
+    except Exception as exc:  # noqa: BLE001  (whatever it was, the race's result comes first)
+        err.print(f"[yellow]warning:[/] the report was not written: {escape(f'{type(exc).__name__}: {exc}')} "
+                  f"(try `boxbox report {escape(str(run_dir))}`)", highlight=False)
 
 
 @click.command()

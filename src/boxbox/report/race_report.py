@@ -12,6 +12,7 @@ import io
 import json
 import math
 import time
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -39,7 +40,9 @@ def _figure(width_in: float, height_in: float, **kw):
 
 def _png(fig, dpi: int = 90) -> str:
     buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=dpi)
+    with warnings.catch_warnings():  # a name with an emoji: drawn as a box, not a warning on the console
+        warnings.filterwarnings("ignore", message=r"Glyph \d+ .*missing from")
+        fig.savefig(buf, format="png", dpi=dpi)
     return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode("ascii")
 
 
@@ -75,7 +78,7 @@ def _break_wraps(x: np.ndarray, *ys: np.ndarray, jump: float) -> tuple[np.ndarra
 
 
 def driver_label(d: dict) -> str:
-    return f"{d['name']} ({d['module']}:{d['idx']})"
+    return f"{d.get('name', '?')} ({d.get('module', '?')}:{d.get('idx', '?')})"
 
 
 # --- figures ---------------------------------------------------------------------------------------
@@ -376,9 +379,21 @@ def _pit_table(drivers: list[dict]) -> str:
                          _num(e.get("fuel"), "{:.1f}"), _num(e.get("repair"), "{:.0f}"),
                          "yes" if e.get("gave_up") else ""])
     if not rows:
-        return "<p>No pit events.</p>"
+        return _pit_counts(drivers)
     return _table(["driver", "lap", "mode", "entry s", "stop s", "leave s", "exit s", "standing s", "entry to exit s",
                    "stop error m", "fuel l", "repair", "gave up"], rows, "num")
+
+
+def _pit_counts(drivers: list[dict]) -> str:
+    """No robot reported its pit events (race_report's pit_events): the stops TORCS counted, if any."""
+    stopped = [d for d in drivers if d.get("pit_stops")]
+    if not stopped:
+        return "<p>No pit events.</p>"
+    counts = ", ".join(f"{html.escape(driver_label(d))}: {d['pit_stops']} pit stop{'s' if d['pit_stops'] != 1 else ''}"
+                       for d in stopped)
+    return (f"<p>{counts} (as TORCS counts them). No robot reported the details: a robot with "
+            "<code>boxbox.PitStops</code> gives them by returning <code>self.pits.report()</code> from "
+            "<code>race_report()</code>.</p>")
 
 
 CSS = """
@@ -402,9 +417,54 @@ def _read_result(run_dir: Path) -> dict:
         raise UsageError(f"{run_dir} has no result.json: give the run directory of a race "
                          "(printed after `boxbox race`, or chosen with --run-dir)")
     try:
-        return json.loads(result_file.read_text())
+        result = json.loads(result_file.read_text())
     except ValueError as exc:
         raise UsageError(f"{result_file} is not valid JSON: {exc}") from None
+    problem = result_problem(result)
+    if problem:
+        raise UsageError(f"{result_file} is not a boxbox race result: {problem}")
+    return result
+
+
+NUMBER = (int, float)
+RESULT_TYPES: dict[str, tuple] = {"track": (str,), "category": (str,), "car": (str,), "laps": (int,),
+                                  "wall_s": NUMBER, "drivers": (list,), "run_dir": (str,), "error": (str, type(None)),
+                                  "skill_level": (str,), "limits": (dict,)}
+DRIVER_TYPES: dict[str, tuple] = {"name": (str,), "module": (str,), "idx": (int,), "car": (str,),
+                                  "car_index": (int,), "laps": (int,), "time": NUMBER, "best_lap": NUMBER,
+                                  "lap_times": (list,), "damage": (int,), "pit_stops": (int,),
+                                  "penalty_time": NUMBER, "top_speed": NUMBER, "rank": (int,),
+                                  "pit_events": (list,), "report": (dict,),
+                                  "step_us_median": (*NUMBER, type(None)), "step_us_p99": (*NUMBER, type(None))}
+
+
+def result_problem(r) -> str | None:
+    """What makes `r` (a parsed result.json) something other than a race result, or None: the
+    fields the report reads, where present, must have their types (a missing one is left out)."""
+    if not isinstance(r, dict):
+        return f"it holds a {type(r).__name__}, not an object"
+    problem = _types_problem(r, RESULT_TYPES, "")
+    if problem:
+        return problem
+    for i, d in enumerate(r.get("drivers", [])):
+        if not isinstance(d, dict):
+            return f"drivers[{i}] is a {type(d).__name__}, not an object"
+        problem = _types_problem(d, DRIVER_TYPES, f"drivers[{i}].")
+        if problem:
+            return problem
+        if not all(isinstance(t, NUMBER) and not isinstance(t, bool) for t in d.get("lap_times", [])):
+            return f"drivers[{i}].lap_times holds something other than numbers"
+        if not all(isinstance(e, dict) for e in d.get("pit_events", [])):
+            return f"drivers[{i}].pit_events holds something other than objects"
+    return None
+
+
+def _types_problem(obj: dict, types: dict[str, tuple], where: str) -> str | None:
+    for key, allowed in types.items():
+        if key in obj and (not isinstance(obj[key], allowed) or (isinstance(obj[key], bool) and bool not in allowed)):
+            names = " or ".join("null" if t is type(None) else t.__name__ for t in allowed)
+            return f"{where}{key} is {json.dumps(obj[key])[:40]}, not {names}"
+    return None
 
 
 def _read_telemetry(run_dir: Path):
@@ -489,7 +549,7 @@ def build_report(run_dir: Path, limit: tuple[np.ndarray, np.ndarray] | None = No
         length = float(track.get("length_m") or np.nanmax(tel.columns["dist_m"]))
         cars_meta = {m["car"]: m for m in tel.meta.get("cars", [])}
         for d in drivers:
-            if not is_python_module(d.get("module", "")):
+            if not is_python_module(d.get("module", "")) or not isinstance(d.get("idx"), int):
                 continue
             c = tel.car(int(d["idx"]))
             if not len(c["time_s"]):
@@ -522,7 +582,7 @@ def _car_section(d: dict, c: dict, track: dict, length: float, car_meta: dict, r
         best = int(c["lap"].max())
     lap_rows = np.flatnonzero(c["lap"] == best)
     events = [e for e in d.get("pit_events", []) if e.get("entry_time") is not None]
-    what = f"lap {best}" + (f" ({fmt_time(lap_times[best - 1])}, fastest)" if best <= len(lap_times) else "")
+    what = f"lap {best}" + (f" ({fmt_time(lap_times[best - 1])}, fastest)" if 1 <= best <= len(lap_times) else "")
     parts.append(_img(fig_map(c, lap_rows, best, track, events, f"{name}: {what}, coloured by speed"),
                       f"Track map: {what} coloured by speed, braking points and pit events"))
     names = {int(o["car_index"]): driver_label(o) for o in r.get("drivers", []) if o.get("car_index") is not None}
