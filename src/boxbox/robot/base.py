@@ -71,7 +71,8 @@ class Robot:
         self.track, self.car = track, car
 
     def drive(self, state: State) -> Controls:
-        raise NotImplementedError
+        """Every 0.02 s of simulated time: the controls for this step.  Every robot defines it."""
+        raise NotImplementedError(f"robot class {type(self).__name__} does not define drive(self, state)")
 
     def pit_stop(self, state: State) -> PitOrder:
         """Called when TORCS has captured the car in its pit: how much fuel and repair to take."""

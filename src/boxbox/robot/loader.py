@@ -66,13 +66,14 @@ def load_robot_class(spec: str) -> type[Robot]:
             sys.path.insert(0, folder)
         try:
             module_spec.loader.exec_module(module)
-        except Exception as exc:
-            raise UsageError(f"robot file '{where}' failed to import: {type(exc).__name__}: {exc}") from exc
+        except (Exception, SystemExit) as exc:  # a robot's sys.exit() at import must not end boxbox
+            raise UsageError(f"robot file '{where}' failed to import: {import_failure(exc)}") from exc
     else:
         try:
             module = importlib.import_module(where)
-        except Exception as exc:
-            raise UsageError(f"robot module '{where}' failed to import: {type(exc).__name__}: {exc}") from exc
+        except (Exception, SystemExit) as exc:
+            raise UsageError(f"robot module '{where}' failed to import: {import_failure(exc)}"
+                             f"{file_hint(where, cls_name, exc)}") from exc
     cls = getattr(module, cls_name, None)
     if cls is None:
         names = [n for n, v in vars(module).items() if isinstance(v, type) and issubclass(v, Robot) and v is not Robot]
@@ -81,4 +82,21 @@ def load_robot_class(spec: str) -> type[Robot]:
         raise UsageError(f"'{where}' has no class '{cls_name}'{hint}")
     if not (isinstance(cls, type) and issubclass(cls, Robot)):
         raise UsageError(f"'{target}' is not a boxbox.Robot subclass")
+    if cls.drive is Robot.drive:
+        raise UsageError(f"robot class {cls_name} ('{target}') does not define drive(self, state), the method "
+                         "that returns its Controls every step (see docs/robots.md)")
     return cls
+
+
+def import_failure(exc: BaseException) -> str:
+    """An exception out of a robot's import, in words (its sys.exit() as such)."""
+    if isinstance(exc, SystemExit):
+        return f"it called sys.exit({'' if exc.code is None else repr(exc.code)})"
+    return f"{type(exc).__name__}: {exc}".splitlines()[0]
+
+
+def file_hint(where: str, cls_name: str, exc: BaseException) -> str:
+    """`midbot:MidBot` given beside midbot.py: the file spec it probably meant."""
+    missing = isinstance(exc, ModuleNotFoundError) and exc.name == where.partition(".")[0]
+    path = Path(where.replace(".", "/") + ".py")
+    return f" (did you mean {path}:{cls_name}?)" if missing and path.is_file() else ""

@@ -116,7 +116,7 @@ def param_space(cls: type) -> ParamSpace:
     params_cls = getattr(cls, "param_class", None)
     name = getattr(cls, "name", cls.__name__)
     if params_cls is None or not dataclasses.is_dataclass(params_cls):
-        raise UsageError(f"robot {name} declares no tunable parameters: give its class `param_class = "
+        raise UsageError(f"robot class {cls.__name__} declares no tunable parameters: give it `param_class = "
                          "SomeDataclass` and `param_bounds = {name: Bound(lo, hi)}` (see docs/tuning.md)")
     defaults = {f.name: f.default for f in dataclasses.fields(params_cls)
                 if f.default is not dataclasses.MISSING}
