@@ -58,3 +58,14 @@ def test_no_tunable_parameters_says_the_class_once(tmp_path):
     with pytest.raises(UsageError) as e:
         param_space(load_robot_class(f"{path}:Plain"))
     assert "robot robot" not in str(e.value) and "Plain" in str(e.value)
+
+
+def test_a_setup_file_says_how_to_race_the_robot_it_is_for(tmp_path):
+    from boxbox.robot.tunable import read_setup, write_setup
+
+    mine, default = tmp_path / "mine.toml", tmp_path / "default.toml"
+    write_setup(mine, {"speed": 1.5}, ["tuned"], robot="my robot.py:MyRobot")
+    write_setup(default, {"mu_scale": 0.9}, ["tuned"], robot="boxbox")
+    assert f"# race with it: boxbox race --robot 'my robot.py:MyRobot' --setup {mine}\n" in mine.read_text()
+    assert f"# race with it: boxbox race --setup {default}\n" in default.read_text()
+    assert read_setup(mine) == {"speed": 1.5}

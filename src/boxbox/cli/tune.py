@@ -183,8 +183,7 @@ def _summary(cfg, study, setup_out: Path | None, report_dir: Path | None, compar
     write_setup(target, best.params, [f"boxbox tune study {cfg.study}: best ({pick.label}) of {p.complete} "
                                       "complete trials",
                                       f"robot {cfg.robot}, tracks {', '.join(cfg.tracks)}, {cfg.laps} laps, "
-                                      f"{cfg.car}: total {best.value:.3f} s",
-                                      f"race with it: boxbox race --setup {target}"])
+                                      f"{cfg.car}: total {best.value:.3f} s"], robot=cfg.robot)
     err.print(f"setup: {target}")
     if report_dir is not None:
         from boxbox.tune.report import write_report

@@ -163,11 +163,14 @@ def check_setup_for(robot_classes: list[type], setup: dict, origin: str) -> None
             param_space(cls).check(setup, origin)
 
 
-def write_setup(path: Path, values: dict, header: list[str]) -> None:
-    """Write values as a setup file (comments first), atomically."""
+def write_setup(path: Path, values: dict, header: list[str], robot: str | None = None) -> None:
+    """Write values as a setup file (comments first, then how to race with it when `robot`, the
+    spec of the robot they are for, is given), atomically."""
     from boxbox.files import write_text_atomic
 
     lines = [f"# {line}" for line in header]
+    if robot is not None:
+        lines.append(f"# race with it: {race_command(path, robot)}")
     for key, value in values.items():
         if isinstance(value, bool):
             text = "true" if value else "false"
@@ -177,3 +180,14 @@ def write_setup(path: Path, values: dict, header: list[str]) -> None:
             text = repr(value)
         lines.append(f"{key} = {text}")
     write_text_atomic(path, "\n".join(lines) + "\n")
+
+
+def race_command(setup: Path, robot: str) -> str:
+    """The command that races `robot` (a --robot spec) with a setup file: --robot only for another
+    robot than the default one, which races without it."""
+    import shlex
+
+    from boxbox.robot.loader import DEFAULT_ROBOT
+
+    spec = "" if robot == DEFAULT_ROBOT else f" --robot {shlex.quote(robot)}"
+    return f"boxbox race{spec} --setup {shlex.quote(str(setup))}"
