@@ -123,12 +123,17 @@ def _finish(result, laps: int, report_dir: Path | None) -> None:
     """The table and the report (also for a race stopped by a fault), then the verdict (the race has
     written its JSON: RUN_DIR/result.json, then --json)."""
     from boxbox.report.tables import results_table
+    from boxbox.torcs.pitwatch import NOT_ASKED
 
     out.print(results_table(result))
     for d in result.drivers:
         for miss in d.missed_pit_stops:
-            err.print(f"[yellow]warning:[/] {d.name} asked for a pit stop on lap {miss['lap']} that was not made: "
-                      f"{miss['reason']} ({miss['detail']})")
+            if miss["reason"] == NOT_ASKED:
+                err.print(f"[yellow]warning:[/] {d.name} never asked for the pit stop --pit-laps asked for on lap "
+                          f"{miss['lap']}: {miss['detail']}")
+            else:
+                err.print(f"[yellow]warning:[/] {d.name} asked for a pit stop on lap {miss['lap']} that was not "
+                          f"made: {miss['reason']} ({miss['detail']})")
     if report_dir is not None:  # a faulted race's partial telemetry is the point of its report
         _write_report(Path(result.run_dir), report_dir)
     if result.error:

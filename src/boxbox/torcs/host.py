@@ -9,6 +9,7 @@ brakes the car and ends the race.  SIGUSR1 dumps the current traceback (for hang
 
 from __future__ import annotations
 
+import contextlib
 import faulthandler
 import gc
 import json
@@ -43,6 +44,9 @@ OPP_SIZE = wire.OPPONENT_REC.size
 STUCK_SPEED_MPS = 1.0  # slower than this outside the pit counts as stuck
 BREAKDOWN_S = 1.0  # simulated time TORCS may have lost every car before the race is stopped
 MAX_STEP_SAMPLES = 1 << 16  # step times kept per car: every step up to this, then every 2nd, 4th...
+# set in a child a robot forks (os.fork): back in the host's code it must end at once, never answer
+# the bridge or send the launcher a summary (see forked_child)
+_FORKED = [False]
 
 
 @dataclass
@@ -120,6 +124,18 @@ def decode_track(blob: bytes, name: str, category: str) -> tuple[Track, Car]:
     torque = [handle.pop(f"torque_nm_{i}") for i in range(wire.MAX_TORQUE_POINTS)]
     handle["torque_curve_radps"], handle["torque_curve_nm"] = tuple(rpm[:points]), tuple(torque[:points])
     return track, Car(**handle)
+
+
+def check_start_fuel(fuel, car: Car) -> None:
+    """initial_fuel_l's answer: None or litres that fit in the tank (TORCS would cut more to the
+    tank's size without a word: a robot that asks for more has its sums wrong, and is told)."""
+    if fuel is None:
+        return
+    if not (isinstance(fuel, (int, float)) and 0 <= fuel < math.inf):
+        raise RobotFault("invalid-value", f"initial_fuel_l() returned {fuel!r}; expected litres >= 0 or None")
+    if fuel > car.tank_l + 1e-6:
+        raise RobotFault("invalid-value", f"initial_fuel_l() returned {fuel:g} l, more than the tank holds "
+                                          f"({car.tank_l:g} l): return at most car.tank_l, or None for the car's own")
 
 
 def setup_values(setup: CarSetup) -> tuple[float, float]:
@@ -228,6 +244,7 @@ class Host:
         opts = dict(spec.get("options", {}))
         opts["pit_laps"] = tuple(opts.get("pit_laps", ()))
         options = RaceOptions(**opts)
+        self.pit_laps = options.pit_laps
         self.slots: list[Slot] = []
         for entry in spec["robots"]:
             cls = load_robot_class(entry["spec"])
@@ -287,6 +304,7 @@ class Host:
         """Answer the bridge until it closes the connection."""
         buf = self.buf
         header = wire.HEADER.unpack_from
+        forked = _FORKED
         drive = self._drive_step(conn)
         handlers = {wire.NEW_TRACK: self._new_track, wire.NEW_RACE: self._new_race, wire.PIT_CMD: self._pit_cmd,
                     wire.END_RACE: self._end_race, wire.SHUTDOWN: self._shutdown, wire.HELLO: self._hello}
@@ -302,6 +320,8 @@ class Host:
                 drive(robot, step, count)
             elif (handler := handlers.get(kind)) is not None:
                 handler(conn, robot, step, count, n)
+            if forked[0]:
+                os._exit(0)  # a robot's os.fork() child came back here from the robot call
 
     def _drive_step(self, conn: socket.socket):
         """The drive step, a closure over everything it uses (it runs 50 times a simulated second
@@ -410,8 +430,7 @@ class Host:
             slot.car.skill_level = int(self.spec.get("skill_level", slot.car.skill_level))
             self._track_known(slot.track)
             fuel = self._call("initial_fuel_l", slot.robot.initial_fuel_l, slot.track, slot.car)
-            if fuel is not None and not (isinstance(fuel, (int, float)) and 0 <= fuel < math.inf):
-                raise RobotFault("invalid-value", f"initial_fuel_l() returned {fuel!r}; expected litres >= 0 or None")
+            check_start_fuel(fuel, slot.car)
             fuel = self._offset_fuel(fuel, slot.car)
             setup = self._call("car_setup", slot.robot.car_setup, slot.track, slot.car) or CarSetup()
             problem = setup.problem() if isinstance(setup, CarSetup) else \
@@ -544,7 +563,7 @@ class Host:
 
     def cars_json(self, final: bool = True) -> dict:
         """What the host knows of each Python car (sent at every lap, and whole at the end)."""
-        return {"cars": [car_json(i, slot, final) for i, slot in enumerate(self.slots)],
+        return {"cars": [car_json(i, slot, final, self.pit_laps) for i, slot in enumerate(self.slots)],
                 "other_lap_times": {str(k): v for k, v in self.other_laps.items()}}
 
     def finish(self) -> None:
@@ -577,8 +596,9 @@ class Host:
         return lost
 
 
-def car_json(index: int, slot: Slot, final: bool) -> dict:
-    """One Python car's figures; the step times and the robot's report only at the end (final)."""
+def car_json(index: int, slot: Slot, final: bool, pit_laps: tuple[int, ...] = ()) -> dict:
+    """One Python car's figures; the step times and the robot's report only at the end (final),
+    when also the stops the race asked for (pit_laps) and the robot never did are missed stops."""
     ns = sorted(slot.step_ns) if final else []
     report: dict = {}
     if final and slot.car is not None:
@@ -592,7 +612,8 @@ def car_json(index: int, slot: Slot, final: bool) -> dict:
             "lap_times": slot.lap_times, "steps": slot.steps_timed, "start_fuel_l": slot.start_fuel_l,
             "step_us_median": ns[len(ns) // 2] / 1000 if ns else None,
             "step_us_p99": ns[min(len(ns) - 1, int(len(ns) * 0.99))] / 1000 if ns else None,
-            "missed_pit_stops": slot.pit_watch.finish() if final else list(slot.pit_watch.missed),
+            "missed_pit_stops": slot.pit_watch.finish() + slot.pit_watch.unasked(pit_laps, slot.laps_seen) if final
+            else list(slot.pit_watch.missed),
             "report": report, **incidents(slot)}
 
 
@@ -603,6 +624,17 @@ def report_fault(run_dir: RunDir, link: HostLink, fault: Fault) -> None:
         fault.write(run_dir.fault)
     except OSError:
         pass  # the launcher has it
+
+
+def forked_child(link: HostLink) -> None:
+    """In a child a robot forks: its copy of the launcher's pipe closed at once (the launcher waits
+    for the host's end of it to close: a child holding it kept a finished race waiting 30 s), and
+    marked, so that it ends as soon as it comes back into the host's code (_FORKED)."""
+    _FORKED[0] = True
+    if link.fd is not None:
+        with contextlib.suppress(OSError):
+            os.close(link.fd)
+        link.fd = None
 
 
 def _accept(listener: socket.socket, timeout_s: float) -> socket.socket | None:
@@ -631,6 +663,7 @@ def main(argv: list[str]) -> int:
     spec = json.loads(Path(argv[0]).read_text())
     run_dir = RunDir(spec["run_dir"])
     link = HostLink(spec.get("link_fd"))
+    os.register_at_fork(after_in_child=lambda: forked_child(link))
     os.environ["BOXBOX_RUN_DIR"] = str(run_dir)  # robots may keep files of their race here
     hang_file = open(run_dir.hang_traceback, "w")  # noqa: SIM115  (open for the process's life)
     faulthandler.register(signal.SIGUSR1, file=hang_file, all_threads=False)
@@ -651,6 +684,8 @@ def main(argv: list[str]) -> int:
     except (BrokenPipeError, ConnectionResetError):
         pass  # TORCS went away while we answered (killed): what we have is sent below
     finally:
+        if _FORKED[0]:
+            os._exit(0)  # a robot's forked child: the host's end is the parent's
         host.finish()
     return 1 if host.fault else 0
 

@@ -188,6 +188,7 @@ class Race:
         self.sock_dir: str | None = None
         self.laps_seen: list[tuple[int, float]] = []
         self.timed_out = False
+        self.hang_dumped = False  # the host was asked for its stack (once: the diagnosis prints it)
         self.stalled = False  # timed out by the stall limit: TORCS stopped calling the robots
         self.tail = LogTail(run_dir.host_log) if cfg.verbose else None
         self.started = time.perf_counter()
@@ -363,8 +364,10 @@ class Race:
             self.tail.copy()
 
     def _dump_hang(self) -> None:
-        """Ask a live host to write where it is stuck (faulthandler on SIGUSR1)."""
-        if self.host is not None and self.host.poll() is None:
+        """Ask a live host to write where it is stuck (faulthandler on SIGUSR1), once: asked again
+        (still stuck as the race winds down) it would write the same stack a second time."""
+        if self.host is not None and self.host.poll() is None and not self.hang_dumped:
+            self.hang_dumped = True
             with contextlib.suppress(ProcessLookupError):
                 self.host.send_signal(signal.SIGUSR1)
                 time.sleep(0.3)
@@ -424,11 +427,16 @@ class Race:
             return []
 
     def _opponent_drivers(self) -> list[DriverResult]:
+        """The TORCS robots, for a race without a results file; each with its TORCS car index (its
+        place in the race file), by which the host kept the laps it saw them drive."""
+        cfg = self.cfg
         drivers = []
-        for module, idx in self.cfg.opponents:
-            info = catalog.robot_indices(module).get(idx, {})
-            drivers.append(DriverResult(name=info.get("name", f"{module} {idx}"), module=module, idx=idx,
-                                        car=info.get("car", "")))
+        for car_index, entry in enumerate(grid(len(cfg.robots), cfg.opponents, cfg.grid_position)):
+            if entry.module == ROBOT_MODULE:
+                continue
+            info = catalog.robot_indices(entry.module).get(entry.idx, {})
+            drivers.append(DriverResult(name=info.get("name", f"{entry.module} {entry.idx}"), module=entry.module,
+                                        idx=entry.idx, car=info.get("car", ""), car_index=car_index))
         return drivers
 
     def _diagnosis(self) -> str | None:

@@ -29,13 +29,14 @@ NEAR_BOX_M = 20.0  # "near its box": within this distance of the box's ends
 NEVER_ENTERED = "never entered the pit lane"
 PASSED_BOX = "passed its box"
 NOT_CAPTURED = "not captured"
+NOT_ASKED = "not asked"
 
 
 class PitWatch:
     """One Python car's pit requests (`step` is called only while one is open or asked for)."""
 
     __slots__ = ("zone", "left_side", "box_mid_m", "box_half_m", "length_m", "active", "in_zone", "entered",
-                 "lap", "slowest_near_mps", "slowest_in_box_mps", "stop_off_m", "missed", "leaving")
+                 "lap", "slowest_near_mps", "slowest_in_box_mps", "stop_off_m", "missed", "leaving", "asked_laps")
 
     def __init__(self, track: Track | None, car: Car | None, zone: bytes) -> None:
         self.zone = zone if track is not None and track.pit is not None and car is not None and car.pit_seg >= 0 \
@@ -49,6 +50,7 @@ class PitWatch:
         self.active = False
         self.leaving = False  # captured on this pass: a request until it leaves the pit zone is that stop's
         self.missed: list[dict] = []
+        self.asked_laps: set[int] = set()  # the laps (State.laps) on which the robot asked for a stop
         self._reset()
 
     def _reset(self) -> None:
@@ -58,6 +60,8 @@ class PitWatch:
         self.stop_off_m = math.inf
 
     def step(self, state: State, asked: bool) -> None:
+        if asked:
+            self.asked_laps.add(int(state.laps))
         if not self.zone:
             return
         seg = int(state.seg_id)
@@ -116,6 +120,15 @@ class PitWatch:
             reason, detail = NOT_CAPTURED, "it stopped in its box but not inside the pit lane"
         self.missed.append({"lap": self.lap, "reason": reason, "detail": detail})
         self._reset()
+
+    def unasked(self, pit_laps: tuple[int, ...], laps_seen: int) -> list[dict]:
+        """The stops the race asked for (--pit-laps) on laps the car drove past its pit (it reached
+        the next lap), for which the robot never asked TORCS (pit_request on that lap or the ones
+        beside it)."""
+        return [{"lap": lap, "reason": NOT_ASKED,
+                 "detail": "the robot never set pit_request for it (boxbox.PitStops makes the stops --pit-laps "
+                           "asks for)"}
+                for lap in pit_laps if lap < laps_seen and not self.asked_laps & {lap - 1, lap, lap + 1}]
 
     def finish(self) -> list[dict]:
         """The missed stops; a request still open at the end counts only if the car was in the pit
