@@ -26,7 +26,6 @@ import xml.etree.ElementTree as ET
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import BinaryIO
 
 import psutil
 
@@ -38,6 +37,7 @@ from boxbox.robot.base import RaceOptions
 from boxbox.torcs import catalog
 from boxbox.torcs.diagnosis import PROGRESS_LINE, Ending, diagnose
 from boxbox.torcs.hostlink import HostReports
+from boxbox.torcs.logcap import CappedLog, LogPump
 from boxbox.torcs.paths import MAX_PYTHON_CARS, ROBOT_MODULE
 from boxbox.torcs.processes import ChildSweep, ForkedHost, child_setup, kill_group, pick_cpu
 from boxbox.torcs.racefile import grid, race_xml, robot_xml, with_skill_level
@@ -190,7 +190,9 @@ class Race:
         self.timed_out = False
         self.hang_dumped = False  # the host was asked for its stack (once: the diagnosis prints it)
         self.stalled = False  # timed out by the stall limit: TORCS stopped calling the robots
-        self.tail = LogTail(run_dir.host_log) if cfg.verbose else None
+        # what the robot host and TORCS print, bounded (torcs/logcap.py); the host's shown with verbose
+        self.host_pump: LogPump | None = None
+        self.err_pump: LogPump | None = None
         self.started = time.perf_counter()
         self.env = dict(os.environ, LD_LIBRARY_PATH=str(overlay.torcs.shared_lib_dir),
                         BOXBOX_STEP_BUDGET_MS=str(cfg.step_budget_ms), BOXBOX_SETUP_BUDGET_MS=str(cfg.setup_budget_ms),
@@ -199,14 +201,19 @@ class Race:
     def run(self) -> RaceResult:
         self._prepare()
         self.started = time.perf_counter()
-        with ChildSweep(self.run_dir.path):
-            try:
-                self._start_host()
-                self._start_torcs()
-                self._follow()
-                self._wind_down()
-            finally:
-                self._stop_processes()
+        try:
+            with ChildSweep(self.run_dir.path):
+                try:
+                    self._start_host()
+                    self._start_torcs()
+                    self._follow()
+                    self._wind_down()
+                finally:
+                    self._stop_processes()
+        finally:
+            for pump in (self.host_pump, self.err_pump):
+                if pump is not None:
+                    pump.finish()  # every process of the race is gone: the logs are whole
         return self._result(time.perf_counter() - self.started)
 
     # --- stages ------------------------------------------------------------------------------
@@ -229,13 +236,15 @@ class Race:
             listener.listen(1)
             read_fd, write_fd = os.pipe()
             self.reports = HostReports(read_fd)
+            self.host_pump = LogPump(self.run_dir.host_log, echo=self.cfg.verbose)
             try:
                 self.run_dir.host_spec.write_text(json.dumps(self._host_spec(listener.fileno(), write_fd)))
-                self.host = self._spawn_host(listener.fileno(), write_fd)
+                self.host = self._spawn_host(listener.fileno(), write_fd, self.host_pump.write_fd)
             except OSError as exc:
                 raise RaceError(f"the robot host cannot be started in {self.run_dir}: {exc.strerror or exc}") from None
             finally:
                 os.close(write_fd)  # the host's copy is the only one: its end closes when it exits
+                self.host_pump.child_started()
         self.env["BOXBOX_SOCKET"] = sock_path
 
     def _host_spec(self, listen_fd: int, link_fd: int) -> dict:
@@ -248,18 +257,17 @@ class Race:
                 "limits": {"laps": cfg.laps, "min_speed_mps": cfg.min_speed_mps},
                 "skill_level": int(cfg.skill_level), "fuel_offset_l": cfg.fuel_offset_l}
 
-    def _spawn_host(self, listen_fd: int, link_fd: int) -> ForkedHost | subprocess.Popen:
+    def _spawn_host(self, listen_fd: int, link_fd: int, log_fd: int) -> ForkedHost | subprocess.Popen:
         if not os.environ.get("BOXBOX_HOST_EXEC") and hasattr(os, "fork"):
             if self.cfg.telemetry:
                 # the host writes telemetry.parquet as the race ends: imported here, once per launcher
                 # process, every forked host has it (a bench, a study or a notebook races many times)
                 import pyarrow.parquet  # noqa: F401
-            return ForkedHost(self.run_dir.host_spec, self.run_dir.host_log, self.cpu)
-        with open(self.run_dir.host_log, "wb") as log:
-            return subprocess.Popen([sys.executable, "-m", "boxbox.torcs.host", str(self.run_dir.host_spec)],
-                                    stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
-                                    pass_fds=[listen_fd, link_fd], preexec_fn=child_setup(self.cpu),
-                                    start_new_session=True, env=self.env)
+            return ForkedHost(self.run_dir.host_spec, log_fd, self.cpu)
+        return subprocess.Popen([sys.executable, "-m", "boxbox.torcs.host", str(self.run_dir.host_spec)],
+                                stdout=log_fd, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
+                                pass_fds=[listen_fd, link_fd], preexec_fn=child_setup(self.cpu),
+                                start_new_session=True, env=self.env)
 
     def _start_torcs(self) -> None:
         overlay, run_dir = self.overlay, self.run_dir
@@ -270,21 +278,22 @@ class Race:
             cmd = ["stdbuf", "-oL", *cmd]  # progress lines as they happen, not at exit
         if not overlay.torcs.binary.exists():
             raise RaceError(f"TORCS binary missing: {overlay.torcs.binary}; run `boxbox setup`")
-        with open(run_dir.torcs_err, "wb") as err:
-            try:
-                self.torcs = subprocess.Popen(cmd, cwd=overlay.data_dir, env=self.env, stdout=subprocess.PIPE,
-                                              stderr=err, stdin=subprocess.DEVNULL,
-                                              preexec_fn=child_setup(self.cpu), start_new_session=True)
-            except OSError as exc:
-                raise RaceError(f"TORCS could not be started ({cmd[0]}): {exc.strerror or exc}") from None
+        self.err_pump = LogPump(run_dir.torcs_err)
+        try:
+            self.torcs = subprocess.Popen(cmd, cwd=overlay.data_dir, env=self.env, stdout=subprocess.PIPE,
+                                          stderr=self.err_pump.write_fd, stdin=subprocess.DEVNULL,
+                                          preexec_fn=child_setup(self.cpu), start_new_session=True)
+        except OSError as exc:
+            raise RaceError(f"TORCS could not be started ({cmd[0]}): {exc.strerror or exc}") from None
+        finally:
+            self.err_pump.child_started()
 
     def _follow(self) -> None:
         """Read TORCS's console and the host's reports until TORCS exits, the wall limit passes
         (timed_out) or a stop signal arrives."""
         assert self.torcs is not None and self.torcs.stdout is not None
         torcs_out = self.torcs.stdout.fileno()
-        tail = self.tail
-        with selectors.DefaultSelector() as sel, SafeLog(self.run_dir.torcs_out) as console:
+        with selectors.DefaultSelector() as sel, CappedLog(self.run_dir.torcs_out) as console:
             sel.register(torcs_out, selectors.EVENT_READ, "torcs")
             if self.reports is not None:
                 sel.register(self.reports.fd, selectors.EVENT_READ, "host")
@@ -298,9 +307,7 @@ class Race:
                     self.timed_out = True
                     self.stalled = now >= self._stall_deadline()
                     return
-                events = sel.select(timeout=min(remaining, 0.1 if tail else 1.0))
-                if tail:
-                    tail.copy()
+                events = sel.select(timeout=min(remaining, 1.0))
                 for key, _ in events:
                     if key.data == "stop":
                         self.stop.drain()
@@ -352,6 +359,8 @@ class Race:
                 self._dump_torcs_stack()
             kill_group(self.torcs)
         self.torcs.wait()
+        if self.err_pump is not None:
+            self.err_pump.finish(1.0)  # torcs.err whole before it is read
         hung = self.host is not None and "BOXBOX-FAULT timeout" in self.run_dir.read_text(self.run_dir.torcs_err)
         if hung:
             self._dump_hang()  # now, while the robot is still stuck where it hung
@@ -360,8 +369,6 @@ class Race:
             quick = not self.reports.connected or hung or self.timed_out
             if not self.reports.drain(1.0 if quick else 30.0 if self.cfg.telemetry else 3.0):
                 self._dump_hang()
-        if self.tail:
-            self.tail.copy()
 
     def _dump_hang(self) -> None:
         """Ask a live host to write where it is stuck (faulthandler on SIGUSR1), once: asked again
@@ -494,53 +501,3 @@ def remove_stale_sockets(prefix: str = SOCK_PREFIX) -> None:
         pid = path.name.removeprefix(prefix).partition("-")[0]
         if pid.isdigit() and not psutil.pid_exists(int(pid)):
             shutil.rmtree(path, ignore_errors=True)
-
-
-class SafeLog:
-    """TORCS's console copied to RUN_DIR/torcs.out; a write that fails (a full disk) stops the copy,
-    not the race."""
-
-    def __init__(self, path: Path) -> None:
-        self.path = path
-        self.file: BinaryIO | None = None
-
-    def __enter__(self) -> SafeLog:
-        with contextlib.suppress(OSError):
-            self.file = open(self.path, "wb")  # noqa: SIM115  (closed in __exit__)
-        return self
-
-    def write(self, data: bytes) -> None:
-        if self.file is not None:
-            try:
-                self.file.write(data)
-                self.file.flush()  # a line a lap: whoever watches the race sees it at once
-            except OSError:
-                self.close()
-
-    def close(self) -> None:
-        if self.file is not None:
-            with contextlib.suppress(OSError):
-                self.file.close()
-            self.file = None
-
-    def __exit__(self, *exc) -> None:
-        self.close()
-
-
-class LogTail:
-    """--verbose: what the robots print (RUN_DIR/host.log), copied to stderr as it grows."""
-
-    def __init__(self, path: Path) -> None:
-        self.path, self.pos = path, 0
-
-    def copy(self) -> None:
-        try:
-            with open(self.path, "rb") as f:
-                f.seek(self.pos)
-                data = f.read()
-        except OSError:
-            return
-        if data:
-            self.pos += len(data)
-            sys.stderr.buffer.write(data)
-            sys.stderr.flush()

@@ -50,12 +50,12 @@ class ForkedHost:
     loaded the robot class to check it). BOXBOX_HOST_EXEC=1 goes back to a fresh interpreter.
     """
 
-    def __init__(self, spec_path: Path, log_path: Path, cpu: int | None) -> None:
+    def __init__(self, spec_path: Path, log_fd: int, cpu: int | None) -> None:
         sys.stdout.flush()
         sys.stderr.flush()
         pid = os.fork()
         if pid == 0:  # the child: never returns into the launcher's code
-            _host_child(spec_path, log_path, cpu)
+            _host_child(spec_path, log_fd, cpu)
         self.pid = pid
         self.returncode: int | None = None
         self.args = ["fork", "boxbox.torcs.host", str(spec_path)]
@@ -87,8 +87,9 @@ class ForkedHost:
         self.send_signal(signal.SIGKILL)
 
 
-def _host_child(spec_path: Path, log_path: Path, cpu: int | None) -> None:
-    """The forked host: its own session, default signals, output to the log; then the host's main."""
+def _host_child(spec_path: Path, log_fd: int, cpu: int | None) -> None:
+    """The forked host: its own session, default signals, output to the log (log_fd: the write end
+    of the launcher's LogPump); then the host's main."""
     code = 1
     try:
         os.setsid()
@@ -96,11 +97,11 @@ def _host_child(spec_path: Path, log_path: Path, cpu: int | None) -> None:
         for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
             signal.signal(sig, signal.SIG_DFL)
         child_setup(cpu)()
-        log = os.open(log_path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644)
         null = os.open(os.devnull, os.O_RDONLY)
         os.dup2(null, 0)
-        os.dup2(log, 1)
-        os.dup2(log, 2)
+        os.dup2(log_fd, 1)
+        os.dup2(log_fd, 2)
+        os.close(log_fd)
         # what the robot prints goes to the log, whatever the launcher's sys.stdout was (a notebook's
         # stream, a test's capture); line by line, so --verbose shows it as it comes
         sys.stdout = open(1, "w", buffering=1, closefd=False)  # noqa: SIM115
