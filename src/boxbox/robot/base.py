@@ -27,8 +27,10 @@ class RaceOptions:
 class Robot:
     """Subclass this and override `drive`; everything else has a sensible default.
 
-    Call order: `initial_fuel_l` (track known, car gears not yet), `on_track` (everything known),
-    `drive` every 0.02 s of simulated time, `pit_stop` when captured in the pit, `on_race_end`.
+    Call order: `initial_fuel_l` and `car_setup` (track known, car gears not yet), `on_track`
+    (everything known), `telemetry_fields` (when telemetry is recorded), `drive` and `telemetry` every
+    0.02 s of simulated time, `pit_stop` when captured in the pit, then `on_race_end` once however
+    the race ends (finished, Ctrl-C, a fault, TORCS gone), and `race_report` last.
     """
 
     name = "robot"
@@ -79,7 +81,10 @@ class Robot:
         return PitOrder(fuel_l=0.0, repair=0.0)
 
     def on_race_end(self, state: State) -> None:
-        pass
+        """Called once when the race ends, however it ends (finished, stopped by Ctrl-C, a robot's
+        fault, TORCS gone), after the last `drive` and before `race_report`: with the car's state at
+        the end (its last lap's time in `last_lap_time_s`), or the last state `drive` saw when TORCS
+        could not give it.  Not called when `on_track` failed."""
 
     def race_report(self) -> dict:
         """Extra fields for this driver's entry in the race JSON (e.g. {"pit_events": [...]})."""
