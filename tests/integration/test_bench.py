@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import dataclasses
 
 import pytest
 
@@ -68,7 +69,10 @@ def test_bad_names_fail_before_racing():
 
 
 def test_plan_races_each_torcs_robot_by_its_index_in_that_car():
-    rows, _ = plan(BenchSpec(["g-track-1"], ["car1-trb1", "car2-trb1", "car1-ow1"], ["boxbox", "bt:2", "inferno:3"], 1))
+    spec = BenchSpec(["g-track-1"], ["car1-trb1", "car2-trb1", "car1-ow1"], ["boxbox", "bt:2", "inferno:3"], 1)
+    mixed, _ = plan(spec)  # bench-field's way: each TORCS robot in its own car
+    assert {robot.entry for *_, robot, _ in mixed} == {"boxbox", "bt:2", "inferno:3"}
+    rows, _ = plan(dataclasses.replace(spec, match_cars=True))
     entries = [(car, robot.entry) for _, car, robot, _ in rows]
     # bt drives car2-trb1 with index 3 and no car1-ow1 at all (drivers/bt/bt.xml); inferno:1 drives car1-ow1
     assert entries == [("car1-trb1", "boxbox"), ("car1-trb1", "bt:2"), ("car1-trb1", "inferno:3"),

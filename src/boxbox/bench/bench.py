@@ -2,9 +2,9 @@
 
 Each robot races alone (one car on the track) unless `together`, when each track x car is one
 race with every robot in it.  A TORCS robot's index fixes its car (drivers/NAME/NAME.xml), so
-for each car the bench races every TORCS robot module listed by its index that drives that car
-(bt:2 drives car1-trb1, bt:0 car1-stock1), beside the Python robots in the same car; a module
-with no index in a car sits that car out.  Results are cached
+with `match_cars` (`boxbox bench`) for each car the bench races every TORCS robot module listed
+by its index that drives that car (bt:2 drives car1-trb1, bt:0 car1-stock1), beside the Python
+robots in the same car; a module with no index in a car sits that car out.  Results are cached
 (bench/cache.py); races that did not end properly are never cached.
 """
 
@@ -64,6 +64,9 @@ class BenchSpec:
     grid_position: int | None = None  # the Python cars' grid slot in races --together (None: pole)
     limit: bool = True  # compute each track's limit lap (bench/limit.py) and every robot's gap to it
     fuel_offset_l: float = 0.0  # litres added to the Python cars' start fuel (launch.RaceConfig)
+    # each TORCS robot module by its index that drives the car of the race (robots_in_car; `boxbox
+    # bench`); False: the indices as given, each in its own car (bench-field's mixed field)
+    match_cars: bool = False
 
 
 def expand_all(names: list[str], all_names: list[str]) -> list[str]:
@@ -364,7 +367,7 @@ def plan(spec: BenchSpec) -> tuple[list[tuple[str, str, _Robot, RaceJob]], list[
     rows = []
     for track in spec.tracks:
         for car in spec.cars:
-            in_car = robots_in_car(robots, car)
+            in_car = robots_in_car(robots, car) if spec.match_cars else robots
             groups = [in_car] if spec.together else [[r] for r in in_car]
             for group in groups:
                 py = [r for r in group if r.kind == "python"]

@@ -60,7 +60,7 @@ def bench(tracks, cars, robots, laps, together, jobs, no_cache, learning, settin
                      robots=robots, laps=laps, together=together, jobs=jobs or os.cpu_count() or 1,
                      use_cache=not no_cache, learning=learning, settings=parse_set(settings) if settings else None,
                      skill_level=skill_level, grid_position=_grid_slot(grid_position, robots, together),
-                     limit=not no_limit)
+                     limit=not no_limit, match_cars=True)
     plan(spec)  # every name checked before anything races
     result = run_bench(spec, overlay, err)
     out.print(result.table())
