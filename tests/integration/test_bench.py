@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import dataclasses
 
 import pytest
 
@@ -67,13 +68,33 @@ def test_bad_names_fail_before_racing():
             plan(spec)
 
 
-def test_plan_shares_torcs_races_across_cars():
-    rows, _ = plan(BenchSpec(["g-track-1"], ["car1-trb1", "car2-trb1"], ["boxbox", "bt:2"], 1))
+def test_plan_races_each_torcs_robot_by_its_index_in_that_car():
+    spec = BenchSpec(["g-track-1"], ["car1-trb1", "car2-trb1", "car1-ow1"], ["boxbox", "bt:2", "inferno:3"], 1)
+    mixed, _ = plan(spec)  # bench-field's way: each TORCS robot in its own car
+    assert {robot.entry for *_, robot, _ in mixed} == {"boxbox", "bt:2", "inferno:3"}
+    rows, _ = plan(dataclasses.replace(spec, match_cars=True))
+    entries = [(car, robot.entry) for _, car, robot, _ in rows]
+    # bt drives car2-trb1 with index 3 and no car1-ow1 at all (drivers/bt/bt.xml); inferno:1 drives car1-ow1
+    assert entries == [("car1-trb1", "boxbox"), ("car1-trb1", "bt:2"), ("car1-trb1", "inferno:3"),
+                       ("car2-trb1", "boxbox"), ("car2-trb1", "bt:3"), ("car2-trb1", "inferno:4"),
+                       ("car1-ow1", "boxbox"), ("car1-ow1", "inferno:1")]
     keys = {(car, robot.entry): job.key for _, car, robot, job in rows}
-    assert keys[("car1-trb1", "bt:2")] == keys[("car2-trb1", "bt:2")]
     assert keys[("car1-trb1", "boxbox")] != keys[("car2-trb1", "boxbox")]
     together, _ = plan(BenchSpec(["g-track-1", "michigan"], ["car1-trb1"], ["boxbox", "bt:2"], 1, together=True))
     assert len({job.key for *_, job in together}) == 2  # one race per track
+
+
+def test_bench_cars_races_the_torcs_robots_that_drive_each_car(tmp_path, overlay):
+    out = tmp_path / "cars.json"
+    done = run_boxbox("bench", "--tracks", "michigan", "--laps", "1", "--cars", "car1-ow1,car1-stock1", "--robots",
+                      "boxbox,bt:2,inferno:3", "--no-limit", "--jobs", "1", "--json", str(out), timeout=600)
+    assert done.returncode == 0, done.stderr
+    rows = read_json(out)["rows"]
+    assert [(r["car"], r["robot"]) for r in rows] == [("car1-ow1", "boxbox"), ("car1-ow1", "inferno:1"),
+                                                      ("car1-stock1", "boxbox"), ("car1-stock1", "bt:0")]
+    for r in rows:  # each in the car of its section, and raced
+        assert r["car_driven"] == r["car"] and r["error"] is None and r["laps"] == 1 and r["time"] > 0, r
+    assert "bt:0" in done.stdout and "inferno:1" in done.stdout
 
 
 def test_bench_races_then_reads_the_cache(tmp_path, overlay):

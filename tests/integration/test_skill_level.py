@@ -43,3 +43,16 @@ def test_boxbox_cars_know_their_level(tmp_path, overlay):
     car = json.loads((tmp_path / "run" / "car.json").read_text())
     assert car["skill_level"] == SkillLevel.ROOKIE
     assert json.loads((tmp_path / "run" / "result.json").read_text())["skill_level"] == "rookie"
+
+
+def test_boxbox_at_pro_keeps_its_tyres_at_the_peak(tmp_path, overlay):
+    """At pro a sliding tyre loses force: boxbox spun out of mixed-2's hairpin in first gear (636
+    damage) and off g-track-1's long turn on full throttle (256) before its traction control held
+    the slip and the throttle inside the pro tyre's peak (issue #49)."""
+    for track, category in (("mixed-2", "dirt"), ("g-track-1", "road")):
+        cfg = launch.RaceConfig(track=track, category=category, laps=3, telemetry=False, learning="fresh",
+                                run_dir=tmp_path / track, skill_level=SkillLevel.PRO)
+        result = launch.run_race(cfg, overlay)
+        assert result.error is None, result.error
+        [car] = result.drivers
+        assert car.laps == 3 and car.damage < 100, (track, car.damage, car.lap_times)

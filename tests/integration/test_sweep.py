@@ -26,3 +26,15 @@ def test_a_small_sweep(tmp_path, overlay):
 def test_sweep_checks_names_first():
     proc = run_boxbox("sweep", "--tracks", "g-trak-1", timeout=30)
     assert proc.returncode == 2 and "did you mean g-track-1" in proc.stderr
+
+
+def test_a_sweep_at_pro_in_another_car(tmp_path, overlay):
+    out = tmp_path / "pro.json"
+    proc = run_boxbox("sweep", "--tracks", "michigan", "--cars", "car1-ow1", "--cars-track", "michigan",
+                      "--car", "car1-ow1", "--skill-level", "pro", "--laps", "1", "--no-cache", "--json", str(out),
+                      timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    assert "skill level pro" in proc.stdout
+    rows = read_json(out)["rows"]
+    assert {(r["track"], r["car"]) for r in rows} == {("michigan", "car1-ow1")}
+    assert all(r["finished"] and r["misses"] == [] for r in rows), rows

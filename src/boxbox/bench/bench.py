@@ -1,8 +1,10 @@
 """`boxbox bench`: robots x tracks x cars, raced in parallel, cached, compared in one table.
 
 Each robot races alone (one car on the track) unless `together`, when each track x car is one
-race with every robot in it.  TORCS's own robots always drive their own car (bt:2 drives
-car1-trb1 whatever --cars says); the rows say which car they drove.  Results are cached
+race with every robot in it.  A TORCS robot's index fixes its car (drivers/NAME/NAME.xml), so
+with `match_cars` (`boxbox bench`) for each car the bench races every TORCS robot module listed
+by its index that drives that car (bt:2 drives car1-trb1, bt:0 car1-stock1), beside the Python
+robots in the same car; a module with no index in a car sits that car out.  Results are cached
 (bench/cache.py); races that did not end properly are never cached.
 """
 
@@ -10,6 +12,7 @@ from __future__ import annotations
 
 import concurrent.futures as cf
 import csv
+import dataclasses
 import io
 import multiprocessing
 import os
@@ -61,6 +64,9 @@ class BenchSpec:
     grid_position: int | None = None  # the Python cars' grid slot in races --together (None: pole)
     limit: bool = True  # compute each track's limit lap (bench/limit.py) and every robot's gap to it
     fuel_offset_l: float = 0.0  # litres added to the Python cars' start fuel (launch.RaceConfig)
+    # each TORCS robot module by its index that drives the car of the race (robots_in_car; `boxbox
+    # bench`); False: the indices as given, each in its own car (bench-field's mixed field)
+    match_cars: bool = False
 
 
 def expand_all(names: list[str], all_names: list[str]) -> list[str]:
@@ -361,7 +367,8 @@ def plan(spec: BenchSpec) -> tuple[list[tuple[str, str, _Robot, RaceJob]], list[
     rows = []
     for track in spec.tracks:
         for car in spec.cars:
-            groups = [robots] if spec.together else [[r] for r in robots]
+            in_car = robots_in_car(robots, car) if spec.match_cars else robots
+            groups = [in_car] if spec.together else [[r] for r in in_car]
             for group in groups:
                 py = [r for r in group if r.kind == "python"]
                 tc = [r for r in group if r.kind == "torcs"]
@@ -387,6 +394,23 @@ def plan(spec: BenchSpec) -> tuple[list[tuple[str, str, _Robot, RaceJob]], list[
                 for r in group:
                     rows.append((track, car, r, jobs[key]))
     return rows, robots
+
+
+def robots_in_car(robots: list[_Robot], car: str) -> list[_Robot]:
+    """The bench's robots for one car: the Python robots as they are, and each TORCS robot module by
+    its index that drives `car` (drivers/NAME/NAME.xml; the index given where it does, else the
+    lowest that does); a module with no index in that car is left out of that car's races."""
+    out: list[_Robot] = []
+    for r in robots:
+        if r.kind == "torcs":
+            cars = {i: d.get("car", "") for i, d in catalog.robot_indices(r.module).items()}
+            idx = r.idx if cars.get(r.idx) == car else min((i for i, c in cars.items() if c == car), default=None)
+            if idx is None:
+                continue
+            r = r if idx == r.idx else dataclasses.replace(r, entry=f"{r.module}:{idx}", idx=idx)
+        if all(o.entry != r.entry for o in out):
+            out.append(r)
+    return out
 
 
 def _driver_for(result: RaceResult, job: RaceJob, robot: _Robot) -> DriverResult | None:

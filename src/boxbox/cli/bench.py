@@ -27,7 +27,8 @@ JOBS = click.IntRange(1, 64)
 @click.option("--tracks", type=CommaList("TRACK,..."), default=DEFAULT_TRACKS, show_default=True,
               help="Tracks, comma separated, or 'all'.")
 @click.option("--cars", type=CommaList("CAR,..."), default="car1-trb1", show_default=True,
-              help="Cars of the Python robots, comma separated, or 'all' (TORCS robots drive their own).")
+              help="Cars, comma separated, or 'all': the Python robots drive each, and each TORCS robot module "
+                   "races its index that drives that car (drivers/NAME/NAME.xml), or sits that car out.")
 @click.option("--robots", type=CommaList("ROBOT,..."), default=DEFAULT_ROBOTS, show_default=True,
               help="Python robots (boxbox, middle, path/file.py:Class, module:Class) "
                    "and TORCS robots (module:idx, see `boxbox robots`), comma separated.")
@@ -59,7 +60,7 @@ def bench(tracks, cars, robots, laps, together, jobs, no_cache, learning, settin
                      robots=robots, laps=laps, together=together, jobs=jobs or os.cpu_count() or 1,
                      use_cache=not no_cache, learning=learning, settings=parse_set(settings) if settings else None,
                      skill_level=skill_level, grid_position=_grid_slot(grid_position, robots, together),
-                     limit=not no_limit)
+                     limit=not no_limit, match_cars=True)
     plan(spec)  # every name checked before anything races
     result = run_bench(spec, overlay, err)
     out.print(result.table())

@@ -26,6 +26,10 @@ class SlipParams:
     tcl_slip_ratio: float = 0.0
     tcl_range_mps: float = 10.0
     tcl_min_speed_mps: float = 3.0
+    # the range as a share of the car's speed, where less: where the level's tyre force falls past its
+    # peak (pro), the throttle is gone by the time the slip has grown by the peak's slip ratio
+    # (control/tyre.py: holds_peak); inf: the fixed range alone
+    tcl_range_ratio: float = math.inf
 
 
 DEFAULT_SLIP = SlipParams()
@@ -89,7 +93,10 @@ def tcl_from_slip(accel: float, speed_mps: float, slip_mps: float, params: SlipP
     ratio = params.tcl_slip_ratio if params.tcl_slip_ratio < max_ratio else max_ratio
     allowed_mps = max(params.tcl_slip_mps, ratio * speed_mps)
     if slip_mps > allowed_mps:
-        accel -= (slip_mps - allowed_mps) / params.tcl_range_mps
+        range_mps = params.tcl_range_mps
+        if params.tcl_range_ratio * speed_mps < range_mps:
+            range_mps = params.tcl_range_ratio * speed_mps
+        accel -= (slip_mps - allowed_mps) / range_mps
         if accel < 0.0:
             accel = 0.0
     return accel

@@ -52,3 +52,13 @@ def peak_slip(stiffness: float, dynamic_friction: float, elasticity: float) -> f
     """The combined slip (dimensionless) at which the pro tyre's force peaks: beyond it a tyre slides."""
     slip = np.linspace(0.0, MAX_SLIP, 3001)
     return float(slip[int(np.argmax(magic_formula(slip, stiffness, dynamic_friction, elasticity)))])
+
+
+def falls_past_peak(stiffness: float, dynamic_friction: float, elasticity: float, skid_factor: float) -> bool:
+    """Whether the level's tyre gives less force somewhere past the pro tyre's peak slip than at it:
+    at pro (no skid factor) a sliding tyre loses grip, so the robot must hold the slip at the peak;
+    at semi-pro and below the force keeps growing with the slip (car1-trb1: 1.08 at the peak, 1.30
+    at slip 1.5), and a slide past the peak is caught by the tyre itself."""
+    slip = np.linspace(peak_slip(stiffness, dynamic_friction, elasticity), MAX_SLIP, 1001)
+    force = magic_formula(slip, stiffness, dynamic_friction, elasticity, skid_factor)
+    return bool(np.any(force < force[0] - 1e-9))

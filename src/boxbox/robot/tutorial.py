@@ -33,7 +33,9 @@ from boxbox.control.steering import steer_to_line, steer_to_point
 from boxbox.control.trackwidth import CUT_LIMIT_CAR_WIDTHS
 from boxbox.control.traction import SlipParams, abs_filter, driven_wheel_speed_mps, spare_slip_ratio, tcl_from_slip
 from boxbox.model import Car, CarSetup, Controls, PitOrder, State, Track
+from boxbox.model.car import FWD, RWD
 from boxbox.model.constants import DRIVE_STEP_S, G_MPS2
+from boxbox.model.skill import SkillLevel
 from boxbox.robot import bottoming, carsetup
 from boxbox.robot.base import FUEL_L_PER_M_ESTIMATE, RaceOptions, Robot
 from boxbox.robot.bottoming import NO_PACKER_LIMIT_MPS, packer_speed_caps
@@ -205,15 +207,7 @@ class TutorialRobot(Robot):
         self._alone_mps = self._simulated_lap(car, self.tyre_model, p, "alone-laps")[3].tolist() \
             if p.draft_mps > 0.0 else []
         self.gears = GearBox(car, shift=p.shift, shift_margin_mps=p.shift_margin_mps)
-        self.slip = SlipParams(abs_slip_mps=p.abs_slip_mps, abs_range_mps=p.abs_range_mps,
-                               tcl_slip_mps=p.tcl_slip_mps, tcl_slip_ratio=p.tcl_slip_ratio,
-                               tcl_range_mps=p.tcl_range_mps,
-                               abs_min_speed_mps=p.slip_min_speed_mps, tcl_min_speed_mps=p.slip_min_speed_mps)
-        self.radii = (car.wheel_radius_fr_m, car.wheel_radius_fl_m, car.wheel_radius_rr_m, car.wheel_radius_rl_m)
-        peak = tyre.peak_slip(car.tyre_stiffness_rr, car.tyre_dynamic_friction_rr, car.tyre_elasticity_rr)
-        # a tyre whose force never peaks (dynamic friction 1: the buggy's) gives no slip ratio to aim
-        # for: the tutorial's fixed slip (with the ratio the buggy hit g-track-1's wall every lap)
-        self._peak_slip = peak if peak < tyre.MAX_SLIP else 0.0
+        self._setup_slip(car, p)
         self.opp = OpponentParams(front_range_m=p.front_range_m, back_range_m=p.back_range_m,
                                   length_margin_m=p.length_margin_m, side_margin_m=p.side_margin_m,
                                   overtake_step_m=p.overtake_step_m, keep_side_s=p.keep_side_s,
@@ -226,6 +220,30 @@ class TutorialRobot(Robot):
         self._inv_lock = 1.0 / car.steer_lock_rad
         self.wheelbase_m = 0.6 * car.length_m  # not in the car's constants; 0.6 x length fits TORCS's cars
         self._stuck_angle = math.radians(p.stuck_angle_deg)
+
+    def _setup_slip(self, car: Car, p: TutorialParams) -> None:
+        """ABS and traction control, and what the level's tyre lets the throttle use in a turn."""
+        self.radii = (car.wheel_radius_fr_m, car.wheel_radius_fl_m, car.wheel_radius_rr_m, car.wheel_radius_rl_m)
+        shape = (car.tyre_stiffness_rr, car.tyre_dynamic_friction_rr, car.tyre_elasticity_rr)
+        peak = tyre.peak_slip(*shape)
+        # a tyre whose force never peaks (dynamic friction 1: the buggy's) gives no slip ratio to aim
+        # for: the tutorial's fixed slip (with the ratio the buggy hit g-track-1's wall every lap)
+        self._peak_slip = peak if peak < tyre.MAX_SLIP else 0.0
+        # where the level's tyre loses force past its peak (pro), the throttle is gone before the
+        # driven wheels' slip has grown by the peak's ratio (mixed-2 at pro: a spin out of a hairpin
+        # in first gear at 44 % slip, which the tutorial's 10 m/s range allowed at 16 m/s)
+        holds = self._peak_slip > 0.0 and tyre.falls_past_peak(*shape, SkillLevel(car.skill_level).skid_factor)
+        self._holds_peak = holds and len(car.torque_curve_nm) >= 2
+        front_ca, rear_ca = carmodel.axle_downforce_coefficients(car)
+        front_w = car.front_weight_share * car.mass_kg * G_MPS2
+        rear_w = car.mass_kg * G_MPS2 - front_w
+        self._drive_weight_n, self._drive_ca, self._drive_radius_m = {
+            RWD: (rear_w, rear_ca, car.wheel_radius_rr_m), FWD: (front_w, front_ca, car.wheel_radius_fr_m)}.get(
+            car.drivetrain, (rear_w + front_w, rear_ca + front_ca, car.wheel_radius_rr_m))
+        self.slip = SlipParams(abs_slip_mps=p.abs_slip_mps, abs_range_mps=p.abs_range_mps,
+                               tcl_slip_mps=p.tcl_slip_mps, tcl_slip_ratio=p.tcl_slip_ratio,
+                               tcl_range_mps=p.tcl_range_mps, tcl_range_ratio=peak if holds else math.inf,
+                               abs_min_speed_mps=p.slip_min_speed_mps, tcl_min_speed_mps=p.slip_min_speed_mps)
 
     def _init_race_state(self) -> None:
         """What the drive steps keep between them: the race starts with none of it."""
@@ -439,6 +457,7 @@ class TutorialRobot(Robot):
         # of the grip at speed v is v^2 k / (mu (g + CA v^2 / m)))
         self._k_per_mu = [k / mu for k, mu in zip(self._curv, corner_mu, strict=False)]
         self._ca_per_kg = model.ca_corner / model.mass_kg
+        self._corner_mu = corner_mu
         self.profile = SpeedProfile(limits, brake_mu, model, self.step_m, max_speed_mps=p.max_speed_mps,
                                     curvature_1pm=self._curv if p.friction_circle else None, corner_mu=corner_mu,
                                     brake_method=p.brake_method,
@@ -471,6 +490,7 @@ class TutorialRobot(Robot):
         # the plain slip only aside among cars: on the line the line's turn share holds, car behind or
         # not (with one behind boxbox spun out of g-track-1's turn at 1100 m, 1139 damage)
         brake, accel = self._traction(s, v, brake, accel, bool(cars) and self.offset_m != 0.0)
+        accel = self._drive_room(s, v, accel)
         if cars:  # behind a slower car: coast before the gap brake, not throttle and brake in turn
             accel = self.craft.lift(accel, v, cars, self._brakedist)
         accel = self._guard_throttle(s, v, steer, accel)
@@ -774,6 +794,23 @@ class TutorialRobot(Robot):
         v2 = v * v
         share = v2 * self._k_per_mu[int(s.dist_from_start_m / self.step_m) % self.n] / (G_MPS2 + v2 * self._ca_per_kg)
         return 0.0, tcl_from_slip(accel, v, slip_mps, self.slip, spare_slip_ratio(self._peak_slip, share))
+
+    def _drive_room(self, s: State, v: float, accel: float) -> float:
+        """Where the level's tyre loses force past its peak (pro): no more throttle than the grip
+        the turn leaves the driven wheels (the friction circle at the peak): g-track-1's long turn at
+        pro, full throttle at 44 m/s, spun."""
+        gear = int(s.gear)
+        if not self._holds_peak or accel == 0.0 or gear < 1 or v < self.slip.tcl_min_speed_mps:
+            return accel
+        i = int(s.dist_from_start_m / self.step_m) % self.n
+        v2 = v * v
+        share = v2 * self._k_per_mu[i] / (G_MPS2 + v2 * self._ca_per_kg)
+        spare = 1.0 - share * share
+        grip_n = self._corner_mu[i] * (self._drive_weight_n + self._drive_ca * v2) * math.sqrt(spare) \
+            if spare > 0.0 else 0.0
+        torque_nm = float(np.interp(s.rpm, self.car.torque_curve_radps, self.car.torque_curve_nm))
+        full_n = torque_nm * self.car.gear_ratio(gear) / self._drive_radius_m
+        return accel if full_n <= grip_n else min(accel, max(0.0, grip_n / full_n))
 
     def _guard_throttle(self, s: State, v: float, steer: float, accel: float) -> float:
         """Less throttle when the tyres have no grip to spare: at the steering lock (lock guard) and

@@ -111,3 +111,14 @@ def test_tcl_ratio_capped_by_the_slip_a_turn_leaves():
     assert cut == pytest.approx(1.0 - (5.0 - 40.0 * 0.26 * 0.19 ** 0.5) / 10.0)
     # at the grip's limit only the fixed 2 m/s is left
     assert tcl_filter(1.0, 40.0, spins(40, 40, 45, 45), R, RWD, ratio, 0.0) == pytest.approx(0.7)
+
+
+def test_tcl_range_ratio_shuts_the_throttle_within_the_peaks_slip_at_low_speed():
+    # pro, a tyre peaking at slip 0.26: at 16 m/s the range is 0.26 x 16 = 4.16 m/s, not 10
+    held = SlipParams(tcl_range_ratio=0.26)
+    # 7 m/s of slip at 16 m/s (44 %, mixed-2's spin out of a hairpin at pro): the tutorial's range kept half
+    assert tcl_filter(1.0, 16.0, spins(16, 16, 23, 23), R, RWD) == pytest.approx(0.5)
+    assert tcl_filter(1.0, 16.0, spins(16, 16, 23, 23), R, RWD, held) == 0.0
+    assert tcl_filter(1.0, 16.0, spins(16, 16, 20, 20), R, RWD, held) == pytest.approx(1.0 - 2.0 / 4.16)
+    # at speed the fixed 10 m/s is the smaller range and holds as before
+    assert tcl_filter(1.0, 50.0, spins(50, 50, 55, 55), R, RWD, held) == pytest.approx(0.7)

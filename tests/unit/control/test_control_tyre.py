@@ -3,7 +3,8 @@ import math
 import numpy as np
 import pytest
 
-from boxbox.control.tyre import magic_formula, peak_slip, skid_grip_gain
+from boxbox.control.tyre import falls_past_peak, magic_formula, peak_slip, skid_grip_gain
+from boxbox.model.skill import SkillLevel
 
 CAR1_TRB1 = (20.0, 0.8, 0.7)  # stiffness, dynamic friction, elasticity from its car file
 
@@ -46,3 +47,17 @@ def test_bad_input(bad):
         skid_grip_gain(*CAR1_TRB1, **args)
     with pytest.raises(ValueError):
         magic_formula(np.array([0.1]), 0.0, 0.8, 0.7)
+
+
+@pytest.mark.parametrize(("level", "falls"), [(SkillLevel.PRO, True), (SkillLevel.SEMI_PRO, False),
+                                              (SkillLevel.AMATEUR, False), (SkillLevel.ROOKIE, False)])
+def test_only_pro_loses_force_past_the_peak(level: SkillLevel, falls: bool):
+    # the stock cars' tyre (dynamic friction 0.9) and the open-wheeler's (0.7) alike
+    for shape in (CAR1_TRB1, (20.0, 0.9, 0.7), (20.0, 0.7, 0.7)):
+        assert falls_past_peak(*shape, level.skid_factor) is falls
+
+
+def test_a_small_skid_factor_still_loses_force_past_the_peak():
+    # the force at slip 1.5 is 0.898 of the peak at pro: a skid factor of 0.05 adds 7.5 % there, not enough
+    assert falls_past_peak(*CAR1_TRB1, 0.05)
+    assert not falls_past_peak(*CAR1_TRB1, 0.3)
