@@ -151,8 +151,8 @@ def skill_level(value: Any, *, name: str | None = None) -> str:
 
 
 def text(value: Any, what: str, example: str, *, name: str | None = None) -> str:
-    """A name (a track, a car): a string with something in it."""
-    if not isinstance(value, str) or not value.strip():
+    """A name (a track, a car): a printable string with something in it."""
+    if not isinstance(value, str) or not value.strip() or not value.isprintable():
         fail(f"{value!r} is not a {what}; give one like {example!r}.", name)
     return value.strip()
 
@@ -191,7 +191,7 @@ def names(value: Any, what: str, *, unique: bool = True, name: str | None = None
     """'a,b,c' or ['a', 'b', 'c'] -> ['a', 'b', 'c'] (blanks dropped; with unique, repeats too)."""
     out = []
     for item in items(value, what, name=name):
-        if not isinstance(item, str):
+        if not isinstance(item, str) or not item.isprintable():
             fail(f"{item!r} is not one of the {what}; give names.", name)
         if item.strip():
             out.append(item.strip())
@@ -225,7 +225,7 @@ def opponent_list(value: Any, *, name: str | None = None) -> list[str]:
         if isinstance(item, tuple | list) and len(item) == 2 and isinstance(item[0], str) \
                 and not isinstance(item[1], bool) and hasattr(item[1], "__index__"):
             item = f"{item[0]}:{operator.index(item[1])}"
-        if not isinstance(item, str) or not item.strip():
+        if not isinstance(item, str) or not item.strip() or not item.isprintable():
             fail(f"{item!r} is not an opponent; give 'module:idx', e.g. 'bt:2'.", name)
         out.append(item.strip())
     return out
@@ -241,7 +241,7 @@ def robot_list(value: Any, *, name: str | None = None) -> list:
         fail(f"{value!r} has no robot; give at least one, e.g. ['boxbox'].", name)
     out: list = []
     for item in robots:
-        if isinstance(item, str) and item.strip():
+        if isinstance(item, str) and item.strip() and item.isprintable():
             out.append(item.strip())
         elif isinstance(item, type):
             out.append(item)  # loader.spec_for_class checks it is a Robot subclass
@@ -272,7 +272,7 @@ def settings(value: Any, *, name: str | None = None) -> dict[str, Any]:
         if not isinstance(key, str) or not key.strip():
             fail(f"{key!r} is not a parameter name; e.g. {{'mu_scale': 0.9}}.", name)
         if not isinstance(setting, bool | int | float | str):
-            fail(f"{key}={setting!r}: give a number, True/False or a string.", name)
+            fail(f"{key!r}: {setting!r} is not a number, True/False or a string.", name)
     return {key.strip(): setting for key, setting in pairs}
 
 
@@ -287,6 +287,13 @@ def _key_value(item: Any, name: str | None) -> tuple[str, Any]:
 
 
 # --- files and folders ---------------------------------------------------------------------------
+def shown(path: Path) -> str:
+    """A path as a message shows it: as it is, or quoted when it holds a newline or the like (the
+    message stays one line)."""
+    text_ = str(path)
+    return text_ if text_.isprintable() else repr(text_)
+
+
 def _path(value: Any, name: str | None) -> Path:
     if not isinstance(value, str | os.PathLike) or (isinstance(value, str) and not value.strip()):
         fail(f"{value!r} is not a path.", name)
@@ -314,7 +321,7 @@ def output_file(value: Any, *, name: str | None = None) -> Path:
     try:
         why = _output_file_problem(path)
     except OSError as exc:  # a name too long, say
-        why = f"{path}: {exc.strerror or exc}; choose another file."
+        why = f"{shown(path)}: {exc.strerror or exc}; choose another file."
     if why:
         fail(why, name)
     return path
@@ -322,13 +329,13 @@ def output_file(value: Any, *, name: str | None = None) -> Path:
 
 def _output_file_problem(path: Path) -> str | None:
     if path.is_dir():
-        return f"{path} is a folder; give a file name."
+        return f"{shown(path)} is a folder; give a file name."
     if not path.parent.is_dir():
-        return f"folder {path.parent} does not exist; create it first."
+        return f"folder {shown(path.parent)} does not exist; create it first."
     if why := probe_writable(path.parent):
-        return f"cannot write in {path.parent} ({why}); choose another place."
+        return f"cannot write in {shown(path.parent)} ({why}); choose another place."
     if path.exists() and not os.access(path, os.W_OK):
-        return f"{path} is not writable; choose another file."
+        return f"{shown(path)} is not writable; choose another file."
     return None
 
 
@@ -339,11 +346,11 @@ def output_dir(value: Any, *, name: str | None = None) -> Path:
     try:
         existing = next(p for p in (path, *path.parents) if p.exists())
     except OSError as exc:
-        fail(f"{path}: {exc.strerror or exc}; choose another place.", name)
+        fail(f"{shown(path)}: {exc.strerror or exc}; choose another place.", name)
     if not existing.is_dir():
-        fail(f"{existing} is a file, so {path} cannot be a folder.", name)
+        fail(f"{shown(existing)} is a file, so {shown(path)} cannot be a folder.", name)
     if why := probe_writable(existing):
-        where = path if existing == path else f"{path} (in {existing})"
+        where = shown(path) if existing == path else f"{shown(path)} (in {shown(existing)})"
         fail(f"cannot write in {where}: {why}; choose another place.", name)
     return path
 
@@ -354,9 +361,9 @@ def input_file(value: Any, *, name: str | None = None) -> Path:
     try:
         found, folder = path.exists(), path.is_dir()
     except OSError as exc:
-        fail(f"{path}: {exc.strerror or exc}.", name)
+        fail(f"{shown(path)}: {exc.strerror or exc}.", name)
     if not found:
-        fail(f"file {path} does not exist.", name)
+        fail(f"file {shown(path)} does not exist.", name)
     if folder:
-        fail(f"{path} is a folder; give a file.", name)
+        fail(f"{shown(path)} is a folder; give a file.", name)
     return path
