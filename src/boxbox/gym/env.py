@@ -27,7 +27,7 @@ from boxbox.gym.spaces import ACTION_RANGES, DEFAULT_ACTIONS, ActionReader, Obse
 from boxbox.model import Car, PitOrder, State, Track
 from boxbox.model.skill import SkillLevel
 from boxbox.torcs import setup
-from boxbox.torcs.checks import check_race
+from boxbox.torcs.checks import check_grid_position, check_race
 from boxbox.torcs.launch import RaceConfig
 
 MAX_ACTION_REPEAT = 1000  # 20 s of simulated time per step
@@ -54,8 +54,6 @@ def race_config(track: str, car: str, opponents, laps: int, skill_level: str | S
     position = validate.grid_position(grid_position, name="grid_position")
     setup.ensure_ready()
     category, opps = check_race(track, car, 1, entries, laps=laps)
-    from boxbox.torcs.checks import check_grid_position
-
     return RaceConfig(track=track, category=category, car=car, laps=laps, robots=["gym"], robot_names=["gym"],
                       opponents=opps, telemetry=False, skill_level=level,
                       grid_position=check_grid_position(position, len(opps)))
@@ -89,7 +87,7 @@ def checked_cpu(cpu: Any) -> int | None:
         return None
     core = validate.whole_number(cpu, 0, None, name="cpu")
     if core not in usable_cpus():
-        raise UsageError(f"cpu={core!r} is not a core this process may use; choose one of {sorted(usable_cpus())}")
+        validate.fail(f"{core} is not a core this process may use; choose one of {sorted(usable_cpus())}.", "cpu")
     return core
 
 

@@ -70,7 +70,7 @@ def test_the_options_of_issue_48_are_refused_in_one_line(no_setup):
         ({"actions": ("steer", "gas")}, "Invalid value for 'actions': 'gas' is not one of 'steer', 'throttle'"),
         ({"action_repeat": 0}, "Invalid value for 'action_repeat': 0 is not in the range 1<=x<=1000."),
         ({"grid_position": "first"}, "'first' is not a grid slot"),
-        ({"cpu": 4096}, "cpu=4096 is not a core this process may use"),
+        ({"cpu": 4096}, "Invalid value for 'cpu': 4096 is not a core this process may use"),
         ({"reward_fn": 3}, "Invalid value for 'reward_fn': 3 is not callable"),
     ]
     for kwargs, words in cases:
