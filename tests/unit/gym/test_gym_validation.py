@@ -146,3 +146,15 @@ def test_the_messages_that_killed_the_server_are_ignored():
     assert action.update(b"(accel 0.5)(brake .)") is False and action.values["accel"] == 0.0  # all or nothing
     assert action.update(b"(accel 0.5)(brake 1e-1)") is True and action.vector()[1:3].tolist() == [0.5, 0.1]
     assert action.update(b"(unknown 3)") is False
+
+
+def test_the_env_and_boxbox_race_say_the_same(no_setup, monkeypatch):
+    import boxbox
+    from boxbox.torcs import setup as torcs_setup
+
+    monkeypatch.setattr(torcs_setup, "ensure_ready", lambda report=None: pytest.fail("set up"))
+    for kwargs in ({"laps": 0}, {"laps": True}, {"skill_level": "expert"}, {"grid_position": "first"},
+                   {"opponents": 5}, {"track": ""}, {"car": None}):
+        with pytest.raises(UsageError) as from_api:
+            boxbox.race(**kwargs)
+        assert made(**kwargs) == str(from_api.value), kwargs
