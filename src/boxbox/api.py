@@ -16,11 +16,11 @@ import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
-from boxbox.errors import UsageError
+from boxbox import validate
 from boxbox.model.skill import SkillLevel
-from boxbox.options import LEARNING_MODES, PIT_MODES, LearningMode, PitMode
+from boxbox.options import LearningMode, PitMode
 from boxbox.robot.base import RaceOptions, Robot
 from boxbox.torcs import results
 
@@ -50,70 +50,108 @@ class RaceResult(results.RaceResult):
         return Path(write_report(Path(self.run_dir), folder / "report.html"))
 
 
-def race(track: str = "e-track-2", *, laps: int = 3, robots: Sequence[str | type[Robot]] = ("boxbox",),
-         opponents: Sequence[str] = (), car: str = "car1-trb1", skill_level: str | SkillLevel = "semi-pro",
-         grid_position: int | str | None = None, learning: LearningMode = "fresh", pit_laps: Sequence[int] = (),
-         fuel_laps: float | None = None, pit_mode: PitMode = "constant-decel", settings: dict | None = None,
-         run_dir: str | Path | None = None, telemetry: bool = True, step_budget_ms: int = 200,
-         report: bool | str | Path = False, setup: str | Path | None = None) -> RaceResult:
-    """Race the Python `robots` (classes or specs: 'boxbox', 'path/file.py:Class', 'module:Class')
-    against TORCS's `opponents` ('module:idx') on `track`, and return the result.
+def race(track: str = "e-track-2", *, laps: int = 3, robots: str | type[Robot] | Sequence[str | type[Robot]] = (
+        "boxbox",), opponents: str | Sequence[str] = (), car: str = "car1-trb1",
+         skill_level: str | SkillLevel = "semi-pro", grid_position: int | str | None = None,
+         learning: LearningMode = "fresh", pit_laps: str | Sequence[int] = (), fuel_laps: float | None = None,
+         pit_mode: PitMode = "constant-decel", settings: dict | str | Sequence[str] | None = None,
+         run_dir: str | Path | None = None, telemetry: bool = True, step_budget_ms: float = 200,
+         setup_budget_s: float = 120, report: bool | str | Path = False,
+         setup: str | Path | None = None) -> RaceResult:
+    """Race the Python `robots` against TORCS's `opponents` on `track`, and return the result.
 
-    skill_level: one level for every car (docs/rules.md). grid_position: the Python cars' first
-    slot, 1 (pole, the default) or 'last'. learning: 'fresh' (default: nothing learned before
-    counts), 'on' (the shared store) or 'off'. settings: robot parameters, as `--set`; setup: a
-    TOML setup file of them, as `--setup` (settings win over it).
-    report: True writes RUN_DIR/report.html, a folder writes it there.
+    robots: one robot or a list of them, each a class or a spec ('boxbox', 'path/file.py:Class',
+    'module:Class'); a string is one robot, as one --robot is. opponents: 'bt:2,berniw:3' (as
+    --opponents) or a list ['bt:2', 'berniw:3']. skill_level: one level for every car
+    (docs/rules.md). grid_position: the Python cars' first slot, 1 (pole, the default) .. 40 or
+    'last'. learning: 'fresh' (the default, as for `boxbox race`: the robots learn from nothing in
+    this race, so the same call gives the same race), 'on' (the shared store, kept across races)
+    or 'off'. pit_laps: '3,7' or [3, 7]. settings: robot parameters, a dict {'mu_scale': 0.9} or
+    'KEY=VALUE' strings as --set; setup: a TOML setup file of them, as --setup (settings win over
+    it). report: True writes RUN_DIR/report.html, a folder writes it there.
+    step_budget_ms, setup_budget_s: as --step-budget-ms and --setup-budget-s.
+
+    Every argument is checked first, with the command line's checks (boxbox/validate.py): a bad
+    one raises boxbox.UsageError (also a ValueError) with one line, before TORCS starts.
     """
-    from boxbox.robot.loader import load_robot_class, spec_for_class
+    from boxbox.robot.loader import load_robot_class
     from boxbox.torcs import checks, launch
     from boxbox.torcs import setup as torcs_setup
     from boxbox.torcs.signals import restore_handlers
 
-    level = skill_level if isinstance(skill_level, SkillLevel) else _parse_level(skill_level)
-    _check_choices(laps, learning, pit_mode)
-    specs = [r if isinstance(r, str) else spec_for_class(r) for r in robots]
-    values = dict(settings or {})
-    if setup is not None:
+    args = _checked(track=track, laps=laps, robots=robots, opponents=opponents, car=car, skill_level=skill_level,
+                    grid_position=grid_position, learning=learning, pit_laps=pit_laps, fuel_laps=fuel_laps,
+                    pit_mode=pit_mode, settings=settings, run_dir=run_dir, telemetry=telemetry,
+                    step_budget_ms=step_budget_ms, setup_budget_s=setup_budget_s, report=report, setup=setup)
+    specs, values = args["specs"], args["settings"]
+    if args["setup"] is not None:
         from boxbox.robot.tunable import check_setup_for, read_setup
 
-        from_file = read_setup(setup)
-        check_setup_for([load_robot_class(s) for s in specs], from_file, str(setup))
+        from_file = read_setup(args["setup"])
+        check_setup_for([load_robot_class(s) for s in specs], from_file, str(args["setup"]))
         values = {**from_file, **values}
-    options = RaceOptions(fuel_laps=fuel_laps, pit_laps=tuple(sorted(pit_laps)), pit_mode=pit_mode,
-                          robot_args={"set": values} if values else {})
-    names = []
-    for i, spec in enumerate(specs):
-        cls = load_robot_class(spec)
-        cls.check_setup(options, track, car)
-        names.append(f"{cls.name} {i + 1}")
+    options = RaceOptions(fuel_laps=args["fuel_laps"], pit_laps=tuple(sorted(args["pit_laps"])),
+                          pit_mode=args["pit_mode"], robot_args={"set": values} if values else {})
+    names = _robot_names(specs, options, args["track"], args["car"])
     overlay = torcs_setup.ensure_ready()
-    category, opp = checks.check_race(track, car, len(specs), list(opponents), list(pit_laps), laps)
-    cfg = launch.RaceConfig(track=track, category=category, car=car, laps=laps, robots=specs, robot_names=names,
-                            opponents=opp, options=options, step_budget_ms=step_budget_ms, telemetry=telemetry,
-                            run_dir=Path(run_dir).resolve() if run_dir is not None else None, skill_level=level,
-                            grid_position=checks.check_grid_position(grid_position, len(opp)), learning=learning)
+    category, opp = checks.check_race(args["track"], args["car"], len(specs), args["opponents"], args["pit_laps"],
+                                      args["laps"])
+    cfg = launch.RaceConfig(
+        track=args["track"], category=category, car=args["car"], laps=args["laps"], robots=specs, robot_names=names,
+        opponents=opp, options=options, step_budget_ms=int(args["step_budget_ms"]),
+        setup_budget_ms=int(args["setup_budget_s"] * 1000), telemetry=args["telemetry"], run_dir=args["run_dir"],
+        skill_level=args["skill_level"], learning=args["learning"],
+        grid_position=checks.check_grid_position(args["grid_position"], len(opp)))
     try:
         raced = launch.run_race(cfg, overlay)
     finally:
         restore_handlers()  # a race stopped by Ctrl-C leaves its own handler in place
     result = RaceResult(**{f.name: getattr(raced, f.name) for f in dataclasses.fields(raced)})
-    if report:
-        result.report(None if report is True else report)
+    if args["report"] is not False:
+        result.report(None if args["report"] is True else args["report"])
     return result
 
 
-def _parse_level(text: str) -> SkillLevel:
-    try:
-        return SkillLevel.parse(text)
-    except ValueError as exc:
-        raise UsageError(str(exc)) from None
+def _checked(**given: Any) -> dict[str, Any]:
+    """Every argument of `race` checked as the command line checks its options (validate.py), each
+    UsageError naming the argument; robot classes become specs."""
+    from boxbox.robot.loader import spec_for_class
+
+    out = {"track": validate.text(given["track"], "track name", "g-track-1", name="track"),
+           "car": validate.text(given["car"], "car name", "car1-trb1", name="car"),
+           "laps": validate.laps(given["laps"], name="laps"),
+           "opponents": validate.opponent_list(given["opponents"], name="opponents"),
+           "grid_position": validate.grid_position(given["grid_position"], name="grid_position"),
+           "learning": validate.learning_mode(given["learning"], name="learning"),
+           "pit_laps": validate.lap_list(given["pit_laps"], name="pit_laps"),
+           "fuel_laps": validate.fuel_laps(given["fuel_laps"], name="fuel_laps"),
+           "pit_mode": validate.pit_mode(given["pit_mode"], name="pit_mode"),
+           "settings": validate.settings(given["settings"], name="settings"),
+           "telemetry": validate.flag(given["telemetry"], name="telemetry"),
+           "step_budget_ms": validate.step_budget_ms(given["step_budget_ms"], name="step_budget_ms"),
+           "setup_budget_s": validate.setup_budget_s(given["setup_budget_s"], name="setup_budget_s"),
+           "setup": None if given["setup"] is None else validate.input_file(given["setup"], name="setup")}
+    level = given["skill_level"]
+    out["skill_level"] = level if isinstance(level, SkillLevel) else SkillLevel.parse(
+        validate.skill_level(level, name="skill_level"))
+    out["run_dir"] = None if given["run_dir"] is None else validate.output_dir(given["run_dir"], name="run_dir")
+    report = given["report"]  # False, True (into the run dir) or a folder
+    out["report"] = report if isinstance(report, bool) else validate.output_dir(report, name="report")
+    out["specs"] = [r if isinstance(r, str) else spec_for_class(r)
+                    for r in validate.robot_list(given["robots"], name="robots")]
+    return out
 
 
-def _check_choices(laps: int, learning: str, pit_mode: str) -> None:
-    if not isinstance(laps, int) or not 1 <= laps <= 10_000:
-        raise UsageError(f"laps must be a whole number from 1 to 10000, got {laps!r}")
-    if learning not in LEARNING_MODES:
-        raise UsageError(f"learning must be one of {', '.join(LEARNING_MODES)}, got {learning!r}")
-    if pit_mode not in PIT_MODES:
-        raise UsageError(f"pit_mode must be one of {', '.join(PIT_MODES)}, got {pit_mode!r}")
+def _robot_names(specs: list[str], options: RaceOptions, track: str, car: str) -> list[str]:
+    """Each robot's class loaded and its settings checked (before the set-up, as the command line
+    does); the names its cars race under."""
+    from boxbox.robot.loader import load_robot_class
+    from boxbox.torcs.checks import check_field
+
+    check_field(len(specs), 0)
+    names = []
+    for i, spec in enumerate(specs):
+        cls = load_robot_class(spec)
+        cls.check_setup(options, track, car)
+        names.append(f"{cls.name} {i + 1}")
+    return names

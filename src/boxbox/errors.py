@@ -7,8 +7,11 @@ class BoxboxError(Exception):
     exit_code = 1
 
 
-class UsageError(BoxboxError):
-    """Bad input (unknown track, car, robot; invalid numbers): exit 2, before TORCS starts."""
+class UsageError(BoxboxError, ValueError):
+    """Bad input (unknown track, car, robot; invalid numbers): exit 2, before TORCS starts.
+
+    Also a ValueError, as Python and Gymnasium raise for a bad argument: a caller (a learner's
+    loop, a test) that catches ValueError around an env or `boxbox.race` call still catches it."""
 
     exit_code = 2
 

@@ -136,7 +136,7 @@ def test_bad_input_is_one_line_before_torcs_starts(overlay):
         TorcsEnv(opponents=["bq:2"])
     with pytest.raises(UsageError, match="opponent bt:2 is given twice"):
         TorcsEnv(opponents=["bt:2", ("bt", 2)])
-    with pytest.raises(UsageError, match="cpu=4096 is not a core this process may use"):
+    with pytest.raises(UsageError, match="Invalid value for 'cpu': 4096 is not a core this process may use"):
         TorcsEnv(cpu=4096)
     assert session_dirs() == before
 

@@ -63,15 +63,27 @@ class Client:
 
 
 @pytest.fixture
-def server(overlay):
-    proc = subprocess.Popen([*BOXBOX, "scr-server", "--port", "0", "--track", "g-track-1", "--opponents", "bt:2"],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT,
-                            env=dict(os.environ, PYTHONUNBUFFERED="1"))
-    first = proc.stderr.readline()
-    port = int(re.search(r"127\.0\.0\.1:(\d+)", first).group(1))
-    yield proc, port
-    proc.kill()
-    proc.wait()
+def start_server(overlay):
+    """start_server(*options) -> (the scr-server process, its port); killed at the end."""
+    started = []
+
+    def start(*options: str) -> tuple[subprocess.Popen, int]:
+        proc = subprocess.Popen([*BOXBOX, "scr-server", "--port", "0", "--track", "g-track-1", *options],
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT,
+                                env=dict(os.environ, PYTHONUNBUFFERED="1"))
+        started.append(proc)
+        first = proc.stderr.readline()
+        return proc, int(re.search(r"127\.0\.0\.1:(\d+)", first).group(1))
+
+    yield start
+    for proc in started:
+        proc.kill()
+        proc.wait()
+
+
+@pytest.fixture
+def server(start_server):
+    return start_server("--opponents", "bt:2")
 
 
 def test_an_scr_client_drives_restarts_and_is_shut_down_at_the_race_end(server):
@@ -127,9 +139,78 @@ def test_scr_server_and_bench_gym_refuse_bad_input_in_one_line(overlay):
                           (["scr-server", "--port", port], f"UDP port {port} on 127.0.0.1 cannot be used"),
                           (["scr-server", "--opponents", "bt:2,bt:2"], "opponent bt:2 is given twice"),
                           (["scr-server", "--port", "70000"], "70000 is not in the range"),
+                          (["scr-server", "--client-timeout-s", "nan"], "'--client-timeout-s': nan is not a finite"),
+                          (["scr-server", "--client-timeout-s", "0"], "0.0 is not in the range 0.1<=x<=3600."),
                           (["bench-gym", "--track", "nowhere"], "unknown track 'nowhere'")):
         proc = run_boxbox(*args, timeout=60)
         assert proc.returncode == 2, proc.stderr
         lines = [ln for ln in proc.stderr.splitlines() if ln.startswith("boxbox: error:")]
         assert len(lines) == 1 and message in lines[0], proc.stderr
     taken.close()
+
+
+def drive_to_the_end(client: Client, s, limit: int = 20_000):
+    steps = 0
+    while isinstance(s, dict) and steps < limit:
+        client.act(s)
+        s = client.receive()
+        steps += 1
+    return s, steps
+
+
+def test_malformed_datagrams_are_ignored_and_a_good_client_then_races_to_the_end(start_server):
+    """One bad datagram used to kill the server (a ValueError in the parser); now each is ignored
+    with a line, before a client and from the identified client alike."""
+    proc, port = start_server("--client-timeout-s", "5")
+    raw = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    for junk in (b"SCR(init " + b"- " * 19 + b")", b"(accel -)", b"\xff\x00(init .)", b"", b"ID(init 1e999)"):
+        raw.sendto(junk, ("127.0.0.1", port))
+    client = Client(port)
+    client.identify(ANGLES)
+    s = client.receive()
+    for junk in (b"(accel -)", b"(accel 0.5)(brake .)", b"(gear e)", b"\x00" * 100):
+        client.sock.sendto(junk, client.addr)
+    s = client.receive()  # after the answer time the server steps on with the last action
+    assert isinstance(s, dict) and s["distRaced"] == [0.0]
+    last, steps = drive_to_the_end(client, s)
+    assert last == "***shutdown***" and steps > 3000
+    assert proc.wait(timeout=10) == 0
+    err = proc.stderr.read()
+    assert "1 race(s) served" in err and err.count("ignored a message from") == 5
+    assert "more are counted, not shown" in err and "9 malformed messages ignored in all" in err
+    assert "Traceback" not in err
+
+
+def test_a_restarted_client_takes_over_once_the_old_one_is_silent(start_server):
+    """A restarted SCR client comes from a new port: it takes over after --client-timeout-s of the old
+    one's silence (snakeoil gives up after about 7 s), not before, and says so."""
+    proc, port = start_server("--client-timeout-s", "1", "--races", "0")
+    old = Client(port)
+    old.identify(ANGLES)
+    s = old.receive()
+    new = Client(port)
+    init = ("SCR(init " + " ".join(str(a) for a in ANGLES) + ")").encode()
+    new.sock.settimeout(0.05)
+    for _ in range(30):  # the old client drives on: the new one is told to wait
+        new.sock.sendto(init, new.addr)
+        old.act(s)
+        s = old.receive()
+        with pytest.raises(TimeoutError):
+            new.sock.recvfrom(1000)
+    silent_since = time.monotonic()  # the old client is gone (killed, say)
+    new.identify(ANGLES)
+    took = time.monotonic() - silent_since
+    assert 0.9 < took < 3.0, took
+    s = new.receive()
+    assert s["distRaced"] == [0.0]  # a new race
+    for _ in range(50):
+        new.act(s)
+        s = new.receive()
+    assert s["distRaced"][0] > 0.0
+    assert proc.poll() is None
+    proc.kill()
+    err = proc.stderr.read()
+    assert "identifies while another races; it takes over if that one is silent for 1 s" in err
+    # whichever comes first: the new client's identification, or the answer time running out
+    assert "takes over from 127.0.0.1:" in err or "the client was silent for 1 s; race stopped" in err
+    assert err.count("identified") == 2

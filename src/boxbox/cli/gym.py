@@ -4,21 +4,26 @@ from __future__ import annotations
 
 import click
 
+from boxbox import validate
 from boxbox.cli.common import err, out, ready
-from boxbox.cli.types import LAPS, CommaList, OutputFile
+from boxbox.cli.types import LAPS, CommaList, FiniteFloatRange, OutputFile, WholeNumber
 
 
 @click.command("scr-server")
-@click.option("--port", type=click.IntRange(0, 65535), default=3001, show_default=True,
+@click.option("--port", type=WholeNumber(0, 65535), default=3001, show_default=True,
               help="UDP port on 127.0.0.1 (SCR's first car uses 3001; 0 picks a free one).")
 @click.option("--track", default="g-track-1", show_default=True, help="Track name, e.g. e-track-2.")
 @click.option("--car", default="car1-trb1", show_default=True, help="The client's car.")
 @click.option("--opponents", type=CommaList("MODULE:IDX,...", unique=False), default="",
               help="TORCS robots, e.g. bt:2,berniw:3.")
 @click.option("--laps", type=LAPS, default=1, show_default=True, help="Race length in laps.")
-@click.option("--races", type=click.IntRange(0, None), default=1, show_default=True,
+@click.option("--races", type=WholeNumber(0, None), default=1, show_default=True,
               help="Races to serve, one client after another (0: until Ctrl-C).")
-def scr_server(port, track, car, opponents, laps, races) -> None:
+@click.option("--client-timeout-s", type=FiniteFloatRange(*validate.CLIENT_TIMEOUT_S),
+              default=validate.CLIENT_TIMEOUT_S_DEFAULT, show_default=True,
+              help="A client silent this long is dropped (the race stops) and another client's identification "
+                   "takes over (SCR's snakeoil client gives up after about 7 s).")
+def scr_server(port, track, car, opponents, laps, races, client_timeout_s) -> None:
     """Serve SCR clients (the championship's UDP text protocol) on stock TORCS.
 
     \b
@@ -29,21 +34,22 @@ def scr_server(port, track, car, opponents, laps, races) -> None:
 
     ready()
     served = serve(port=port, track=track, car=car, opponents=opponents, laps=laps, races=races or None,
+                   client_timeout_s=client_timeout_s,
                    log=lambda text: err.print(f"[dim]scr-server:[/] {text}", highlight=False))
     err.print(f"[dim]{served} race(s) served[/]")
 
 
 @click.command("bench-gym")
 @click.option("--track", default="g-track-1", show_default=True, help="Track name.")
-@click.option("--steps", type=click.IntRange(1_000, None), default=100_000, show_default=True,
+@click.option("--steps", type=WholeNumber(1_000, None), default=100_000, show_default=True,
               help="Env steps of the one-env measurement.")
-@click.option("--episode-steps", type=click.IntRange(10, None), default=1_000, show_default=True,
+@click.option("--episode-steps", type=WholeNumber(10, None), default=1_000, show_default=True,
               help="Steps per episode in the speed measurements.")
-@click.option("--envs", type=click.IntRange(0, 64), default=8, show_default=True,
+@click.option("--envs", type=WholeNumber(0, 64), default=8, show_default=True,
               help="Sub-envs of the AsyncVectorEnv (0: skip it).")
-@click.option("--vector-steps", type=click.IntRange(10, None), default=5_000, show_default=True,
+@click.option("--vector-steps", type=WholeNumber(10, None), default=5_000, show_default=True,
               help="Steps of each sub-env of the AsyncVectorEnv.")
-@click.option("--episodes", type=click.IntRange(10, None), default=1_000, show_default=True,
+@click.option("--episodes", type=WholeNumber(10, None), default=1_000, show_default=True,
               help="Short episodes for the reset time, memory, files and processes.")
 @click.option("--json", "json_file", type=OutputFile(), help="Write the rows as JSON.")
 def bench_gym(track, steps, episode_steps, envs, vector_steps, episodes, json_file) -> None:

@@ -8,16 +8,21 @@ import click
 
 from boxbox.cli.common import err, out, race_error, ready, run_with_progress
 from boxbox.cli.types import (
+    FUEL_LAPS,
     LAP_LIST,
     LAPS,
+    LEARNING,
+    PIT_MODE,
+    SETUP_BUDGET_S,
+    STEP_BUDGET_MS,
     CommaList,
     FiniteFloatRange,
     GridPosition,
+    InputFile,
     OutputDir,
     OutputFile,
     skill_level_option,
 )
-from boxbox.options import LEARNING_MODES, PIT_MODES
 
 SET_HELP = "Override a parameter of the boxbox robot (see `boxbox params`), e.g. --set mu_scale=0.9. Repeatable."
 
@@ -32,21 +37,22 @@ SET_HELP = "Override a parameter of the boxbox robot (see `boxbox params`), e.g.
                    "Repeat for more cars, e.g. --robot my_robot.py:MyRobot --robot boxbox.")
 @click.option("--opponents", type=CommaList("MODULE:IDX,...", unique=False), default="",
               help="TORCS robots, e.g. bt:2,berniw:3 (`boxbox robots` lists them; each at most once).")
-@click.option("--fuel-laps", type=FiniteFloatRange(0.01, 10_000), help="Start with fuel for this many laps, e.g. 5.")
+@click.option("--fuel-laps", type=FUEL_LAPS, help="Start with fuel for this many laps, e.g. 5.")
 @click.option("--pit-laps", type=LAP_LIST, default="", help="Ask for pit stops on these laps, e.g. 3,7.")
-@click.option("--pit-mode", type=click.Choice(PIT_MODES), default="constant-decel", show_default=True,
+@click.option("--pit-mode", type=PIT_MODE, default="constant-decel", show_default=True,
               help="How the robot brakes into its pit box.")
 @click.option("--json", "json_file", type=OutputFile(), help="Write the results as JSON, e.g. --json r.json.")
-@click.option("--step-budget-ms", type=FiniteFloatRange(1, 60_000), default=200, show_default=True,
+@click.option("--step-budget-ms", type=STEP_BUDGET_MS, default=200, show_default=True,
               help="Wall time a robot may take per drive step before the race is stopped.")
-@click.option("--setup-budget-s", type=FiniteFloatRange(0.1, 3600), default=120, show_default=True,
+@click.option("--setup-budget-s", type=SETUP_BUDGET_S, default=120, show_default=True,
               help="Wall time a robot may take in initial_fuel_l, on_track, pit_stop or on_race_end.")
 @click.option("--set", "settings", multiple=True, metavar="KEY=VALUE", help=SET_HELP)
-@click.option("--setup", "setup_file", type=click.Path(exists=True, dir_okay=False, path_type=Path),
+@click.option("--setup", "setup_file", type=InputFile(),
               help="Robot parameters from a TOML setup file (`name = value` lines, as `boxbox tune` writes); "
                    "--set wins over it.")
-@click.option("--learning", type=click.Choice(LEARNING_MODES), default="on", show_default=True,
-              help="Robots' learned data: keep and use it, ignore it, or start from nothing (and keep that).")
+@click.option("--learning", type=LEARNING, default="fresh", show_default=True,
+              help="Robots' learned data: the shared store (kept and used: on), none (off), or from nothing "
+                   "in this race (fresh, the default: the same race gives the same result).")
 @click.option("--run-dir", type=OutputDir(), help="Keep this race's files here, e.g. out/r1 "
                                                   "(default: a new folder under the cache).")
 @click.option("--no-telemetry", is_flag=True,

@@ -1,39 +1,78 @@
 """click parameter types for boxbox's options: checked while the command line is read, so a bad
-value fails with exit 2 and one line before anything is set up or raced."""
+value fails with exit 2 and one line before anything is set up or raced.
+
+Each type is a thin wrapper over boxbox/validate.py, the checks `boxbox.race`, the Gymnasium env
+and the SCR server use too: the same value gets the same words everywhere.
+"""
 
 from __future__ import annotations
 
-import math
 import os
-import tempfile
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import click
 
-MAX_LAPS = 10_000  # far beyond any race worth running; keeps lap counts clear of C int overflows
+from boxbox import validate
+from boxbox.errors import UsageError
+from boxbox.options import LEARNING_MODES, PIT_MODES
+from boxbox.validate import MAX_LAPS
+
+__all__ = ["MAX_LAPS"]  # re-exported: the lap limit's old home
 
 
-class FiniteFloatRange(click.FloatRange):
-    """click's FloatRange, which lets NaN through its bounds; this one refuses it."""
+class Checked:
+    """Mixin: `check(value)` is a validate.py function; its UsageError becomes click's failure."""
+
+    def checked(self, check: Callable[[Any], Any], value: Any, param: click.Parameter | None,
+                ctx: click.Context | None) -> Any:
+        try:
+            return check(value)
+        except UsageError as exc:
+            self.fail(str(exc), param, ctx)  # type: ignore[attr-defined]
+
+
+class WholeNumber(Checked, click.IntRange):
+    """click's IntRange (its help shows the range), checked by validate.whole_number: True and 3.5
+    are refused (click would take them as 1 and 3)."""
 
     def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
-        number = super().convert(value, param, ctx)
-        if not math.isfinite(number):
-            self.fail(f"{value!r} is not a finite number.", param, ctx)
-        return number
+        lo, hi = (None if b is None else int(b) for b in (self.min, self.max))
+        return self.checked(lambda v: validate.whole_number(v, lo, hi), value, param, ctx)
 
 
-LAPS = click.IntRange(1, MAX_LAPS)
+class FiniteFloatRange(Checked, click.FloatRange):
+    """click's FloatRange (its help shows the range), checked by validate.finite_number: NaN and
+    the infinities are refused."""
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        return self.checked(lambda v: validate.finite_number(v, self.min, self.max, lo_open=self.min_open,
+                                                             hi_open=self.max_open), value, param, ctx)
 
 
-class SkillLevelChoice(click.Choice):
+LAPS = WholeNumber(1, MAX_LAPS)
+FUEL_LAPS = FiniteFloatRange(*validate.FUEL_LAPS)
+STEP_BUDGET_MS = FiniteFloatRange(*validate.STEP_BUDGET_MS)
+SETUP_BUDGET_S = FiniteFloatRange(*validate.SETUP_BUDGET_S)
+
+
+class Choice(Checked, click.Choice):
+    """click's Choice (its help lists the choices), checked by validate.choice."""
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        return self.checked(lambda v: validate.choice(v, tuple(self.choices)), value, param, ctx)
+
+
+PIT_MODE = Choice(PIT_MODES)
+LEARNING = Choice(LEARNING_MODES)
+
+
+class SkillLevelChoice(Choice):
     """TORCS's skill level by its name ('semi-pro'), converted to a SkillLevel."""
 
     def __init__(self) -> None:
-        from boxbox.model.skill import SkillLevel
-
-        super().__init__([level.torcs_name for level in SkillLevel])
+        super().__init__(validate.SKILL_LEVELS)
 
     def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
         from boxbox.model.skill import SkillLevel
@@ -52,12 +91,10 @@ def skill_level_option(command: Any) -> Any:
 
 def bench_race_options(command: Any) -> Any:
     """--no-cache, --learning and --set, as every bench of Python robots takes them."""
-    from boxbox.options import LEARNING_MODES
-
     for option in (
         click.option("--set", "settings", multiple=True, metavar="KEY=VALUE",
                      help="Override a parameter of the Python robots (see `boxbox params`), e.g. --set mu_scale=0.9."),
-        click.option("--learning", type=click.Choice(LEARNING_MODES), default="fresh", show_default=True,
+        click.option("--learning", type=LEARNING, default="fresh", show_default=True,
                      help="Python robots' learned data: from nothing each race, the shared store, or none."),
         click.option("--no-cache", is_flag=True, help="Race again even what the bench cache has (and refresh it)."),
     ):
@@ -65,8 +102,8 @@ def bench_race_options(command: Any) -> Any:
     return command
 
 
-class GridPosition(click.ParamType):
-    """A grid slot: 1 (pole) .. 40, or 'last'."""
+class GridPosition(Checked, click.ParamType):
+    """A grid slot: 1 (pole) .. 40, or 'last' (validate.grid_position)."""
 
     name = "grid position"
 
@@ -74,18 +111,10 @@ class GridPosition(click.ParamType):
         return "N|last"
 
     def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
-        if isinstance(value, int) or value == "last":
-            return value
-        try:
-            number = int(value)
-        except ValueError:
-            self.fail(f"{value!r} is not a grid slot; give a number from 1 (pole) or 'last'.", param, ctx)
-        if not 1 <= number <= 40:
-            self.fail(f"{number} is not a grid slot; TORCS grids have 1 to 40.", param, ctx)
-        return number
+        return self.checked(validate.grid_position, value, param, ctx)
 
 
-class CommaList(click.ParamType):
+class CommaList(Checked, click.ParamType):
     """'a,b,c' -> ['a', 'b', 'c'] (blanks dropped; with unique, repeats dropped too)."""
 
     name = "list"
@@ -99,16 +128,28 @@ class CommaList(click.ParamType):
     def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
         if isinstance(value, list | tuple):
             return list(value)
-        items = [part.strip() for part in str(value).split(",") if part.strip()]
+        items = self.checked(lambda v: validate.names(v, "names", unique=False), value, param, ctx)
         if self.item is not None:
             items = [self.item.convert(part, param, ctx) for part in items]
         return list(dict.fromkeys(items)) if self.unique else items
 
 
-LAP_LIST = CommaList("LAP,...", item=LAPS)
+class LapList(Checked, click.ParamType):
+    """'3,7' -> [3, 7]: laps, each 1..10000, repeats dropped (validate.lap_list)."""
+
+    name = "list"
+
+    def get_metavar(self, param: click.Parameter, ctx: click.Context) -> str:
+        return "LAP,..."
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        return self.checked(validate.lap_list, value, param, ctx)
 
 
-class LapLengths(click.ParamType):
+LAP_LIST = LapList()
+
+
+class LapLengths(Checked, click.ParamType):
     """Race lengths: '10', '8,10,12' or '6-14' (both ends included) -> [10], [8, 10, 12], [6, ..., 14]."""
 
     name = "lengths"
@@ -117,34 +158,10 @@ class LapLengths(click.ParamType):
         return "N|N,N,..|N-M"
 
     def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
-        if isinstance(value, list | tuple):
-            return list(value)
-        text = str(value).strip()
-        if "-" in text and "," not in text:
-            lo, _, hi = text.partition("-")
-            first, last = LAPS.convert(lo.strip(), param, ctx), LAPS.convert(hi.strip(), param, ctx)
-            if last < first:
-                self.fail(f"{text!r}: the range ends before it starts (e.g. 6-14).", param, ctx)
-            return list(range(first, last + 1))
-        lengths = LAP_LIST.convert(text, param, ctx)
-        if not lengths:
-            self.fail("give at least one race length, e.g. 10 or 6-14.", param, ctx)
-        return lengths
+        return self.checked(validate.lap_lengths, value, param, ctx)
 
 
-def _probe_writable(folder: Path) -> str | None:
-    """None when a file can be created in folder, else why not (a real create: permissions alone
-    do not tell, e.g. /proc or a read-only mount)."""
-    try:
-        fd, probe = tempfile.mkstemp(prefix=".boxbox-probe-", dir=folder)
-    except OSError as exc:
-        return exc.strerror or str(exc)
-    os.close(fd)
-    os.unlink(probe)
-    return None
-
-
-class OutputFile(click.ParamType):
+class OutputFile(Checked, click.ParamType):
     """A file boxbox will write: made absolute, its folder must exist and take a new file."""
 
     name = "file"
@@ -153,16 +170,19 @@ class OutputFile(click.ParamType):
         return "FILE"
 
     def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
-        path = Path(os.path.abspath(os.path.expanduser(value)))
-        if path.is_dir():
-            self.fail(f"{path} is a folder; give a file name.", param, ctx)
-        if not path.parent.is_dir():
-            self.fail(f"folder {path.parent} does not exist; create it first.", param, ctx)
-        if why := _probe_writable(path.parent):
-            self.fail(f"cannot write in {path.parent} ({why}); choose another place.", param, ctx)
-        if path.exists() and not os.access(path, os.W_OK):
-            self.fail(f"{path} is not writable; choose another file.", param, ctx)
-        return path
+        return self.checked(validate.output_file, value, param, ctx)
+
+
+class InputFile(Checked, click.ParamType):
+    """A file boxbox will read: made absolute; it must exist and be a file."""
+
+    name = "file"
+
+    def get_metavar(self, param: click.Parameter, ctx: click.Context) -> str:
+        return "FILE"
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        return self.checked(validate.input_file, value, param, ctx)
 
 
 class FieldRunFile(click.ParamType):
@@ -193,7 +213,7 @@ class FieldRunFile(click.ParamType):
         return path, doc
 
 
-class OutputDir(click.ParamType):
+class OutputDir(Checked, click.ParamType):
     """A folder boxbox will write into: made absolute; it, or the nearest folder above it that
     exists (where it will be created), must take a new file."""
 
@@ -203,11 +223,4 @@ class OutputDir(click.ParamType):
         return "DIR"
 
     def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
-        path = Path(os.path.abspath(os.path.expanduser(value)))
-        existing = next(p for p in (path, *path.parents) if p.exists())
-        if not existing.is_dir():
-            self.fail(f"{existing} is a file, so {path} cannot be a folder.", param, ctx)
-        if why := _probe_writable(existing):
-            where = path if existing == path else f"{path} (in {existing})"
-            self.fail(f"cannot write in {where}: {why}; choose another place.", param, ctx)
-        return path
+        return self.checked(validate.output_dir, value, param, ctx)

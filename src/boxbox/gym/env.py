@@ -10,14 +10,16 @@ gym/reward.py; sensors: gym/sensors.py; docs/gym.md has it all with the figures.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any
 
 import gymnasium
 import numpy as np
 
+from boxbox import validate
 from boxbox.errors import RaceError, UsageError
 from boxbox.gym import reward as rw
-from boxbox.gym.assists import Assists, check_assists
+from boxbox.gym.assists import ASSISTS, Assists, check_assists
 from boxbox.gym.pitstop import PitStop
 from boxbox.gym.sensors import SCR_TRACK_ANGLES_DEG, TrackEdges, opponent_sectors
 from boxbox.gym.session import Session, TorcsGone, usable_cpus
@@ -25,25 +27,91 @@ from boxbox.gym.spaces import ACTION_RANGES, DEFAULT_ACTIONS, ActionReader, Obse
 from boxbox.model import Car, PitOrder, State, Track
 from boxbox.model.skill import SkillLevel
 from boxbox.torcs import setup
-from boxbox.torcs.checks import check_race
+from boxbox.torcs.checks import check_grid_position, check_race
 from boxbox.torcs.launch import RaceConfig
 
+MAX_ACTION_REPEAT = 1000  # 20 s of simulated time per step
+MAX_FUEL_L = 1000.0  # beyond any car's tank
+MAX_REPAIR = 100_000.0  # damage points (the car is out at 10000)
+RESET_OPTIONS: tuple[str, ...] = ()  # the keys reset(options=...) takes (none yet: the race is the env's)
 
-def race_config(track: str, car: str, opponents, laps: int, skill_level: str,
-                grid_position: int | None) -> RaceConfig:
+
+class NeedsReset(UsageError, gymnasium.error.ResetNeeded):
+    """step() with no episode running (before the first reset(), or after the episode ended), as
+    Gymnasium's own envs refuse it: catchable as gymnasium.error.ResetNeeded or boxbox's UsageError."""
+
+
+def race_config(track: str, car: str, opponents, laps: int, skill_level: str | SkillLevel,
+                grid_position: int | str | None) -> RaceConfig:
     """The race the env drives, checked against the installed TORCS (set up first when needed):
     UsageError with one line when something is wrong."""
-    if not isinstance(laps, int) or isinstance(laps, bool) or laps < 1:
-        raise UsageError(f"laps={laps!r} must be a whole number >= 1")
-    try:
-        level = SkillLevel.parse(skill_level)
-    except ValueError as exc:
-        raise UsageError(str(exc)) from None
+    track = validate.text(track, "track name", "g-track-1", name="track")
+    car = validate.text(car, "car name", "car1-trb1", name="car")
+    laps = validate.laps(laps, name="laps")
+    entries = validate.opponent_list(opponents, name="opponents")
+    level = skill_level if isinstance(skill_level, SkillLevel) else SkillLevel.parse(
+        validate.skill_level(skill_level, name="skill_level"))
+    position = validate.grid_position(grid_position, name="grid_position")
     setup.ensure_ready()
-    entries = [o if isinstance(o, str) else f"{o[0]}:{o[1]}" for o in opponents]
     category, opps = check_race(track, car, 1, entries, laps=laps)
     return RaceConfig(track=track, category=category, car=car, laps=laps, robots=["gym"], robot_names=["gym"],
-                      opponents=opps, telemetry=False, skill_level=level, grid_position=grid_position)
+                      opponents=opps, telemetry=False, skill_level=level,
+                      grid_position=check_grid_position(position, len(opps)))
+
+
+def checked_actions(actions: Any, assists: Any) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """The action columns (each at most once, at least one) and the assists, checked together."""
+    names = validate.names(actions, "actions", unique=False, name="actions")
+    for name in names:
+        validate.choice(name, tuple(ACTION_RANGES), name="actions")
+    if not names or len(set(names)) != len(names):
+        validate.fail(f"{tuple(names)!r}: choose each action at most once, at least one, from "
+                      f"{', '.join(ACTION_RANGES)}.", "actions")
+    helpers = validate.names(assists, "assists", name="assists")
+    for name in helpers:
+        validate.choice(name, ASSISTS, name="assists")
+    check_assists(tuple(helpers), tuple(names))
+    return tuple(names), tuple(helpers)
+
+
+def checked_fuel(initial_fuel_l: Any, pit_fuel_l: Any, pit_repair: Any) -> tuple[float | None, ...]:
+    """Litres at the start and at a pit stop, damage points repaired (None: the defaults)."""
+    return (None if initial_fuel_l is None else validate.finite_number(initial_fuel_l, 0, MAX_FUEL_L,
+                                                                       name="initial_fuel_l"),
+            None if pit_fuel_l is None else validate.finite_number(pit_fuel_l, 0, MAX_FUEL_L, name="pit_fuel_l"),
+            None if pit_repair is None else validate.finite_number(pit_repair, 0, MAX_REPAIR, name="pit_repair"))
+
+
+def checked_cpu(cpu: Any) -> int | None:
+    if cpu is None:
+        return None
+    core = validate.whole_number(cpu, 0, None, name="cpu")
+    if core not in usable_cpus():
+        validate.fail(f"{core} is not a core this process may use; choose one of {sorted(usable_cpus())}.", "cpu")
+    return core
+
+
+def checked_reward(reward_fn: Any, reward_weights: Any) -> tuple[rw.RewardFn | None, rw.RewardWeights]:
+    if reward_fn is not None and not callable(reward_fn):
+        validate.fail(f"{reward_fn!r} is not callable; give reward_fn(previous_state, state, info) -> float.",
+                      "reward_fn")
+    if reward_weights is not None and not isinstance(reward_weights, rw.RewardWeights):
+        validate.fail(f"{reward_weights!r} is not a boxbox.gym.reward.RewardWeights.", "reward_weights")
+    return reward_fn, reward_weights or rw.RewardWeights()
+
+
+def check_reset_options(options: Any) -> None:
+    """reset(options=...) takes the keys of RESET_OPTIONS (none yet): an unknown one is refused,
+    not ignored (the track, the car and the rest are the env's, given when it is made)."""
+    if options is None:
+        return
+    if not isinstance(options, Mapping):
+        validate.fail(f"{options!r} is not a dict of reset options.", "options")
+    unknown = sorted(str(key) for key in options if key not in RESET_OPTIONS)
+    if unknown:
+        takes = ", ".join(RESET_OPTIONS) or "none yet"
+        validate.fail(f"reset() does not take {', '.join(map(repr, unknown))} (reset options: {takes}); give the "
+                      "track, car, opponents and the rest when making the env.", "options")
 
 
 class TorcsEnv(gymnasium.Env):
@@ -57,30 +125,27 @@ class TorcsEnv(gymnasium.Env):
                  track_sensor_angles_deg: tuple[float, ...] = SCR_TRACK_ANGLES_DEG,
                  reward_fn: rw.RewardFn | None = None, reward_weights: rw.RewardWeights | None = None,
                  max_damage: float | None = None, off_track_s: float | None = 2.0, stuck_s: float | None = 5.0,
-                 skill_level: str = "semi-pro", grid_position: int | None = None,
+                 skill_level: str | SkillLevel = "semi-pro", grid_position: int | str | None = None,
                  initial_fuel_l: float | None = None, pit_fuel_l: float | None = None, pit_repair: float | None = None,
                  cpu: int | None = None, render_mode: str | None = None) -> None:
-        self.cfg = race_config(track, car, opponents, laps, skill_level, grid_position)
-        self.actions, self.assist_names = tuple(actions), tuple(assists)
-        unknown = [a for a in self.actions if a not in ACTION_RANGES]
-        if unknown or not self.actions or len(set(self.actions)) != len(self.actions):
-            raise UsageError(f"actions {self.actions!r}: choose each at most once from {', '.join(ACTION_RANGES)}")
-        check_assists(self.assist_names, self.actions)
-        if not isinstance(action_repeat, int) or action_repeat < 1:
-            raise UsageError(f"action_repeat={action_repeat!r} must be a whole number >= 1")
-        if cpu is not None and cpu not in usable_cpus():
-            raise UsageError(f"cpu={cpu!r} is not a core this process may use; choose one of {sorted(usable_cpus())}")
-        self.action_repeat = action_repeat
+        # every option checked before anything is set up (validate.py: the command line's checks)
+        self.actions, self.assist_names = checked_actions(actions, assists)
+        self.action_repeat = validate.whole_number(action_repeat, 1, MAX_ACTION_REPEAT, name="action_repeat")
+        self.angles_deg = validate.angle_list(track_sensor_angles_deg, name="track_sensor_angles_deg")
+        self.reward_fn, self.weights = checked_reward(reward_fn, reward_weights)
+        self.watch = rw.Watch(rw.Limits(max_damage, off_track_s, stuck_s))
+        self.initial_fuel_l, self.pit_fuel_l, self.pit_repair = checked_fuel(initial_fuel_l, pit_fuel_l, pit_repair)
+        self.cpu = checked_cpu(cpu)
+        flat = validate.flag(flat, name="flat")
+        if render_mode is not None and not isinstance(render_mode, str):
+            validate.fail(f"{render_mode!r} is not a render mode; TORCS runs without a display (use None).",
+                          "render_mode")
         self.render_mode = render_mode  # accepted (tools pass "rgb_array"), but TORCS runs without a display
-        self.angles_deg = tuple(float(a) for a in track_sensor_angles_deg)
+        self.cfg = race_config(track, car, opponents, laps, skill_level, grid_position)
         self.layout = ObservationLayout.make(len(self.angles_deg))
         self.observer = Observer(self.layout, flat)
         self.observation_space = self.layout.flat_space() if flat else self.layout.dict_space()
         self.action_space = action_space(self.actions)
-        self.reward_fn, self.weights = reward_fn, reward_weights or rw.RewardWeights()
-        self.watch = rw.Watch(rw.Limits(max_damage, off_track_s, stuck_s))
-        self.initial_fuel_l, self.cpu = initial_fuel_l, cpu
-        self.pit_fuel_l, self.pit_repair = pit_fuel_l, pit_repair
         self.reader = ActionReader(self.actions)
         self.session: Session | None = None
         self.track: Track | None = None  # the race's track and car, known from the first reset
@@ -91,14 +156,18 @@ class TorcsEnv(gymnasium.Env):
         self.edges: TrackEdges | None = None
         self.assists: Assists | None = None
         self.pit: PitStop | None = None
+        self.ended: str | None = None  # why the episode ended (step() then needs a reset())
 
     # --- the Gymnasium API ---------------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        check_reset_options(options)
         super().reset(seed=seed)
         if self.session is None:
             self.session = Session(self.cfg, setup.ensure_ready(), cpu=self.cpu, initial_fuel_l=self.initial_fuel_l,
                                    on_pit=self._pit_order)
-        state = self._start()
+        self.ended = None
+        with self.session.pin:
+            state = self._start()
         self.watch.reset()
         self.state = state
         self.vector = self._vector(state)
@@ -106,10 +175,28 @@ class TorcsEnv(gymnasium.Env):
 
     def step(self, action):
         if self.state is None or self.session is None:
-            raise RuntimeError("call reset() before step()")
+            raise NeedsReset("call reset() before step()")
+        if self.ended is not None:
+            raise NeedsReset(f"the episode has ended ({self.ended}); call reset() to start a new one")
         steer, throttle, brake, clutch, gear, pit = self.reader.read(action)
         if self.pit is not None and pit:
             self.pit.request()
+        with self.session.pin:
+            s, total, progress, reason, fault = self._drive(steer, throttle, brake, clutch, gear)
+        if s is not self.state:
+            self.state = s
+            self.vector = self._vector(s)
+        self.ended = reason
+        info = {"state": s, "progress_m": progress, "termination": reason, "fault": fault}
+        if self.pit is not None:
+            info["pit"] = self.pit.phase
+        return self.observer.observation(self.vector), total, reason is not None, False, info
+
+    def _drive(self, steer: float, throttle: float, brake: float, clutch: float,
+               gear: int) -> tuple[State, float, float, str | None, str | None]:
+        """`action_repeat` drive steps with one action: (the last state, the reward, the progress,
+        why the episode ended or None, what went wrong or None)."""
+        assert self.session is not None and self.state is not None
         total, progress, reason, fault = 0.0, 0.0, None, None
         s = self.state
         for _ in range(self.action_repeat):
@@ -129,13 +216,7 @@ class TorcsEnv(gymnasium.Env):
             reason = self.watch.update(nxt, excused=driving)
             if reason is not None:
                 break
-        if s is not self.state:
-            self.state = s
-            self.vector = self._vector(s)
-        info = {"state": s, "progress_m": progress, "termination": reason, "fault": fault}
-        if self.pit is not None:
-            info["pit"] = self.pit.phase
-        return self.observer.observation(self.vector), total, reason is not None, False, info
+        return s, total, progress, reason, fault
 
     def render(self) -> None:
         """Nothing to show: TORCS runs in console mode (the race's state is in `info`)."""
@@ -146,6 +227,7 @@ class TorcsEnv(gymnasium.Env):
             self.session.close()
             self.session = None
         self.state = None
+        self.ended = None
 
     @property
     def torcs_pid(self) -> int | None:

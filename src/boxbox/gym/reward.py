@@ -13,6 +13,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
+from boxbox import validate
 from boxbox.model import State
 from boxbox.model.constants import DRIVE_STEP_S
 from boxbox.model.state import CAR_STATE_DNF, CAR_STATE_FINISH
@@ -28,6 +29,10 @@ RACE_END, OUT, DAMAGE, OFF_TRACK, STUCK, FAULT = "race-end", "out", "damage", "o
 class RewardWeights:
     damage_weight: float = 0.1  # metres of progress one damage point costs
     off_track_m: float = 1.0  # metres of progress a drive step off the track costs
+
+    def __post_init__(self) -> None:
+        for name in ("damage_weight", "off_track_m"):  # frozen: set through object
+            object.__setattr__(self, name, validate.finite_number(getattr(self, name), name=name))
 
 
 def progress_m(before: State, after: State, length_m: float) -> float:
@@ -63,11 +68,8 @@ class Limits:
     stuck_s: float | None = 5.0  # continuously slower than 1 m/s this long
 
     def __post_init__(self) -> None:
-        for name in ("max_damage", "off_track_s", "stuck_s"):
-            value = getattr(self, name)
-            if value is not None and not (isinstance(value, (int, float)) and 0 < value < math.inf):
-                raise ValueError(f"{name}={value!r} must be a positive number of "
-                                 f"{'points' if name == 'max_damage' else 'seconds'}, or None for no limit")
+        for name in ("max_damage", "off_track_s", "stuck_s"):  # a positive number, or None for no limit
+            object.__setattr__(self, name, validate.positive_limit(getattr(self, name), name=name))
 
 
 class Watch:

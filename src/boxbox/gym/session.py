@@ -6,10 +6,12 @@ is no robot host process: `Session.drive` answers the pending DRIVE message with
 and reads the next one, so a step is one socket round trip.  Each race is a fresh TORCS process
 (it starts in about 20 ms), so a reset leaves nothing of the last race behind.
 
-TORCS is pinned to one core with the thread that drives it (they strictly alternate: the round
-trip costs ~3 us instead of ~50 us across cores, see docs/architecture.md), dies with the thread
-that started it (PR_SET_PDEATHSIG; in practice with the env's process) and is killed by process
-group on every reset and on close.  The run folder (TORCS's local folder, the race file, the
+TORCS is pinned to one core, and the thread that drives it runs there while it drives (a step, a
+reset: `Session.pin`), as they strictly alternate: the round trip costs ~3 us instead of ~50 us
+across cores (docs/architecture.md); between steps the thread has its own cores back, so threads it
+starts (a learner's) are not pinned.  TORCS dies with the thread that started it
+(PR_SET_PDEATHSIG; in practice with the env's process) and is killed by process group on every
+reset and on close.  The run folder (TORCS's local folder, the race file, the
 socket, TORCS's stderr) is a temporary folder removed on close (or by the next session, when the
 env's process was killed outright).
 """
@@ -61,53 +63,51 @@ class Started:
     state: State  # the first drive step's state
 
 
-def _clean_up(folder: Path, running: list[subprocess.Popen], cpu: int) -> None:
-    """What a session leaves: TORCS, the folder, the pinning (at close, or when the env is dropped
-    without it, or at exit)."""
+def _clean_up(folder: Path, running: list[subprocess.Popen]) -> None:
+    """What a session leaves: TORCS and the folder (at close, or when the env is dropped without
+    it, or at exit)."""
     for proc in running:
         with contextlib.suppress(ProcessLookupError, PermissionError):
             os.killpg(proc.pid, signal.SIGKILL)
         with contextlib.suppress(subprocess.TimeoutExpired):
             proc.wait(timeout=5)
     shutil.rmtree(folder, ignore_errors=True)
-    Pinning.release(cpu)
 
 
-class Pinning:
-    """The cores this process's driving thread is pinned to, one per live session (refcounted):
-    the thread's own affinity comes back when the last session ends."""
+class CorePin:
+    """`with pin:` runs the calling thread on TORCS's core for the block (a step, a reset) and gives
+    it its own cores back after.  TORCS and the thread that drives it strictly alternate: on one core
+    a round trip costs ~3 us instead of ~50 us across cores.  Only for the block: a thread started
+    outside it (a learner's, PyTorch's pool) inherits the caller's own cores, not TORCS's one."""
 
-    users: dict[int, int] = {}
-    original: set[int] | None = None
+    def __init__(self, cpu: int) -> None:
+        self.core = {cpu}
+        self.saved: set[int] | None = None  # the thread's cores, while pinned
 
-    @classmethod
-    def acquire(cls, cpu: int) -> None:
-        if not cls.users:
-            cls.original = os.sched_getaffinity(0)
-        cls.users[cpu] = cls.users.get(cpu, 0) + 1
-        os.sched_setaffinity(0, set(cls.users))
+    def __enter__(self) -> None:
+        own = os.sched_getaffinity(0)
+        if own != self.core:
+            try:
+                os.sched_setaffinity(0, self.core)
+                self.saved = own
+            except OSError:  # the core was taken away (a cgroup changed): drive from where we are
+                self.saved = None
 
-    @classmethod
-    def release(cls, cpu: int) -> None:
-        if cpu not in cls.users:
-            return
-        cls.users[cpu] -= 1
-        if not cls.users[cpu]:
-            del cls.users[cpu]
-        with contextlib.suppress(OSError):
-            os.sched_setaffinity(0, set(cls.users) if cls.users else (cls.original or os.sched_getaffinity(0)))
+    def __exit__(self, *exc: object) -> None:
+        if self.saved is not None:
+            saved, self.saved = self.saved, None
+            with contextlib.suppress(OSError):
+                os.sched_setaffinity(0, saved)
 
 
 def usable_cpus() -> set[int]:
-    """The cores this thread may run on (before any session pinned it)."""
-    return set(Pinning.original) if Pinning.users and Pinning.original else os.sched_getaffinity(0)
+    """The cores the calling thread may run on."""
+    return os.sched_getaffinity(0)
 
 
 def pick_cpu() -> int:
-    """A core for a new session: the one the process's sessions use already, else one by pid (so
-    the workers of a vector env spread over the cores)."""
-    if Pinning.users:
-        return next(iter(Pinning.users))
+    """A core for a new session, by process id: the sessions of one process share one, and the
+    workers of a vector env spread over the cores."""
     cpus = sorted(os.sched_getaffinity(0))
     return cpus[os.getpid() % len(cpus)]
 
@@ -126,7 +126,8 @@ class Session:
         self.run = RunDir(self.dir)  # the names of TORCS's files in it
         self.proc: subprocess.Popen | None = None
         self._running: list[subprocess.Popen] = []  # what an env dropped without close() leaves to clean up
-        self._finalizer = weakref.finalize(self, _clean_up, self.dir, self._running, self.cpu)
+        self._finalizer = weakref.finalize(self, _clean_up, self.dir, self._running)
+        self.pin = CorePin(self.cpu)  # `with session.pin:` around a step or a reset
         self.conn: socket.socket | None = None
         self.listener: socket.socket | None = None
         self.ended = False  # TORCS ended the race (END_RACE)
@@ -135,7 +136,6 @@ class Session:
         self._buf = bytearray(wire.MAX_MESSAGE_BYTES + 64)
         self._out = bytearray(HSIZE + wire.CONTROLS_REC.size)
         self._step = 0
-        Pinning.acquire(self.cpu)
         try:
             self.local = prepare_local_dir(self.run, overlay, cfg)
             self.listener = socket.socket(socket.AF_UNIX, socket.SOCK_SEQPACKET | socket.SOCK_CLOEXEC)
@@ -223,7 +223,7 @@ class Session:
         if self.listener is not None:
             self.listener.close()
             self.listener = None
-        self._finalizer()  # the folder, the pinning
+        self._finalizer()  # TORCS, the folder
 
     @property
     def pid(self) -> int | None:

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 from gymnasium import spaces
 
+from boxbox.errors import UsageError
 from boxbox.gym.sensors import OFF_TRACK, OPPONENT_SECTORS, RANGE_M
 from boxbox.model import State
 
@@ -125,14 +126,27 @@ def action_space(names: tuple[str, ...], top_gear: int = 6) -> spaces.Box:
 
 class ActionReader:
     """An action (one row of the action Box) as the drive step's numbers: out-of-range values are
-    clipped to the range and NaN reads as 0 (clipped), so no action can make a fault."""
+    clipped to the range and NaN reads as 0 (clipped), so no action can make a fault.  An action of
+    another shape, or of things that are not numbers, is refused (UsageError, also a ValueError)."""
 
     def __init__(self, names: tuple[str, ...]) -> None:
         self.columns = [(i, name, *ACTION_RANGES[name]) for i, name in enumerate(names)]
+        self.shape = (len(names),)
+        self.names = names
+
+    def hint(self) -> str:
+        return (f"give {len(self.names)} numbers, shape {self.shape} ({', '.join(self.names)}), "
+                "e.g. env.action_space.sample()")
 
     def read(self, action) -> tuple[float, float, float, float, int, bool]:
         """(steer, throttle, brake, clutch, gear, pit); gear 1 and the rest 0 when not actions."""
-        values = np.asarray(action, dtype=np.float64).tolist()
+        try:
+            array = np.asarray(action, dtype=np.float64)
+        except (ValueError, TypeError, OverflowError):
+            raise UsageError(f"the action {action!r:.60} is not numbers; {self.hint()}") from None
+        if array.shape != self.shape:
+            raise UsageError(f"the action has shape {array.shape}; {self.hint()}")
+        values = array.tolist()
         out = {}
         for i, name, lo, hi in self.columns:
             v = values[i]

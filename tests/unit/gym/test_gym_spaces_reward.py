@@ -8,6 +8,7 @@ import gymnasium
 import numpy as np
 import pytest
 
+from boxbox.errors import UsageError
 from boxbox.gym import reward as rw
 from boxbox.gym.spaces import OBSERVATION_FIELDS, ActionReader, ObservationLayout, Observer, action_space
 from boxbox.model import State
@@ -82,5 +83,5 @@ def test_limits_off_track_stuck_damage_and_race_end():
     assert watch.update(slow._replace(damage=150.0)) == "damage"
     assert watch.update(slow._replace(car_state=0x100)) == "race-end"
     assert watch.update(slow._replace(car_state=0x2)) == "out"
-    with pytest.raises(ValueError, match="off_track_s=-1 must be a positive number of seconds"):
+    with pytest.raises(UsageError, match=r"Invalid value for 'off_track_s': -1.0 is not in the range x>0\."):
         rw.Limits(off_track_s=-1)

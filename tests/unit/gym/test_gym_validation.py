@@ -1,0 +1,160 @@
+"""The env's options and actions, and the SCR server's messages, checked before anything runs:
+bad input is one UsageError (also a ValueError), never another exception (property-based)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from boxbox.errors import UsageError
+from boxbox.gym import env as env_module
+from boxbox.gym.env import TorcsEnv, check_reset_options
+from boxbox.gym.scr import Action, parse_init
+from boxbox.gym.spaces import ActionReader
+
+SCALARS = st.one_of(
+    st.none(), st.booleans(), st.integers(), st.floats(), st.text(max_size=20), st.binary(max_size=8),
+    st.sampled_from(["nan", "inf", "", "steer", "gears", "bt:2", "semi-pro", "last", "-5", "0"]),
+)
+ANYTHING = st.recursive(SCALARS, lambda inner: st.one_of(st.lists(inner, max_size=4), st.tuples(inner, inner),
+                                                         st.dictionaries(st.text(max_size=5), inner, max_size=2)),
+                        max_leaves=8)
+OPTIONS = ["track", "car", "opponents", "laps", "action_repeat", "actions", "assists", "flat",
+           "track_sensor_angles_deg", "reward_fn", "reward_weights", "max_damage", "off_track_s", "stuck_s",
+           "skill_level", "grid_position", "initial_fuel_l", "pit_fuel_l", "pit_repair", "cpu", "render_mode"]
+
+
+class SetUp(Exception):
+    """The env got as far as setting TORCS up: every option passed its check."""
+
+
+@pytest.fixture
+def no_setup(monkeypatch):
+    def ensure_ready(report=None):
+        raise SetUp
+
+    monkeypatch.setattr(env_module.setup, "ensure_ready", ensure_ready)
+
+
+def made(**kwargs) -> str | None:
+    """The UsageError line of TorcsEnv(**kwargs), or None when the options passed (up to the set-up)."""
+    try:
+        TorcsEnv(**kwargs)
+    except SetUp:
+        return None
+    except UsageError as exc:
+        assert str(exc) and "\n" not in str(exc)
+        return str(exc)
+    raise AssertionError("neither set up nor refused")
+
+
+@settings(max_examples=300, deadline=None, suppress_health_check=list(HealthCheck))
+@given(option=st.sampled_from(OPTIONS), value=ANYTHING)
+def test_any_value_of_any_option_passes_or_is_one_usage_error_before_torcs(no_setup, option, value):
+    made(**{option: value})
+
+
+def test_the_options_of_issue_48_are_refused_in_one_line(no_setup):
+    cases = [
+        ({"stuck_s": -1}, "Invalid value for 'stuck_s': -1.0 is not in the range x>0."),
+        ({"off_track_s": math.nan}, "Invalid value for 'off_track_s': nan is not a finite number."),
+        ({"max_damage": 0}, "Invalid value for 'max_damage': 0.0 is not in the range x>0."),
+        ({"initial_fuel_l": -5}, "Invalid value for 'initial_fuel_l': -5.0 is not in the range 0<=x<=1000.0."),
+        ({"track_sensor_angles_deg": ()}, "Invalid value for 'track_sensor_angles_deg': 0 angles: give 1 to 360"),
+        ({"track_sensor_angles_deg": (0, math.nan)}, "'track_sensor_angles_deg': nan is not a finite number."),
+        ({"laps": True}, "Invalid value for 'laps': True is not a valid integer."),
+        ({"actions": ("steer", "gas")}, "Invalid value for 'actions': 'gas' is not one of 'steer', 'throttle'"),
+        ({"action_repeat": 0}, "Invalid value for 'action_repeat': 0 is not in the range 1<=x<=1000."),
+        ({"grid_position": "first"}, "'first' is not a grid slot"),
+        ({"cpu": 4096}, "Invalid value for 'cpu': 4096 is not a core this process may use"),
+        ({"reward_fn": 3}, "Invalid value for 'reward_fn': 3 is not callable"),
+    ]
+    for kwargs, words in cases:
+        got = made(**kwargs)
+        assert got is not None and words in got, (kwargs, got)
+    # a string is a comma list, as on the command line (not its letters)
+    assert env_module.checked_actions("steer, throttle", "gears") == (("steer", "throttle"), ("gears",))
+    assert made(stuck_s=None, off_track_s=None, max_damage=5000, initial_fuel_l=0, opponents="bt:2,berniw:3",
+                track_sensor_angles_deg=(-45, 0, 45), grid_position="last") is None
+
+
+def test_reset_refuses_options_it_does_not_take():
+    check_reset_options(None)
+    check_reset_options({})
+    for options, words in (({"track": "e-track-2"}, "reset() does not take 'track' (reset options: none yet)"),
+                           ("track", "'track' is not a dict of reset options")):
+        with pytest.raises(UsageError, match=words.replace("(", r"\(").replace(")", r"\)")):
+            check_reset_options(options)
+
+
+READER = ActionReader(("steer", "throttle", "brake", "gear", "clutch", "pit"))
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.one_of(ANYTHING, st.lists(st.floats(), min_size=0, max_size=9),
+                 st.lists(st.floats(), min_size=6, max_size=6).map(np.array),
+                 st.lists(st.floats(width=32), min_size=6, max_size=6).map(lambda v: np.array(v, dtype=np.float32))))
+def test_an_action_is_read_into_range_or_refused(action):
+    try:
+        steer, throttle, brake, clutch, gear, pit = READER.read(action)
+    except UsageError as exc:
+        assert "give 6 numbers, shape (6,)" in str(exc) and "\n" not in str(exc)
+        return
+    assert np.shape(action) == (6,)
+    assert -1 <= steer <= 1 and 0 <= throttle <= 1 and 0 <= brake <= 1 and 0 <= clutch <= 1
+    assert -1 <= gear <= 6 and isinstance(pit, bool)
+
+
+def test_actions_of_the_wrong_shape_are_refused():
+    reader = ActionReader(("steer", "throttle", "brake"))
+    for action in (np.zeros(8), [0.0, 1.0], [[0.0, 1.0, 0.0]], 0.5, "abc", None, [0.0, "x", 1.0]):
+        with pytest.raises(UsageError, match=r"give 3 numbers, shape \(3,\) \(steer, throttle, brake\)"):
+            reader.read(action)
+
+
+# --- the SCR server's parsers: any datagram --------------------------------------------------------
+NEAR_MISSES = st.builds(lambda head, tokens: head + b" ".join(tokens) + b")",
+                        st.sampled_from([b"SCR(init ", b"(accel ", b"(steer ", b"(meta ", b"(focus ", b"ID(init"]),
+                        st.lists(st.text("-+.eE0123456789x", max_size=6).map(str.encode), max_size=20))
+
+
+@settings(max_examples=400, deadline=None)
+@given(st.one_of(st.binary(max_size=300), NEAR_MISSES,
+                 st.lists(NEAR_MISSES, max_size=6).map(b"".join)))
+def test_scr_parsers_take_any_bytes_and_never_raise(message):
+    angles = parse_init(message)
+    assert angles is None or (angles and all(isinstance(a, float) and math.isfinite(a) for a in angles))
+    action = Action()
+    before = dict(action.values)
+    taken = action.update(message)
+    assert isinstance(taken, bool)
+    assert all(isinstance(v, float) and math.isfinite(v) for v in action.values.values())
+    if not taken:
+        assert action.values == before  # a malformed message changes nothing
+    assert np.isfinite(action.vector()).all()
+
+
+def test_the_messages_that_killed_the_server_are_ignored():
+    assert parse_init(b"SCR(init - - - - - - - - - - - - - - - - - - -)") is None
+    assert parse_init(b"SCR(init 1e999 0)") is None  # not finite
+    action = Action()
+    assert action.update(b"(accel -)") is False and action.values["accel"] == 0.0
+    assert action.update(b"(accel 0.5)(brake .)") is False and action.values["accel"] == 0.0  # all or nothing
+    assert action.update(b"(accel 0.5)(brake 1e-1)") is True and action.vector()[1:3].tolist() == [0.5, 0.1]
+    assert action.update(b"(unknown 3)") is False
+
+
+def test_the_env_and_boxbox_race_say_the_same(no_setup, monkeypatch):
+    import boxbox
+    from boxbox.torcs import setup as torcs_setup
+
+    monkeypatch.setattr(torcs_setup, "ensure_ready", lambda report=None: pytest.fail("set up"))
+    for kwargs in ({"laps": 0}, {"laps": True}, {"skill_level": "expert"}, {"grid_position": "first"},
+                   {"opponents": 5}, {"track": ""}, {"car": None}):
+        with pytest.raises(UsageError) as from_api:
+            boxbox.race(**kwargs)
+        assert made(**kwargs) == str(from_api.value), kwargs
