@@ -284,7 +284,7 @@ def read_grid(race_file: Path) -> list[dict]:
     except (OSError, ET.ParseError):
         return []
     drivers = next((s for s in root.iter("section") if s.get("name") == "Drivers"), None)
-    grid = []
+    grid: list[dict] = []
     for entry in drivers.findall("section") if drivers is not None else []:
         attrs = {a.get("name"): a.get("val") for a in entry}
         grid.append({"car": len(grid), "module": attrs.get("module", ""), "idx": int(float(attrs.get("idx") or 0))})
