@@ -101,7 +101,8 @@ class RaceRecorder:
         if sim_time_s < self.next_s and sim_time_s != self.last_s or self.storage_error:
             return
         if sim_time_s >= self.next_s:
-            self.last_s, self.next_s = sim_time_s, (math.floor(sim_time_s * _PER_S) + 1) * SAMPLE_S
+            # (less a microsecond: 0.2 s x 10 + 1 is 0.30000000000000004 s, after the step at 0.3 s)
+            self.last_s, self.next_s = sim_time_s, (math.floor(sim_time_s * _PER_S + 1e-6) + 1) * SAMPLE_S - 1e-6
         rows = self.rows
         rows += HEAD.pack(robot, count, c.steer, c.accel, c.brake, c.clutch, 1.0 if c.pit_request else 0.0)
         rows += self.view[_HSIZE: _HSIZE + (N_STATE + count * N_OPP) * 8]
