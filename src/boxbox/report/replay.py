@@ -13,6 +13,7 @@ from __future__ import annotations
 import base64
 import html
 import json
+from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -179,3 +180,15 @@ def write_replay(run_dir: Path, out: Path | None = None) -> Path:
 
     write_text_atomic(out, page)
     return out
+
+
+def replay_line(run_dirs: Iterable[str], where: str = "each race's run_dir is in --json") -> str:
+    """A bench table's footer: how to watch one of its races (`boxbox replay` on its run dir), or why
+    none can be (no Python car in them, or cached races whose run dir was pruned or is from before
+    races were recorded: --no-cache races them again)."""
+    recorded = [d for d in dict.fromkeys(run_dirs) if d and (Path(d) / RECORDING_FILE).exists()]
+    if not recorded:
+        return ("replay: none of these races has a recording (races with a Python car have one; a cached "
+                "race's run dir may be gone: race again with --no-cache)")
+    return f"replay: boxbox replay {recorded[0]}" + (f"  ({len(recorded)} recorded; {where})" if len(recorded) > 1
+                                                     else "")
