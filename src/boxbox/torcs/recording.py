@@ -135,27 +135,47 @@ class RaceRecorder:
 
 
 # --- at the end: records -> rows ---------------------------------------------------------------
-def decode(data: bytes) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
-    """The records as (head, state, opponents (count x N_OPP)) float64 arrays; a record cut short
-    (a host killed while writing) ends the list."""
+@dataclass
+class Records:
+    """The decoded records, grouped by opponent count (it is the same all race long: TORCS lists
+    every car, out or not): per group the heads (n x N_HEAD), states (n x N_STATE) and opponents
+    (n x count x N_OPP), float64."""
+
+    groups: list[tuple[np.ndarray, np.ndarray, np.ndarray]]
+
+    def __len__(self) -> int:
+        return sum(len(head) for head, _, _ in self.groups)
+
+
+def decode(data: bytes) -> Records:
+    """The records of a recorder's bytes; a record cut short (a host killed while writing) ends them."""
     a = np.frombuffer(data, dtype="<f8", count=len(data) // 8)
-    out, i = [], 0
+    starts: dict[int, list[int]] = {}
+    i = 0
     while i + N_HEAD + N_STATE <= len(a):
         count = int(a[i + _H["count"]])
         end = i + N_HEAD + N_STATE + count * N_OPP
         if count < 0 or end > len(a):
             break
-        state = a[i + N_HEAD: i + N_HEAD + N_STATE]
-        out.append((a[i: i + N_HEAD], state, a[i + N_HEAD + N_STATE: end].reshape(count, N_OPP)))
+        starts.setdefault(count, []).append(i)
         i = end
-    return out
+    groups = []
+    for count, at in starts.items():
+        width = N_HEAD + N_STATE + count * N_OPP
+        rec = a[np.asarray(at)[:, None] + np.arange(width)[None, :]]
+        groups.append((rec[:, :N_HEAD], rec[:, N_HEAD: N_HEAD + N_STATE],
+                       rec[:, N_HEAD + N_STATE:].reshape(len(at), count, N_OPP)))
+    return Records(groups)
 
 
-def _own_rows(records, car_of_robot: dict[int, int]) -> dict[str, np.ndarray]:
+def _own_rows(records: Records, car_of_robot: dict[int, int]) -> dict[str, np.ndarray]:
     """One row per record: the Python car's own state and controls."""
-    head = np.array([r[0] for r in records]).reshape(-1, N_HEAD)
-    st = np.array([r[1] for r in records]).reshape(-1, N_STATE)
-    cars = np.array([car_of_robot.get(int(r), -1) for r in head[:, _H["robot"]]], dtype=np.int64)
+    head = np.concatenate([g[0] for g in records.groups]) if records.groups else np.zeros((0, N_HEAD))
+    st = np.concatenate([g[1] for g in records.groups]) if records.groups else np.zeros((0, N_STATE))
+    robots = head[:, _H["robot"]].astype(np.int64)
+    cars = np.full(len(robots), -1, dtype=np.int64)  # -1: a robot whose car is not known (dropped)
+    for robot, car in car_of_robot.items():
+        cars[robots == robot] = car
     cols = {"car": cars, "time_s": st[:, _S["sim_time_s"]], "python": np.ones(len(st), bool),
             "place": st[:, _S["position"]], "speed_mps": st[:, _S["speed_x_mps"]], "gear": st[:, _S["gear"]]}
     for name in ("lap", "dist_m", "dist_raced_m", "x_m", "y_m", "yaw_rad", "to_middle_m", "damage", "seg_id",
@@ -166,27 +186,29 @@ def _own_rows(records, car_of_robot: dict[int, int]) -> dict[str, np.ndarray]:
     return cols
 
 
-def _seen_rows(records) -> dict[str, np.ndarray]:
+def _seen_rows(records: Records) -> dict[str, np.ndarray]:
     """One row per opponent record: a car as a Python car saw it (its place from the order TORCS
     lists the cars in, which is the race order, the observer's own place left out)."""
-    parts = []
-    for _, state, opp in records:
-        if not len(opp):
+    times, places, opps = [], [], []
+    for _, state, opp in records.groups:
+        n, count = opp.shape[:2]
+        if not count:
             continue
-        k = np.arange(1, len(opp) + 1, dtype=float)
-        place = np.where(k < state[_S["position"]], k, k + 1)
-        parts.append(np.column_stack([np.full(len(opp), state[_S["sim_time_s"]]), place, opp]))
-    if not parts:
+        k = np.arange(1, count + 1, dtype=float)[None, :]
+        own = state[:, _S["position"]][:, None]
+        places.append(np.where(k < own, k, k + 1).ravel())
+        times.append(np.repeat(state[:, _S["sim_time_s"]], count))
+        opps.append(opp.reshape(n * count, N_OPP))
+    if not opps:
         return {}
-    rows = np.concatenate(parts)
-    o = rows[:, 2:]
-    cols = {"car": o[:, _O["car_index"]].astype(np.int64), "time_s": rows[:, 0], "python": np.zeros(len(rows), bool),
-            "place": rows[:, 1], "lap": o[:, _O["laps"]], "dist_m": o[:, _O["dist_from_start_m"]],
-            "speed_mps": o[:, _O["speed_x_mps"]]}
+    o = np.concatenate(opps)
+    cols = {"car": o[:, _O["car_index"]].astype(np.int64), "time_s": np.concatenate(times),
+            "python": np.zeros(len(o), bool), "place": np.concatenate(places), "lap": o[:, _O["laps"]],
+            "dist_m": o[:, _O["dist_from_start_m"]], "speed_mps": o[:, _O["speed_x_mps"]]}
     for name in ("dist_raced_m", "x_m", "y_m", "yaw_rad", "to_middle_m", "damage", "seg_id", "to_start",
                  "car_state"):
         cols[name] = o[:, _O[name]]
-    nan = np.full(len(rows), np.nan)
+    nan = np.full(len(o), np.nan)
     for name in ("steer", "accel", "brake", "clutch", "pit_request", "gear"):
         cols[name] = nan
     return cols
@@ -292,11 +314,11 @@ def read_grid(race_file: Path) -> list[dict]:
     return grid
 
 
-def _car_sizes(records, slots) -> dict[str, dict[str, float]]:
+def _car_sizes(records: Records, slots) -> dict[str, dict[str, float]]:
     """Each car's length and width (m): the Python cars' from their Car, the others' as seen."""
     sizes: dict[str, dict[str, float]] = {}
-    for _, _, opp in records[:50]:
-        for o in opp:
+    for _, _, opp in records.groups:
+        for o in opp[0]:
             sizes.setdefault(str(int(o[_O["car_index"]])), {"length_m": round(float(o[_O["length_m"]]), 3),
                                                            "width_m": round(float(o[_O["width_m"]]), 3)})
     for s in slots:

@@ -12,7 +12,7 @@
   const GAP_S = 0.5; // samples further apart are not interpolated (no Python car was driven between)
   const BEFORE_S = 3; // a click on an incident shows it from this long before
   const MIN_CAR_PX = 11; // cars drawn at least this long (a whole track at once shrinks them to dots)
-  const FOLLOW_SPAN_M = 160; // what the smaller side of the view shows when following a car
+  const FOLLOW_SPAN_M = 100; // what the smaller side of the view shows when following a car
   const KIND_COLORS = { contact: "#d62728", damage: "#ff7f0e", "off-track": "#8c564b", spin: "#9467bd",
     pass: "#2ca02c", "pit-stop": "#1f77b4", "missed-stop": "#17becf", fault: "#000000", stopped: "#555555" };
 
@@ -222,9 +222,13 @@
     const [L] = carBox(k);
     const text = (st.place ? "P" + st.place + " " : "") + cars[k].name;
     ctx.font = (k === state.follow ? "bold " : "") + "11px system-ui, sans-serif";
-    ctx.lineWidth = 3; ctx.strokeStyle = "rgba(255,255,255,.9)"; ctx.fillStyle = "#111";
     const lx = sx + L * 0.6 + 6, ly = sy - L * 0.6 - 4;
-    ctx.strokeText(text, lx, ly); ctx.fillText(text, lx, ly);
+    ctx.fillStyle = cars[k].color; // the car's colour before its name: which label is whose in a pack
+    ctx.fillRect(lx, ly - 9, 9, 9);
+    ctx.lineWidth = 1; ctx.strokeStyle = "#333";
+    ctx.strokeRect(lx + 0.5, ly - 8.5, 8, 8);
+    ctx.lineWidth = 3; ctx.strokeStyle = "rgba(255,255,255,.9)"; ctx.fillStyle = "#111";
+    ctx.strokeText(text, lx + 12, ly); ctx.fillText(text, lx + 12, ly);
   }
   function fmtTime(t) {
     const s = Math.max(0, t), m = Math.floor(s / 60);
