@@ -44,8 +44,9 @@ class Replay:
 
 
 def no_recording_error(run_dir: Path) -> UsageError:
-    return UsageError(f"{run_dir} has no recording ({RECORDING_FILE}): only races with a Python car are recorded "
-                      "(not TORCS robots alone, nor races run with --no-telemetry); race one with `boxbox race`")
+    return UsageError(f"{run_dir} has no recording ({RECORDING_FILE}): races with a Python car are recorded, not "
+                      "TORCS robots alone, nor races run with --no-telemetry or before boxbox recorded races; "
+                      "race it with `boxbox race`")
 
 
 def _read_json(path: Path) -> dict | None:
