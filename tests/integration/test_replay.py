@@ -240,3 +240,17 @@ def test_a_race_of_torcs_robots_alone_has_no_replay(tmp_path, overlay):
     lines = [ln for ln in proc.stderr.splitlines() if ln.strip()]
     assert proc.returncode == 2 and len(lines) == 1 and "no recording" in lines[0], proc.stderr
     assert not (run_dir / "replay.html").exists()
+
+
+def test_bench_and_sweep_tables_end_with_how_to_replay_a_race(tmp_path, overlay):
+    bench = run_boxbox("bench", "--tracks", "g-track-1", "--robots", "boxbox", "--laps", "1", "--no-cache",
+                       "--no-limit", "--json", str(tmp_path / "b.json"), timeout=300)
+    assert bench.returncode == 0, bench.stderr
+    [row] = read_json(tmp_path / "b.json")["rows"]
+    assert bench.stdout.strip().splitlines()[-1] == f"replay: boxbox replay {row['run_dir']}"
+    sweep = run_boxbox("sweep", "--tracks", "g-track-1", "--cars", "car1-trb1", "--laps", "1", "--no-cache",
+                       "--json", str(tmp_path / "s.json"), timeout=300)
+    assert sweep.returncode == 0, sweep.stderr
+    run_dir = read_json(tmp_path / "s.json")["rows"][0]["run_dir"]
+    assert f"replay: boxbox replay {run_dir}" in sweep.stdout
+    assert run_boxbox("replay", run_dir, "--out", str(tmp_path / "sweep.html")).returncode == 0

@@ -66,7 +66,7 @@ def bench(tracks, cars, robots, laps, together, jobs, no_cache, learning, settin
     out.print(result.table())
     if len(result.tracks) > 1 or len(result.cars) > 1:
         out.print(result.summary_table())
-    out.print(replay_line(r["run_dir"] for r in result.rows), markup=False, highlight=False)
+    out.print(replay_line(r["run_dir"] for r in result.rows), markup=False, highlight=False, soft_wrap=True)
     failed = sum(1 for r in result.rows if r["error"])
     err.print(f"[dim]{result.raced} raced, {result.cached} cached, {result.wall_s:.1f} s wall"
               + (f"; [red]{failed} rows with errors[/]" if failed else "") + "[/]")
@@ -236,7 +236,7 @@ def bench_field(tracks, robot, laps, jobs, repeats, no_cache, learning, settings
     out.print(result.table())
     out.print(result.summary_line())
     out.print(replay_line((r["run_dir"] for r in result.rows), "the run dir column, under the folder below"),
-              markup=False, highlight=False)
+              markup=False, highlight=False, soft_wrap=True)
     err.print(f"[dim]run dirs (for `boxbox report`) under {runs_root()}[/]")
     failed = sum(1 for r in result.rows if r["error"])
     err.print(f"[dim]{result.raced} raced, {result.cached} cached, {result.wall_s:.1f} s wall"
@@ -278,7 +278,8 @@ def _field_grid(spec, lengths: list[int], overlay, json_file, repeats: int, agai
     out.print(grid.table())
     for line in grid.summary_lines():
         out.print(line)
-    out.print(replay_line(r["run_dir"] for res in grid.results for r in res.rows), markup=False, highlight=False)
+    out.print(replay_line(r["run_dir"] for res in grid.results for r in res.rows), markup=False, highlight=False,
+              soft_wrap=True)
     err.print(f"[dim]run dirs (for `boxbox report`) under {runs_root()}[/]")
     raced, cached = sum(r.raced for r in grid.results), sum(r.cached for r in grid.results)
     wall = sum(r.wall_s for r in grid.results)
