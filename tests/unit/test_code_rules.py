@@ -27,7 +27,7 @@ ALLOWED["api"] = set(ALLOWED) - {"api"}
 ALLOWED["cli"] = set(ALLOWED) - {"cli"}
 ALLOWED["__init__"] = ALLOWED["__main__"] = set(ALLOWED) - {"__init__", "__main__"}
 # of torcs/, report/ reads only a run dir's files: it never starts TORCS
-REPORT_READS = {"results", "telemetry", "positions"}
+REPORT_READS = {"results", "telemetry", "positions", "recording"}
 MAX_FUNCTION_LINES = 60
 
 

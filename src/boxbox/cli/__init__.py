@@ -18,6 +18,7 @@ from boxbox.cli.info import cars, doctor, robots, setup, tracks
 from boxbox.cli.limit import limit
 from boxbox.cli.race import drill, params, race
 from boxbox.cli.reliability import soak, sweep
+from boxbox.cli.replay import replay
 from boxbox.cli.report import report
 from boxbox.cli.tune import bench_tune, tune
 from boxbox.errors import BoxboxError
@@ -32,12 +33,13 @@ def main_group() -> None:
       boxbox race --track g-track-1 --laps 2 --opponents bt:2
       boxbox bench --tracks e-track-2 --laps 30
       boxbox report RUN_DIR
+      boxbox replay RUN_DIR --open
     """
 
 
 for _command in (race, params, drill, setup, doctor, tracks, cars, robots, bench, bench_speed, bench_pits,
-                 bench_field, bench_telemetry, bench_learning, report, sweep, soak, scr_server, bench_gym, limit,
-                 tune, bench_tune):
+                 bench_field, bench_telemetry, bench_learning, report, replay, sweep, soak, scr_server, bench_gym,
+                 limit, tune, bench_tune):
     main_group.add_command(_command)
 
 

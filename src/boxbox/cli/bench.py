@@ -52,6 +52,7 @@ def bench(tracks, cars, robots, laps, together, jobs, no_cache, learning, settin
       boxbox bench --robots boxbox,my_robot.py:MyRobot --tracks all --json b.json
     """
     from boxbox.bench.bench import BenchSpec, expand_all, plan, run_bench
+    from boxbox.report.replay import replay_line
     from boxbox.robot.params import parse_set
     from boxbox.torcs import catalog
 
@@ -66,6 +67,7 @@ def bench(tracks, cars, robots, laps, together, jobs, no_cache, learning, settin
     out.print(result.table())
     if len(result.tracks) > 1 or len(result.cars) > 1:
         out.print(result.summary_table())
+    out.print(replay_line(r["run_dir"] for r in result.rows), markup=False, highlight=False, soft_wrap=True)
     failed = sum(1 for r in result.rows if r["error"])
     err.print(f"[dim]{result.raced} raced, {result.cached} cached, {result.wall_s:.1f} s wall"
               + (f"; [red]{failed} rows with errors[/]" if failed else "") + "[/]")
@@ -218,6 +220,7 @@ def bench_field(tracks, robot, laps, jobs, repeats, no_cache, learning, settings
     """
     from boxbox.bench.bench import expand_all
     from boxbox.bench.field import FieldSpec, run_field, runs_root
+    from boxbox.report.replay import replay_line
     from boxbox.robot.params import parse_set
     from boxbox.torcs import catalog
 
@@ -233,6 +236,8 @@ def bench_field(tracks, robot, laps, jobs, repeats, no_cache, learning, settings
     result = run_field(spec, overlay, err)
     out.print(result.table())
     out.print(result.summary_line())
+    out.print(replay_line((r["run_dir"] for r in result.rows), "the run dir column, under the folder below"),
+              markup=False, highlight=False, soft_wrap=True)
     err.print(f"[dim]run dirs (for `boxbox report`) under {runs_root()}[/]")
     failed = sum(1 for r in result.rows if r["error"])
     err.print(f"[dim]{result.raced} raced, {result.cached} cached, {result.wall_s:.1f} s wall"
@@ -268,11 +273,14 @@ def _field_grid(spec, lengths: list[int], overlay, json_file, repeats: int, agai
     """bench-field at several lengths or repeats: the places per track and race, wins and damage."""
     from boxbox.bench.field import runs_root
     from boxbox.bench.field_grid import run_field_grid
+    from boxbox.report.replay import replay_line
 
     grid = run_field_grid(spec, lengths, overlay, err, repeats)
     out.print(grid.table())
     for line in grid.summary_lines():
         out.print(line)
+    out.print(replay_line(r["run_dir"] for res in grid.results for r in res.rows), markup=False, highlight=False,
+              soft_wrap=True)
     err.print(f"[dim]run dirs (for `boxbox report`) under {runs_root()}[/]")
     raced, cached = sum(r.raced for r in grid.results), sum(r.cached for r in grid.results)
     wall = sum(r.wall_s for r in grid.results)

@@ -56,7 +56,8 @@ SET_HELP = "Override a parameter of the boxbox robot (see `boxbox params`), e.g.
 @click.option("--run-dir", type=OutputDir(), help="Keep this race's files here, e.g. out/r1 "
                                                   "(default: a new folder under the cache).")
 @click.option("--no-telemetry", is_flag=True,
-              help="Do not record telemetry (RUN_DIR/telemetry.parquet: every drive step of the Python cars).")
+              help="Do not record telemetry (RUN_DIR/telemetry.parquet: every drive step of the Python cars) "
+                   "nor the race for `boxbox replay`.")
 @click.option("--report", "report_dir", type=OutputDir(),
               help="Write the race report (report.html, see `boxbox report`) into this folder, e.g. out/.")
 @click.option("--grid-position", type=GridPosition(), default=None,

@@ -44,6 +44,7 @@ def sweep(robot, car, cars_track, tracks, cars, laps, jobs, no_cache, json_file,
     """
     from boxbox.bench.bench import expand_all
     from boxbox.bench.sweep import SweepSpec, check, command_line, run_sweep, write_outputs
+    from boxbox.report.replay import replay_line
     from boxbox.torcs import catalog
 
     overlay = ready()  # first: 'all' and every name are read from the installed TORCS
@@ -54,6 +55,7 @@ def sweep(robot, car, cars_track, tracks, cars, laps, jobs, no_cache, json_file,
     result = run_sweep(spec, overlay, err)
     result.command = command_line()
     out.print(result.table())
+    out.print(replay_line(r["run_dir"] for r in result.rows), markup=False, highlight=False, soft_wrap=True)
     write_outputs(result, json_file, markdown_file)
     err.print(f"[dim]{result.raced} raced, {result.cached} cached, {result.wall_s:.1f} s wall[/]")
     if result.failed:

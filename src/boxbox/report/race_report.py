@@ -533,7 +533,7 @@ def build_report(run_dir: Path, limit: tuple[np.ndarray, np.ndarray] | None = No
              f"· report made {time.strftime('%Y-%m-%d %H:%M:%S')}</p>"]
     if r.get("error"):
         parts.append(f"<div class='error'><b>The race stopped early:</b> {html.escape(r['error'])}</div>")
-    parts += ["<h2>Results</h2>", _results_table(r), "<h2>Lap times</h2>"]
+    parts += ["<h2>Results</h2>", _results_table(r), _replay_section(run_dir), "<h2>Lap times</h2>"]
     fig = fig_lap_times(drivers)
     if fig is not None:
         parts.append(_img(fig, "Lap times of every car, lap by lap"))
@@ -562,6 +562,16 @@ def build_report(run_dir: Path, limit: tuple[np.ndarray, np.ndarray] | None = No
     return (f"<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'><title>{title}</title>"
             f"<meta name='viewport' content='width=device-width, initial-scale=1'><style>{CSS}</style></head>"
             f"<body>{''.join(parts)}</body></html>\n")
+
+
+def _replay_section(run_dir: Path) -> str:
+    """The race to watch (report/replay.py's viewer), or why it cannot be."""
+    from boxbox.report.replay import build_replay, viewer_fragment
+
+    try:
+        return "<h2>Replay</h2>" + viewer_fragment(build_replay(run_dir))
+    except UsageError as exc:
+        return f"<h2>Replay</h2><p class='note'>{html.escape(str(exc))}</p>"
 
 
 def _car_section(d: dict, c: dict, track: dict, length: float, car_meta: dict, r: dict,

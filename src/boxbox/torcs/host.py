@@ -35,6 +35,7 @@ from boxbox.torcs import wire
 from boxbox.torcs.faults import Fault, FaultKind, RobotCall
 from boxbox.torcs.hostlink import HostLink
 from boxbox.torcs.pitwatch import PitWatch
+from boxbox.torcs.recording import RaceRecorder, write_recording
 from boxbox.torcs.rundir import RunDir
 from boxbox.torcs.telemetry import NO_NEAR, SPILL_BYTES, Recorder, nearest_car, write_telemetry
 from boxbox.torcs.timing import HEARTBEAT_S, MIN_SPEED_MPS, STEP_S, TimeModel
@@ -262,6 +263,8 @@ class Host:
         self._beat_due_ns = 0  # perf_counter_ns after which the next heartbeat is sent
         self.buf = bytearray(wire.MAX_MESSAGE_BYTES + 64)
         self.out = bytearray(wire.HEADER.size + 64)
+        # every car, 10 times a second, for `boxbox replay` (torcs/recording.py)
+        self.race_rec = RaceRecorder(self.buf, self.run_dir.recording_spool) if spec.get("telemetry", True) else None
 
     # --- replies and faults ----------------------------------------------------------------
     def _reply(self, conn: socket.socket, kind: int, robot: int, step: int, rec=None, values=(), flags=0) -> None:
@@ -337,6 +340,7 @@ class Host:
         row_view = memoryview(buf)[hsize: reply_at + hsize + wire.CONTROLS_REC.size]
         robot_controls = self._robot_controls
         near, no_near = nearest_car, NO_NEAR
+        race_rec = self.race_rec
 
         def drive(robot: int, step: int, count: int) -> None:
             t0 = perf_counter_ns()
@@ -360,6 +364,8 @@ class Host:
             except RobotFault as fault:
                 self._fail(conn, robot, step, "drive", fault, wire.CONTROLS)
                 return
+            if race_rec is not None:  # before the reply is packed over the opponents
+                race_rec.step(robot, vals[SIM_TIME_AT], count, c)
             pack_header(buf, reply_at, wire.CONTROLS, robot, step, 0)
             pack_controls(buf, reply_at + hsize, c.steer, c.accel, c.brake, c.clutch, c.gear,
                           1.0 if c.pit_request else 0.0)
@@ -572,7 +578,7 @@ class Host:
         Each robot's on_race_end has run by then (end_races), and its race_report comes after it."""
         self.end_races()
         self.link.send("summary", **self.cars_json())
-        telemetry_errors = self.write_telemetry()
+        telemetry_errors = self.write_telemetry() + write_recording(self.race_rec, self.run_dir, self.slots)
         if telemetry_errors:
             self.link.send("telemetry", errors=telemetry_errors)
 

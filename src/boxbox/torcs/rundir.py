@@ -16,6 +16,8 @@ What the folder holds, documented in docs/reliability.md:
 | `hang-traceback.txt` | robot host | where a hung robot was stuck (faulthandler, on SIGUSR1) |
 | `telemetry.parquet` | robot host | every drive step of the Python cars (`torcs/telemetry.py`) |
 | `.telemetry-N.rows`, `.sig` | robot host | telemetry spool while the race runs (removed at the end) |
+| `recording.parquet` | robot host | every car, 10 times a second, for `boxbox replay` (`torcs/recording.py`) |
+| `.telemetry-race.rows` | robot host | the recording's spool while the race runs (removed at the end) |
 | `result.json` | launcher | the race's result (`results.RaceResult`) |
 """
 
@@ -35,6 +37,7 @@ from boxbox.errors import UsageError
 
 RESULT_FILE = "result.json"  # the names others read: the report, the tests
 TELEMETRY_FILE = "telemetry.parquet"
+RECORDING_FILE = "recording.parquet"
 KEEP_RUNS_DEFAULT = 50  # automatic run dirs kept under CACHE/runs (BOXBOX_KEEP_RUNS overrides)
 AUTO_MARK = ".auto"
 
@@ -97,6 +100,15 @@ class RunDir:
         return self.path / TELEMETRY_FILE
 
     @property
+    def recording(self) -> Path:
+        return self.path / RECORDING_FILE
+
+    @property
+    def recording_spool(self) -> Path:
+        """The recording's spool (named like the telemetry's, so the same clean-ups remove it)."""
+        return self.path / ".telemetry-race.rows"
+
+    @property
     def result(self) -> Path:
         return self.path / RESULT_FILE
 
@@ -125,8 +137,8 @@ class RunDir:
 
     def clear_stale(self) -> None:
         """Remove what an earlier race in this folder left, so nothing of it is read as this race's."""
-        for path in (self.fault, self.hang_traceback, self.torcs_stack, self.telemetry, self.result, self.torcs_err,
-                     self.torcs_out):
+        for path in (self.fault, self.hang_traceback, self.torcs_stack, self.telemetry, self.recording, self.result,
+                     self.torcs_err, self.torcs_out):
             path.unlink(missing_ok=True)
         for spool in self.path.glob(".telemetry-*"):
             spool.unlink(missing_ok=True)
