@@ -2,7 +2,10 @@
 figures of a finished study (best against the defaults, time saved by pruning).
 
 Workers stop on Ctrl-C, SIGTERM or SIGHUP after the race that runs: its trial is marked failed
-and queued again (a resumed study runs it), so the study never holds a half-written trial.
+and queued again (a resumed study runs it), so the study never holds a half-written trial.  The
+front of `--workers N` reaps each worker as it ends; the trial of one that was killed (or failed)
+is failed and queued again at once, the others complete the study, and the run's Outcome names
+the workers lost (exit 5 after the summary: WorkerLost).
 """
 
 from __future__ import annotations
