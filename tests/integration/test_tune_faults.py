@@ -5,6 +5,7 @@ summary, the report and the setup file are written (docs/tuning.md, "Storage and
 
 from __future__ import annotations
 
+import contextlib
 import datetime
 import signal
 import subprocess
@@ -12,6 +13,7 @@ import sys
 import time
 import uuid
 from collections.abc import Callable
+from pathlib import Path
 
 import psutil
 import pytest
@@ -52,19 +54,44 @@ def forget(study: str) -> None:
 
 
 # --- the moments of a worker's life a kill lands in, seen from outside through its processes -----
-def at_start(worker: psutil.Process) -> None:
-    """As soon as it is seen: it is still importing, its study not opened."""
-
-
-def in_a_race(worker: psutil.Process) -> None:
+def in_a_race(worker: psutil.Process, study: str) -> None:
     """While its trial races (TORCS and the robot host are its children)."""
     _until(lambda: bool(worker.children()))
 
 
-def between_races(worker: psutil.Process) -> None:
+def between_races(worker: psutil.Process, study: str) -> None:
     """Right after its first race ended: it writes the trial's result and claims the next one."""
     _until(lambda: bool(worker.children()))
     _until(lambda: not worker.children())
+
+
+def in_its_claim(worker: psutil.Process, study: str) -> None:
+    """Inside its first claim, holding the claim lock: the test holds the journal's write lock a
+    moment at a time, so the worker stops at each of its writes, until the write it stops at is
+    its claim's (it holds NAME.lock then: /proc/locks); killed there, the lock still held."""
+    import fcntl
+
+    from boxbox.tune.storage import journal_path
+
+    claim, write = journal_path(study).with_suffix(".lock"), Path(f"{journal_path(study)}.flock")
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline:
+        with open(write, "a") as held:
+            fcntl.flock(held, fcntl.LOCK_EX)
+            time.sleep(0.05)  # the worker runs on to its next write, and waits there
+            if _holds(worker.pid, claim):  # killed as it waits, the write lock still ours: its claim never ends
+                worker.send_signal(signal.SIGKILL)
+                _until(lambda: not _exists_unreaped(worker.pid) or worker.status() == psutil.STATUS_ZOMBIE)
+                return
+        time.sleep(0.002)
+    raise AssertionError("the worker never claimed")
+
+
+def _holds(pid: int, path: Path) -> bool:
+    """Whether process pid holds an flock on path (a line of /proc/locks: ... FLOCK ... PID MAJ:MIN:INODE)."""
+    inode = f":{path.stat().st_ino} " if path.exists() else "?"
+    return any(" -> " not in line and f" {pid} " in line and inode in line
+               for line in Path("/proc/locks").read_text().splitlines())
 
 
 def _until(seen: Callable[[], bool], timeout_s: float = 60) -> None:
@@ -87,8 +114,8 @@ def workers_of(front: subprocess.Popen, n: int) -> list[psutil.Process]:
 
 
 @pytest.mark.parametrize("storage, victim, moment", [
-    ("journal", 2, at_start),
     ("journal", 2, in_a_race),
+    ("journal", 2, in_its_claim),
     ("journal", 1, between_races),
     ("postgres", 2, in_a_race),
     ("postgres", 1, between_races),
@@ -111,8 +138,9 @@ def test_a_worker_killed(overlay, request, tmp_path, storage, victim, moment):
                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         worker = workers_of(front, 2)[victim - 1]
-        moment(worker)
-        worker.send_signal(signal.SIGKILL)
+        moment(worker, study)
+        with contextlib.suppress(psutil.NoSuchProcess):  # in_its_claim killed it already
+            worker.send_signal(signal.SIGKILL)
         killed_at = datetime.datetime.now()
         _until(lambda: not _exists_unreaped(worker.pid) or front.poll() is not None, 5)  # reaped, no zombie
         out, err = front.communicate(timeout=RUN_TIMEOUT_S)
@@ -134,7 +162,8 @@ def test_a_worker_killed(overlay, request, tmp_path, storage, victim, moment):
             assert len(failed) == 1 and failed[0].user_attrs["worker"].split(":")[1] == str(worker.pid)
         for lost in failed:  # each lost trial raced again, at once, and the line says so
             again = next(t for t in trials if t.system_attrs.get("failed_trial") == lost.number)
-            assert again.state != optuna.trial.TrialState.FAIL and again.params == lost.params
+            assert again.state != optuna.trial.TrialState.FAIL
+            assert again.params == lost.params or not lost.params  # killed before it sampled: sampled afresh
             assert (again.datetime_start - killed_at).total_seconds() < 20  # not after the 60 s grace
             assert f"trial #{lost.number} failed and ran again as trial #{again.number}" in last
         if not failed:

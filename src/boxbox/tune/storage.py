@@ -34,6 +34,7 @@ from boxbox.errors import UsageError
 STUDY_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]{0,99}$")
 WORKER_ATTR = "worker"  # "host:pid:start" of the process running the trial
 ADVISORY_LOCK_KEY = 0x626F78  # PostgreSQL advisory lock taken while a worker claims a trial
+NO_WORKER_GRACE_S = 60.0  # a RUNNING journal trial that names no worker (not boxbox's claim) is stale after this
 SCHEMA_LOCK_KEY = 0x626F79  # PostgreSQL advisory lock taken while a process opens (and maybe makes) the schema
 
 
@@ -174,26 +175,26 @@ class Storage:
             if stale:
                 optuna.storages.fail_stale_trials(study)
             return stale
-        return self._fail_running(study, lambda tag: tag is None or not worker_alive(tag))
+        return self._fail_running(study, lambda trial: not worker_alive(trial.user_attrs[WORKER_ATTR])
+                                  if WORKER_ATTR in trial.user_attrs else _older_than(trial, NO_WORKER_GRACE_S))
 
     def fail_trials_of(self, study: Any, dead: set[str]) -> list[int]:
         """Fail (and queue again) the RUNNING trials of the workers tagged `dead` (the front saw
-        them end), and those no worker has noted; their numbers.  Under the claim lock."""
+        them end); their numbers.  Under the claim lock."""
         return [self.optuna.get_trial(i).number
-                for i in self._fail_running(study, lambda tag: tag is None or tag in dead)]
+                for i in self._fail_running(study, lambda trial: trial.user_attrs.get(WORKER_ATTR) in dead)]
 
-    def _fail_running(self, study: Any, dead: Callable[[str | None], bool]) -> list[int]:
-        """Fail the RUNNING trials whose worker tag `dead` takes for a dead worker's, each queued
-        again (Optuna's RetryHeartbeatStaleTrialCallback, at most max_retry times); their ids.
-        Called under the claim lock, where a RUNNING trial without a worker noted is a claim that
-        its worker did not live to finish (a claim notes its worker before it lets the lock go)."""
+    def _fail_running(self, study: Any, dead: Callable[[Any], bool]) -> list[int]:
+        """Fail the RUNNING trials `dead` takes for a dead worker's, each queued again (Optuna's
+        RetryHeartbeatStaleTrialCallback, at most max_retry times); their ids.  Under the claim
+        lock (a boxbox claim makes a trial RUNNING with its worker noted, study._ask)."""
         import optuna
         from optuna.storages import RetryHeartbeatStaleTrialCallback
 
         failed = []
         retry = RetryHeartbeatStaleTrialCallback(self.max_retry)
         for trial in study.get_trials(deepcopy=False, states=(optuna.trial.TrialState.RUNNING,)):
-            if not dead(trial.user_attrs.get(WORKER_ATTR)):
+            if not dead(trial):
                 continue
             try:
                 if not self.optuna.set_trial_state_values(trial._trial_id, optuna.trial.TrialState.FAIL):
@@ -203,6 +204,13 @@ class Storage:
             failed.append(trial._trial_id)
             retry(study, self.optuna.get_trial(trial._trial_id))
         return failed
+
+
+def _older_than(trial: Any, age_s: float) -> bool:
+    import datetime
+
+    started = trial.datetime_start or datetime.datetime.now()
+    return (datetime.datetime.now() - started).total_seconds() >= age_s
 
 
 def worker_tag(pid: int | None = None) -> str:

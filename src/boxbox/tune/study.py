@@ -102,25 +102,39 @@ def _claim(study: Any, storage: Storage, target: int) -> tuple[Any, bool]:
             return None, True
         if c.get("WAITING", 0) == 0 and finished + c.get("RUNNING", 0) >= target:
             return None, False  # others run the last trials: wait, one of them may die
-        trial = _ask(study, queued=c.get("WAITING", 0) > 0)
+        trial = _ask(study, queued=c.get("WAITING", 0) > 0, tag=worker_tag())
         # the first beat before anything else: Optuna never finds a trial without one stale, so a
         # worker killed between the two would leave it RUNNING for good
         storage.beat(trial._trial_id)
-        trial.set_user_attr(WORKER_ATTR, worker_tag())
         return trial, False
 
 
-def _ask(study: Any, queued: bool) -> Any:
-    """study.ask(), which first reads every trial to look for a queued one (7 SQL statements on a
-    database); when the count under the lock found none queued, the new trial is made directly, as
-    ask then does.  A trial queued meanwhile (Ctrl-C's retry, made outside the lock) replaces a
-    running one, so the count still holds, and the next claim takes it."""
-    if queued:
-        return study.ask()
+def _ask(study: Any, queued: bool, tag: str) -> Any:
+    """study.ask(), the trial noting its worker (`tag`) before it is RUNNING, so that a worker
+    killed at any moment of its claim leaves no RUNNING trial that names no worker, or another.
+    ask first reads every trial to look for a queued one (7 SQL statements on a database); when
+    the count under the lock found none queued, the new trial is made directly, as ask then does.
+    A trial queued meanwhile (Ctrl-C's retry, made outside the lock) replaces a running one, so the
+    count still holds, and the next claim takes it."""
+    import datetime
+
     import optuna
 
     study._thread_local.cached_all_trials = None  # as in ask: the trial's sampling reads the study afresh
-    return optuna.Trial(study, study._storage.create_new_trial(study._study_id))
+    storage = study._storage
+    running, waiting = optuna.trial.TrialState.RUNNING, optuna.trial.TrialState.WAITING
+    for queued_trial in storage.get_all_trials(study._study_id, deepcopy=False, states=(waiting,)) if queued else []:
+        storage.set_trial_user_attr(queued_trial._trial_id, WORKER_ATTR, tag)  # a retry has its dead worker's
+        try:
+            if storage.set_trial_state_values(queued_trial._trial_id, running):
+                return optuna.Trial(study, queued_trial._trial_id)
+        except optuna.exceptions.UpdateFinishedTrialError:
+            continue
+    template = optuna.trial.FrozenTrial(
+        number=-1, state=running, value=None, datetime_start=datetime.datetime.now(), datetime_complete=None,
+        params={}, distributions={}, user_attrs={WORKER_ATTR: tag}, system_attrs={}, intermediate_values={},
+        trial_id=-1)  # made RUNNING with its worker noted: one write
+    return optuna.Trial(study, storage.create_new_trial(study._study_id, template_trial=template))
 
 
 def _beating(storage: Storage, trial_id: int, interval_s: float) -> threading.Event:
