@@ -43,6 +43,14 @@ def load(storage_url: str | None, study: str):
     return study_obj
 
 
+def forget(study: str) -> None:
+    """The study's journal, its lock files and its setup in the cache."""
+    from boxbox.tune.storage import journal_path
+
+    for p in journal_path(study).parent.glob(f"{study}.*"):
+        p.unlink()
+
+
 def kill_mid_trial(proc: subprocess.Popen, storage_url: str | None, study: str, timeout_s: float = 60,
                    sig: int = signal.SIGKILL, fresh_s: float = 0.6) -> int:
     """Signal proc (SIGKILL) while a trial of its own is RUNNING, has its parameters (its races have
@@ -154,14 +162,12 @@ def test_journal_resumes_after_kill(overlay):
         setup = path.with_suffix(".toml")
         assert setup.read_text().count("mu_scale = ") == 1
     finally:
-        for p in (path, path.with_suffix(".lock"), path.with_suffix(".toml")):
-            p.unlink(missing_ok=True)
+        forget(study)
 
 
 def test_ctrl_c_leaves_no_half_written_trial(overlay):
     import optuna
 
-    from boxbox.tune.storage import journal_path
 
     study = f"int-{uuid.uuid4().hex[:8]}"
     try:
@@ -181,13 +187,10 @@ def test_ctrl_c_leaves_no_half_written_trial(overlay):
             assert trials[stopped].state == optuna.trial.TrialState.FAIL
             assert trials[-1].state == optuna.trial.TrialState.WAITING and trials[-1].params == trials[stopped].params
     finally:
-        path = journal_path(study)
-        for p in (path, path.with_suffix(".lock"), path.with_suffix(".toml")):
-            p.unlink(missing_ok=True)
+        forget(study)
 
 
 def test_two_local_workers_share_a_study(overlay, tmp_path):
-    from boxbox.tune.storage import journal_path
 
     study = f"two-{uuid.uuid4().hex[:8]}"
     try:
@@ -200,9 +203,7 @@ def test_two_local_workers_share_a_study(overlay, tmp_path):
         page = (tmp_path / "report.html").read_text()
         assert "Optimisation history" in page and page.count("data:image/png;base64") >= 2
     finally:
-        path = journal_path(study)
-        for p in (path, path.with_suffix(".lock"), path.with_suffix(".toml")):
-            p.unlink(missing_ok=True)
+        forget(study)
 
 
 @pytest.mark.parametrize("args, message", [
@@ -271,8 +272,8 @@ def test_a_users_robot_declares_its_own_parameters(overlay, tmp_path):
     assert bad.returncode == 2 and "searchable: accel, steer_gain_per_m, wide, mode" in bad.stderr
     from boxbox.tune.storage import journal_path
 
-    for p in (journal_path(study), journal_path(study).with_suffix(".lock")):
-        p.unlink()
+    assert journal_path(study).exists()
+    forget(study)
 
 
 def test_the_cautious_robot_of_the_docs_races_its_own_values(tmp_path):

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import re
 from pathlib import Path
 from typing import Any
@@ -23,6 +24,18 @@ class StudyName(click.ParamType):
         if not re.fullmatch(r"[A-Za-z0-9][A-Za-z0-9._-]{0,99}", str(value)):
             self.fail(f"{value!r}: a study name takes letters, digits, '.', '_' and '-', e.g. g1-mu.", param, ctx)
         return str(value)
+
+
+class SetupFile(OutputFile):
+    """--setup-out: an output file whose missing folder is made, as --report's folder is (the
+    folder above that exists must take it)."""
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        path = Path(os.path.abspath(os.path.expanduser(value)))
+        if path.parent.exists():
+            return super().convert(value, param, ctx)
+        OutputDir().convert(str(path.parent), param, ctx)
+        return path
 
 
 class StorageURL(click.ParamType):
@@ -68,7 +81,7 @@ class StorageURL(click.ParamType):
               help="A race that ends with more damage counts as a penalty.")
 @click.option("--seed", type=click.IntRange(0, 2**31 - 1), default=None, help="Sampler seed (one worker: repeatable).")
 @click.option("--no-prune", is_flag=True, help="Race every track of every trial (no median pruner).")
-@click.option("--setup-out", type=OutputFile(), default=None,
+@click.option("--setup-out", type=SetupFile(), default=None,
               help="Write the best parameters here as a setup (default: ~/.cache/boxbox/tune/NAME.toml); "
                    "race with them: boxbox race --setup FILE.")
 @click.option("--report", "report_dir", type=OutputDir(), default=None,
@@ -120,11 +133,13 @@ def tune(robot, tracks, param_names, trials, laps, car, study_name, storage, wor
               f"{laps} laps, {workers} worker(s)[/]")
     stop = studies.StopFlag()
     stop.install()
-    study = _run_with_progress(cfg, workers, stop, quiet)
-    _summary(cfg, study, setup_out, report_dir, compare=not (no_compare or stop.set),
-             pick=PickRule(pick, pick_radius / 100.0))
+    outcome = _run_with_progress(cfg, workers, stop, quiet)
+    # a lost worker costs the study nothing the others made up: summary, setup and report as ever
+    compare = not (no_compare or stop.set) and outcome.complete(trials)
+    _summary(cfg, outcome.study, setup_out, report_dir, compare=compare, pick=PickRule(pick, pick_radius / 100.0))
     if stop.set:
         raise Interrupted(f"tune stopped by a signal; the study keeps its finished trials: resume with --study {name}")
+    outcome.check(cfg)  # then the one line on the workers lost (exit 5, or 1 if the study is short)
 
 
 def _default_name(robot: str, tracks: list[str], params: list[str], laps: int) -> str:

@@ -18,6 +18,7 @@ import time
 import uuid
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 from boxbox.tune.objective import RaceScore, TuneConfig
@@ -48,7 +49,7 @@ class BenchTuneResult:
 
 def _cleanup(study: str) -> None:
     path = journal_path(study)
-    for p in (path, path.with_suffix(".lock"), path.with_suffix(".toml")):
+    for p in (path, path.with_suffix(".lock"), path.with_suffix(".toml"), Path(f"{path}.flock")):
         p.unlink(missing_ok=True)
 
 
@@ -61,9 +62,11 @@ def time_workers(base: TuneConfig, workers: int) -> tuple[float, float]:
     try:
         studies.prepare(cfg)
         started = time.monotonic()
-        studies.wait_workers(studies.spawn_workers(cfg, workers), lambda: None, studies.StopFlag())
+        lost = studies.wait_workers(studies.spawn_workers(cfg, workers), lambda: None, studies.StopFlag())
         wall = time.monotonic() - started
         study, _ = studies.open_study(cfg)
+        if lost:
+            raise RuntimeError(f"bench study {cfg.study}: {studies.lost_line(study, workers, lost)}")
         done = studies.counts(study).get("COMPLETE", 0)
         if done != cfg.trials:
             raise RuntimeError(f"bench study {cfg.study} ended with {done} of {cfg.trials} complete trials")
@@ -143,7 +146,7 @@ def generalisation(base: TuneConfig, train: list[str], test: list[str], trials: 
                               trials=trials, prune=True)
     try:
         report(f"generalisation: {trials} trials on {', '.join(train)}")
-        study = studies.run(cfg, workers, lambda s: None, studies.StopFlag())
+        study = studies.run(cfg, workers, lambda s: None, studies.StopFlag()).study
         picks = {label: rule.choose(study, cfg) for label, rule in GENERAL_PICKS.items()}
         best = {how: p.trial.params for how, p in picks.items() if p.trial is not None}
         rows = []

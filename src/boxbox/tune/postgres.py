@@ -72,7 +72,17 @@ class TempServer:
 
     @property
     def url(self) -> str:
-        return f"postgresql://{DB_USER}@/{DB_NAME}?host={self.folder}"
+        return self.url_of(DB_NAME)
+
+    def url_of(self, database: str) -> str:
+        return f"postgresql://{DB_USER}@/{database}?host={self.folder}"
+
+    def create_database(self, name: str) -> str:
+        """A new, empty database on the server (no Optuna schema yet); its URL."""
+        assert self.bin is not None, "the server is not started"
+        self._check(self._as_server([str(self.bin / "createdb"), "-h", str(self.folder), "-U", DB_USER, name]),
+                    f"createdb {name}")
+        return self.url_of(name)
 
     def _as_server(self, args: list[str]) -> subprocess.CompletedProcess:
         user = self.user

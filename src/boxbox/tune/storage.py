@@ -2,11 +2,15 @@
 
 - Default: an Optuna journal file in the cache (CACHE/tune/NAME.log), for the workers of one
   machine.  Optuna's journal has no heartbeat, so each trial notes its worker (host, pid and the
-  process's start time); a RUNNING trial whose worker process is gone is failed and queued again
-  (the same retry as Optuna's RetryHeartbeatStaleTrialCallback) by the next worker that looks.
+  process's start time); a RUNNING trial whose worker process is gone (or a zombie) is failed and
+  queued again (the same retry as Optuna's RetryHeartbeatStaleTrialCallback) by the next worker
+  that looks.  Its writes are serialised by an flock (NAME.log.flock), which dies with its holder.
 - `postgresql://USER@HOST/DB` (or `sqlite:///FILE`): Optuna's RDBStorage through SQLAlchemy and
   psycopg, with Optuna's heartbeat: a trial whose worker has not beaten for the grace period (any
-  machine) is failed and retried by RetryHeartbeatStaleTrialCallback.
+  machine) is failed and retried by RetryHeartbeatStaleTrialCallback.  Processes that open a fresh
+  database at once make its schema one at a time (an advisory lock).
+- The front of `--workers N` fails and queues again at once the trial of a worker it saw die
+  (fail_trials_of), on either storage.
 
 Workers take trials under a lock (a file lock, a PostgreSQL advisory lock), so that a study ends
 with exactly the asked number of finished trials however many workers join it.
@@ -21,7 +25,7 @@ import os
 import re
 import socket
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -30,7 +34,8 @@ from boxbox.errors import UsageError
 STUDY_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]{0,99}$")
 WORKER_ATTR = "worker"  # "host:pid:start" of the process running the trial
 ADVISORY_LOCK_KEY = 0x626F78  # PostgreSQL advisory lock taken while a worker claims a trial
-NO_WORKER_GRACE_S = 60.0  # a RUNNING journal trial that never noted its worker is stale after this
+NO_WORKER_GRACE_S = 60.0  # a RUNNING journal trial that names no worker (not boxbox's claim) is stale after this
+SCHEMA_LOCK_KEY = 0x626F79  # PostgreSQL advisory lock taken while a process opens (and maybe makes) the schema
 
 
 def journal_path(study: str) -> Path:
@@ -83,15 +88,18 @@ class Storage:
             path = journal_path(study)
             path.parent.mkdir(parents=True, exist_ok=True)
             self.path: Path | None = path
-            self.optuna: Any = optuna.storages.JournalStorage(JournalFileBackend(str(path)))
+            lock: Any = FlockLock(Path(f"{path}.flock"))  # Optuna calls its acquire and release only
+            backend = JournalFileBackend(str(path), lock_obj=lock)
+            self.optuna: Any = optuna.storages.JournalStorage(backend)
             return
         self.path = None
         from optuna.storages import RetryHeartbeatStaleTrialCallback
 
         try:
-            self.optuna = optuna.storages.RDBStorage(
-                sqlalchemy_url(url), heartbeat_interval=heartbeat_s,
-                grace_period=grace_s, heartbeat_stale_trial_callback=RetryHeartbeatStaleTrialCallback(max_retry))
+            with _schema_lock(url):  # Optuna makes a fresh database's schema: one process at a time
+                self.optuna = optuna.storages.RDBStorage(
+                    sqlalchemy_url(url), heartbeat_interval=heartbeat_s, grace_period=grace_s,
+                    heartbeat_stale_trial_callback=RetryHeartbeatStaleTrialCallback(max_retry))
         except UsageError:
             raise
         except Exception as exc:  # sqlalchemy's ArgumentError, OperationalError...
@@ -167,52 +175,121 @@ class Storage:
             if stale:
                 optuna.storages.fail_stale_trials(study)
             return stale
-        return self._fail_dead_local(study)
+        return self._fail_running(study, lambda trial: not worker_alive(trial.user_attrs[WORKER_ATTR])
+                                  if WORKER_ATTR in trial.user_attrs else _older_than(trial, NO_WORKER_GRACE_S))
 
-    def _fail_dead_local(self, study: Any) -> list[int]:
-        import datetime
+    def fail_trials_of(self, study: Any, dead: set[str]) -> list[int]:
+        """Fail (and queue again) the RUNNING trials of the workers tagged `dead` (the front saw
+        them end); their numbers.  Under the claim lock."""
+        return [self.optuna.get_trial(i).number
+                for i in self._fail_running(study, lambda trial: trial.user_attrs.get(WORKER_ATTR) in dead)]
 
+    def _fail_running(self, study: Any, dead: Callable[[Any], bool]) -> list[int]:
+        """Fail the RUNNING trials `dead` takes for a dead worker's, each queued again (Optuna's
+        RetryHeartbeatStaleTrialCallback, at most max_retry times); their ids.  Under the claim
+        lock (a boxbox claim makes a trial RUNNING with its worker noted, study._ask)."""
         import optuna
         from optuna.storages import RetryHeartbeatStaleTrialCallback
 
         failed = []
         retry = RetryHeartbeatStaleTrialCallback(self.max_retry)
         for trial in study.get_trials(deepcopy=False, states=(optuna.trial.TrialState.RUNNING,)):
-            worker = trial.user_attrs.get(WORKER_ATTR)
-            if worker is None:
-                started = trial.datetime_start or datetime.datetime.now()
-                if (datetime.datetime.now() - started).total_seconds() < NO_WORKER_GRACE_S:
-                    continue
-            elif worker_alive(worker):
+            if not dead(trial):
                 continue
-            if self.optuna.set_trial_state_values(trial._trial_id, optuna.trial.TrialState.FAIL):
-                failed.append(trial._trial_id)
-                retry(study, self.optuna.get_trial(trial._trial_id))
+            try:
+                if not self.optuna.set_trial_state_values(trial._trial_id, optuna.trial.TrialState.FAIL):
+                    continue
+            except optuna.exceptions.UpdateFinishedTrialError:
+                continue  # failed by another process meanwhile
+            failed.append(trial._trial_id)
+            retry(study, self.optuna.get_trial(trial._trial_id))
         return failed
 
 
-def worker_tag() -> str:
-    """host:pid:start time of this process (the start time tells a reused pid apart)."""
-    return f"{socket.gethostname()}:{os.getpid()}:{_start_ticks(os.getpid())}"
+def _older_than(trial: Any, age_s: float) -> bool:
+    import datetime
+
+    started = trial.datetime_start or datetime.datetime.now()
+    return (datetime.datetime.now() - started).total_seconds() >= age_s
 
 
-def _start_ticks(pid: int) -> str:
+def worker_tag(pid: int | None = None) -> str:
+    """host:pid:start time of this process, or of process pid (the start time tells a reused pid
+    apart)."""
+    pid = os.getpid() if pid is None else pid
+    return f"{socket.gethostname()}:{pid}:{_start_ticks(pid)}"
+
+
+def _stat_fields(pid: int) -> list[str] | None:
+    """The fields of /proc/PID/stat after the command name (field 3, the state, first), or None."""
     try:
         stat = Path(f"/proc/{pid}/stat").read_text()
     except OSError:
-        return "?"
-    return stat.rpartition(")")[2].split()[19]  # field 22, starttime, counted after the ")"
+        return None
+    return stat.rpartition(")")[2].split()
+
+
+def _start_ticks(pid: int) -> str:
+    fields = _stat_fields(pid)
+    return fields[19] if fields else "?"  # field 22, starttime
 
 
 def worker_alive(tag: str) -> bool:
     """Whether the worker named by tag still runs (a worker of another host counts as alive: the
-    journal file is for one machine)."""
+    journal file is for one machine).  A zombie is dead: it keeps its /proc entry until its parent
+    reaps it, but it runs nothing."""
     host, _, rest = tag.partition(":")
     pid_text, _, start = rest.partition(":")
     if host != socket.gethostname():
         return True
     try:
-        pid = int(pid_text)
+        fields = _stat_fields(int(pid_text))
     except ValueError:
         return False
-    return _start_ticks(pid) == start
+    return fields is not None and fields[19] == start and fields[0] not in ("Z", "X")
+
+
+class FlockLock:
+    """The lock of Optuna's journal writes as an flock on a file of its own: the kernel lets it go
+    when its holder dies (Optuna's default lock, a symlink, outlives a worker killed while it
+    writes, and stalls every other writer for its 30 s grace period)."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        self._fd: int | None = None
+
+    def acquire(self) -> bool:
+        fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o666)
+        fcntl.flock(fd, fcntl.LOCK_EX)
+        self._fd = fd
+        return True
+
+    def release(self) -> None:
+        fd, self._fd = self._fd, None
+        if fd is not None:
+            os.close(fd)  # closing drops the flock
+
+
+@contextlib.contextmanager
+def _schema_lock(url: str) -> Iterator[None]:
+    """Held while a process opens a database storage, in which Optuna makes the schema of a fresh
+    database: a PostgreSQL advisory lock in a transaction of its own (two processes making it at
+    once collide on its type names: UniqueViolation), a file lock beside a SQLite file."""
+    if url.startswith("sqlite:///"):
+        with open(url.removeprefix("sqlite:///") + ".lock", "a") as f:
+            fcntl.flock(f, fcntl.LOCK_EX)  # closing the file lets it go
+            yield
+        return
+    if not url.startswith("postgres"):
+        yield
+        return
+    import sqlalchemy
+    from sqlalchemy.pool import NullPool
+
+    engine = sqlalchemy.create_engine(sqlalchemy_url(url), poolclass=NullPool)
+    try:
+        with engine.begin() as conn:  # the transaction's end, or its connection's, lets the lock go
+            conn.execute(sqlalchemy.text("SELECT pg_advisory_xact_lock(:k)"), {"k": SCHEMA_LOCK_KEY})
+            yield
+    finally:
+        engine.dispose()

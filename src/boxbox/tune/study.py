@@ -2,7 +2,10 @@
 figures of a finished study (best against the defaults, time saved by pruning).
 
 Workers stop on Ctrl-C, SIGTERM or SIGHUP after the race that runs: its trial is marked failed
-and queued again (a resumed study runs it), so the study never holds a half-written trial.
+and queued again (a resumed study runs it), so the study never holds a half-written trial.  The
+front of `--workers N` reaps each worker as it ends; the trial of one that was killed (or failed)
+is failed and queued again at once, the others complete the study, and the run's Outcome names
+the workers lost (exit 5 after the summary: WorkerLost).
 """
 
 from __future__ import annotations
@@ -18,6 +21,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
+from boxbox.errors import BoxboxError
 from boxbox.tune.objective import RESULT_ATTR, TrialInterrupted, TuneConfig, make_objective, sweep_dead_runs
 from boxbox.tune.storage import WORKER_ATTR, Storage, worker_tag
 
@@ -98,25 +102,39 @@ def _claim(study: Any, storage: Storage, target: int) -> tuple[Any, bool]:
             return None, True
         if c.get("WAITING", 0) == 0 and finished + c.get("RUNNING", 0) >= target:
             return None, False  # others run the last trials: wait, one of them may die
-        trial = _ask(study, queued=c.get("WAITING", 0) > 0)
+        trial = _ask(study, queued=c.get("WAITING", 0) > 0, tag=worker_tag())
         # the first beat before anything else: Optuna never finds a trial without one stale, so a
         # worker killed between the two would leave it RUNNING for good
         storage.beat(trial._trial_id)
-        trial.set_user_attr(WORKER_ATTR, worker_tag())
         return trial, False
 
 
-def _ask(study: Any, queued: bool) -> Any:
-    """study.ask(), which first reads every trial to look for a queued one (7 SQL statements on a
-    database); when the count under the lock found none queued, the new trial is made directly, as
-    ask then does.  A trial queued meanwhile (Ctrl-C's retry, made outside the lock) replaces a
-    running one, so the count still holds, and the next claim takes it."""
-    if queued:
-        return study.ask()
+def _ask(study: Any, queued: bool, tag: str) -> Any:
+    """study.ask(), the trial noting its worker (`tag`) before it is RUNNING, so that a worker
+    killed at any moment of its claim leaves no RUNNING trial that names no worker, or another.
+    ask first reads every trial to look for a queued one (7 SQL statements on a database); when
+    the count under the lock found none queued, the new trial is made directly, as ask then does.
+    A trial queued meanwhile (Ctrl-C's retry, made outside the lock) replaces a running one, so the
+    count still holds, and the next claim takes it."""
+    import datetime
+
     import optuna
 
     study._thread_local.cached_all_trials = None  # as in ask: the trial's sampling reads the study afresh
-    return optuna.Trial(study, study._storage.create_new_trial(study._study_id))
+    storage = study._storage
+    running, waiting = optuna.trial.TrialState.RUNNING, optuna.trial.TrialState.WAITING
+    for queued_trial in storage.get_all_trials(study._study_id, deepcopy=False, states=(waiting,)) if queued else []:
+        storage.set_trial_user_attr(queued_trial._trial_id, WORKER_ATTR, tag)  # a retry has its dead worker's
+        try:
+            if storage.set_trial_state_values(queued_trial._trial_id, running):
+                return optuna.Trial(study, queued_trial._trial_id)
+        except optuna.exceptions.UpdateFinishedTrialError:
+            continue
+    template = optuna.trial.FrozenTrial(
+        number=-1, state=running, value=None, datetime_start=datetime.datetime.now(), datetime_complete=None,
+        params={}, distributions={}, user_attrs={WORKER_ATTR: tag}, system_attrs={}, intermediate_values={},
+        trial_id=-1)  # made RUNNING with its worker noted: one write
+    return optuna.Trial(study, storage.create_new_trial(study._study_id, template_trial=template))
 
 
 def _beating(storage: Storage, trial_id: int, interval_s: float) -> threading.Event:
@@ -221,18 +239,45 @@ def _fail_and_requeue(study: Any, trial: Any, why: str) -> None:
 
 
 # --- several local workers ------------------------------------------------------------------------
-def spawn_workers(cfg: TuneConfig, n: int) -> list[subprocess.Popen]:
+@dataclass
+class Worker:
+    """A worker process of the front: its number (1..N), process and tag (as its trials note it)."""
+
+    number: int
+    proc: subprocess.Popen
+    tag: str
+    lost_trials: list[int] = dataclasses.field(default_factory=list)  # failed by the front when it died
+
+    @property
+    def how_it_ended(self) -> str:
+        code = self.proc.returncode
+        if code is not None and code < 0:
+            try:
+                return f"killed by {signal.Signals(-code).name}"
+            except ValueError:
+                return f"killed by signal {-code}"
+        return f"failed with exit status {code} (its error is above)"
+
+    @property
+    def lost(self) -> bool:
+        """Ended without finishing its part (a stop signal's 130 is a finish)."""
+        return self.proc.returncode not in (None, 0, 130, -signal.SIGINT)
+
+
+def spawn_workers(cfg: TuneConfig, n: int) -> list[Worker]:
     """n worker processes (python -m boxbox.tune.worker), worker i racing on core i (mod the cores);
     each dies with this process."""
     cpus = sorted(os.sched_getaffinity(0))
-    procs = []
+    workers = []
     for i in range(n):
         cpu = cpus[i % len(cpus)] if cpus else -1
         # each worker its own seed: with one seed they would sample the same points side by side
         seeded = cfg if cfg.seed is None else dataclasses.replace(cfg, seed=cfg.seed + i)
-        procs.append(subprocess.Popen([sys.executable, "-m", "boxbox.tune.worker", seeded.to_json(), str(cpu)],
-                                      stdin=subprocess.DEVNULL, preexec_fn=_die_with_parent))
-    return procs
+        proc = subprocess.Popen([sys.executable, "-m", "boxbox.tune.worker", seeded.to_json(), str(cpu)],
+                                stdin=subprocess.DEVNULL, preexec_fn=_die_with_parent)
+        # Popen returns after the exec: the pid and its start time are the worker's own from here
+        workers.append(Worker(i + 1, proc, worker_tag(proc.pid)))
+    return workers
 
 
 def _die_with_parent() -> None:
@@ -308,24 +353,74 @@ def compare(cfg: TuneConfig, candidates: dict[str, dict], tracks: list[str] | No
     return rows
 
 
-def wait_workers(procs: list[subprocess.Popen], tick: Callable[[], None], stop: StopFlag) -> None:
-    """Until every worker has ended: tick() every second; on a stop signal, pass it on once.  A
-    worker that failed (its error is on stderr already) is an error once all have ended."""
+def wait_workers(workers: list[Worker], tick: Callable[[], None], stop: StopFlag,
+                 reclaim: Callable[[Worker], list[int]] | None = None) -> list[Worker]:
+    """Until every worker has ended: each polled (so reaped) every half second, tick() between; on
+    a stop signal, pass it on once.  A worker lost (killed, or failed: its error is on its stderr)
+    is handed to reclaim at once, which fails and queues again the trial it ran, so the others
+    need not wait for its heartbeat to go stale.  The workers lost."""
     passed = False
-    while any(p.poll() is None for p in procs):
+    running = list(workers)
+    while running:
         if stop.set and not passed:
-            for p in procs:
-                if p.poll() is None:
-                    p.send_signal(signal.SIGINT)
+            for w in running:
+                w.proc.send_signal(signal.SIGINT)
             passed = True
+        for w in [w for w in running if w.proc.poll() is not None]:  # every one polled: none left a zombie
+            running.remove(w)
+            if w.lost and reclaim is not None:
+                w.lost_trials = reclaim(w)
         tick()
-        time.sleep(0.5)
-    tick()
-    failed = [p.returncode for p in procs if p.returncode not in (0, 130, -signal.SIGINT)]
-    if failed:
-        from boxbox.errors import BoxboxError
+        if running:
+            time.sleep(0.5)
+    return [w for w in workers if w.lost]
 
-        raise BoxboxError(f"{len(failed)} of {len(procs)} workers failed (exit status {failed[0]}); see above")
+
+def reclaimer(study: Any, storage: Storage) -> Callable[[Worker], list[int]]:
+    """reclaim for wait_workers: the RUNNING trials of a worker that died (and any trial claimed by
+    a worker killed inside its claim) failed and queued again, under the claim lock; their numbers."""
+
+    def reclaim(worker: Worker) -> list[int]:
+        try:
+            with storage.claim_lock():
+                return storage.fail_trials_of(study, {worker.tag})
+        except Exception:  # the storage is down too: the other workers' own checks find the trial
+            return []
+
+    return reclaim
+
+
+def lost_trials(study: Any, worker: Worker) -> list[int]:
+    """The trials a lost worker did not finish: those the front failed for it and the one its tag
+    marks as failed by another worker's check (a robot's error or a stop signal are noted, a
+    death is not)."""
+    import optuna
+
+    found = set(worker.lost_trials)
+    for t in study.get_trials(deepcopy=False, states=(optuna.trial.TrialState.FAIL,)):
+        if t.user_attrs.get(WORKER_ATTR) == worker.tag and not {"error", "stopped"} & t.user_attrs.keys():
+            found.add(t.number)
+    return sorted(found)
+
+
+def fate(study: Any, number: int) -> str:
+    """What became of lost trial `number`: the trial that raced its values again, or why none did."""
+    retries = [t for t in study.get_trials(deepcopy=False)
+               if (t.system_attrs.get("retry_history") or [None])[-1] == number]
+    if not retries:
+        return f"trial #{number} failed and was not run again (retried too often)"
+    again = retries[0]
+    return f"trial #{number} failed and ran again as trial #{again.number} ({again.state.name.lower()})"
+
+
+def lost_line(study: Any, workers: int, lost: list[Worker]) -> str:
+    """One line: each lost worker, how it ended and what became of its trial."""
+    parts = []
+    for w in lost:
+        numbers = lost_trials(study, w)
+        what = ", ".join(fate(study, n) for n in numbers) if numbers else "between trials, no trial lost"
+        parts.append(f"worker {w.number} of {workers} (pid {w.proc.pid}), {w.how_it_ended}: {what}")
+    return "; ".join(parts)
 
 
 # --- a whole run: the study made, its workers run, watched -------------------------------------------
@@ -355,11 +450,42 @@ def prepare(cfg: TuneConfig) -> Any:
     return study
 
 
-def run(cfg: TuneConfig, workers: int, tick: Callable[[Any], None], stop: StopFlag) -> Any:
+class WorkerLost(BoxboxError):
+    """The study completed (its summary, setup and report written) without a worker that was killed
+    or failed on the way: exit 5, so a job script can tell it from a clean run and from a failure."""
+
+    exit_code = 5
+
+
+@dataclass
+class Outcome:
+    """A run's study, and the local workers it lost (killed, or failed) on the way."""
+
+    study: Any
+    workers: int = 1
+    lost: list[Worker] = dataclasses.field(default_factory=list)
+
+    def complete(self, trials: int) -> bool:
+        return progress(self.study).finished >= trials
+
+    def check(self, cfg: TuneConfig) -> None:
+        """Raise for the workers lost: WorkerLost when the others completed the study, a plain
+        error (exit 1) when it stopped short."""
+        if not self.lost:
+            return
+        line = lost_line(self.study, self.workers, self.lost)
+        if self.complete(cfg.trials):
+            raise WorkerLost(f"the study completed without {line}")
+        raise BoxboxError(f"the study stopped at {progress(self.study).finished} of {cfg.trials} finished trials: "
+                          f"{line}; its finished trials are kept: resume with --study {cfg.study}")
+
+
+def run(cfg: TuneConfig, workers: int, tick: Callable[[Any], None], stop: StopFlag) -> Outcome:
     """Run the study to cfg.trials finished trials with `workers` local workers (1: this process),
-    calling tick(study) about every second; returns the study."""
+    calling tick(study) about every second."""
     study = prepare(cfg)
-    watcher, _ = open_study(cfg)  # its own storage connection: the worker's is busy in races
+    watcher, storage = open_study(cfg)  # its own storage connection: the worker's is busy in races
+    lost: list[Worker] = []
     if workers == 1:
         done = threading.Event()
 
@@ -378,6 +504,8 @@ def run(cfg: TuneConfig, workers: int, tick: Callable[[Any], None], stop: StopFl
             done.set()
             thread.join()
     else:
-        wait_workers(spawn_workers(cfg, workers), lambda: tick(watcher), stop)
+        lost = wait_workers(spawn_workers(cfg, workers), lambda: tick(watcher), stop,
+                            reclaimer(watcher, storage))
+        sweep_dead_runs()  # the race folders of a killed worker
     tick(watcher)
-    return study
+    return Outcome(study, workers, lost)
