@@ -1,7 +1,8 @@
 """The `boxbox` command line: one click group, its commands in this package (thin: they read the
 options, set up TORCS, call boxbox.torcs / boxbox.bench / boxbox.report and print).
 
-Bad input exits 2 with one line, a failed set-up 3, a failed race 4, Ctrl-C or SIGTERM 130.
+Bad input exits 2 with one line, a failed set-up 3, a failed race 4, a tune study that completed
+though a worker was lost 5 (docs/tuning.md), Ctrl-C or SIGTERM 130.
 """
 
 from __future__ import annotations
