@@ -14,13 +14,14 @@ from boxbox.cli.types import (
     GridPosition,
     LapLengths,
     OutputFile,
+    WholeNumber,
     bench_race_options,
     skill_level_option,
 )
 
 DEFAULT_TRACKS = "e-track-2,e-track-4,mixed-2,g-track-1,aalborg,michigan"
 DEFAULT_ROBOTS = "boxbox,bt:2,berniw:3,inferno:3,olethros:2"
-JOBS = click.IntRange(1, 64)
+JOBS = WholeNumber(1, 64)
 
 
 @click.command("bench")
@@ -93,7 +94,7 @@ def _grid_slot(position: int | str | None, robots: list[str], together: bool) ->
 @click.command("bench-speed")
 @click.option("--track", default="g-track-1", show_default=True, help="Track name, e.g. e-track-2.")
 @click.option("--laps", type=LAPS, default=20, show_default=True, help="Race length in laps.")
-@click.option("--runs", type=click.IntRange(1, 50), default=3, show_default=True, help="Races per robot.")
+@click.option("--runs", type=WholeNumber(1, 50), default=3, show_default=True, help="Races per robot.")
 @click.option("--robot", default="boxbox", show_default=True, help="Python robot to time, e.g. my_robot.py:MyRobot.")
 @click.option("--against", default="bt:2", show_default=True, help="TORCS robot to compare with, e.g. berniw:3.")
 @skill_level_option
@@ -111,7 +112,7 @@ def bench_speed(track, laps, runs, robot, against, skill_level) -> None:
 @click.command("bench-pits")
 @click.option("--tracks", type=CommaList("TRACK,..."), default="g-track-1,e-track-2,e-track-4,aalborg",
               show_default=True, help="Tracks with a pit lane, comma separated.")
-@click.option("--laps", type=click.IntRange(2, 10_000), default=6, show_default=True,
+@click.option("--laps", type=WholeNumber(2, 10_000), default=6, show_default=True,
               help="Race length; stops are asked on every lap but the last.")
 @click.option("--jobs", type=JOBS, default=2, show_default=True, help="Races run in parallel.")
 @click.option("--json", "json_file", type=OutputFile(), help="Write the rows as JSON.")
@@ -134,7 +135,7 @@ def bench_pits(tracks, laps, jobs, json_file, skill_level) -> None:
 @click.command("bench-learning")
 @click.option("--tracks", type=CommaList("TRACK,..."), default=DEFAULT_TRACKS, show_default=True,
               help="Tracks, comma separated.")
-@click.option("--races", type=click.IntRange(2, 50), default=5, show_default=True,
+@click.option("--races", type=WholeNumber(2, 50), default=5, show_default=True,
               help="Races in a row per track on one learning store.")
 @click.option("--laps", type=LAPS, default=3, show_default=True, help="Race length in laps.")
 @click.option("--robot", default="boxbox", show_default=True, help="Python robot that learns.")
@@ -162,7 +163,7 @@ def bench_learning(tracks, races, laps, robot, jobs, json_file, skill_level) -> 
 @click.command("bench-telemetry")
 @click.option("--track", default="g-track-1", show_default=True, help="Track name, e.g. e-track-2.")
 @click.option("--laps", type=LAPS, default=20, show_default=True, help="Race length in laps.")
-@click.option("--runs", type=click.IntRange(1, 50), default=5, show_default=True,
+@click.option("--runs", type=WholeNumber(1, 50), default=5, show_default=True,
               help="Races with telemetry on, and as many with it off.")
 @click.option("--robot", default="boxbox", show_default=True, help="Python robot to time.")
 @click.option("--json", "json_file", type=OutputFile(), help="Write the figures as JSON.")
@@ -195,7 +196,7 @@ def bench_telemetry(track, laps, runs, robot, json_file, skill_level) -> None:
 @click.option("--laps", type=LapLengths(), default="10", show_default=True,
               help="Race length in laps, or several (8,10,12 or 6-14: a summary per track over them).")
 @click.option("--jobs", type=JOBS, default=1, show_default=True, help="Races run in parallel.")
-@click.option("--repeats", type=click.IntRange(1, 20), default=1, show_default=True,
+@click.option("--repeats", type=WholeNumber(1, 20), default=1, show_default=True,
               help="Race each length this many times, the robot's start fuel 0.05 l more each time (less "
                    "where the tank is full): the spread of places that is the field's chaos, not the robot.")
 @bench_race_options

@@ -5,7 +5,7 @@ from __future__ import annotations
 import click
 
 from boxbox.cli.common import out, ready
-from boxbox.cli.types import OutputFile, skill_level_option
+from boxbox.cli.types import Choice, OutputFile, skill_level_option
 from boxbox.control.trackwidth import TRACK_LIMITS
 from boxbox.files import write_json_atomic
 
@@ -14,7 +14,7 @@ from boxbox.files import write_json_atomic
 @click.option("--track", required=True, help="Track name, e.g. aalborg (`boxbox tracks`).")
 @click.option("--car", default="car1-trb1", show_default=True, help="Car name (`boxbox cars`).")
 @skill_level_option
-@click.option("--track-limits", type=click.Choice(TRACK_LIMITS), default="torcs", show_default=True,
+@click.option("--track-limits", type=Choice(TRACK_LIMITS), default="torcs", show_default=True,
               help="torcs: the width TORCS allows without a penalty, up to the barriers; strict: the track's edges.")
 @click.option("--plot", "plot_file", type=OutputFile(),
               help="Write limit speed against distance as a PNG, e.g. --plot l.png.")

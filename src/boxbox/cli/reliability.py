@@ -7,10 +7,10 @@ import os
 import click
 
 from boxbox.cli.common import err, out, ready
-from boxbox.cli.types import LAPS, CommaList, OutputFile, skill_level_option
+from boxbox.cli.types import LAPS, CommaList, OutputFile, WholeNumber, skill_level_option
 from boxbox.errors import BoxboxError
 
-RACES = click.IntRange(0, 100_000)
+RACES = WholeNumber(0, 100_000)
 
 
 class SweepFailed(BoxboxError):
@@ -28,7 +28,7 @@ class SweepFailed(BoxboxError):
 @click.option("--cars", type=CommaList("CAR,..."), default="all", show_default=True,
               help="Cars for the second part, comma separated (e.g. car1-trb1,car1-ow1) or 'all'.")
 @click.option("--laps", type=LAPS, default=3, show_default=True, help="Race length in laps.")
-@click.option("--jobs", type=click.IntRange(1, 64), default=None, help="Races run in parallel (default: the CPUs).")
+@click.option("--jobs", type=WholeNumber(1, 64), default=None, help="Races run in parallel (default: the CPUs).")
 @click.option("--no-cache", is_flag=True, help="Race again even what the bench cache has.")
 @click.option("--json", "json_file", type=OutputFile(), help="Write the rows as JSON.")
 @click.option("--markdown", "markdown_file", type=OutputFile(),
@@ -67,7 +67,7 @@ def sweep(robot, car, cars_track, tracks, cars, laps, jobs, no_cache, json_file,
 @click.option("--track", default="g-track-1", show_default=True, help="Track name, e.g. e-track-2.")
 @click.option("--car", default="car1-trb1", show_default=True, help="Car name, e.g. car1-trb1.")
 @click.option("--robot", default="boxbox", show_default=True, help="Python robot to race.")
-@click.option("--long-laps", type=click.IntRange(0, 10_000), default=200, show_default=True,
+@click.option("--long-laps", type=WholeNumber(0, 10_000), default=200, show_default=True,
               help="Laps of the long race (0: skip it).")
 @click.option("--races", type=RACES, default=200, show_default=True, help="Short races back to back (0: skip them).")
 @click.option("--race-laps", type=LAPS, default=1, show_default=True, help="Laps of each short race.")

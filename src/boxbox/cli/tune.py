@@ -10,7 +10,16 @@ from typing import Any
 import click
 
 from boxbox.cli.common import err, out, ready
-from boxbox.cli.types import LAPS, CommaList, FiniteFloatRange, OutputDir, OutputFile, skill_level_option
+from boxbox.cli.types import (
+    LAPS,
+    Choice,
+    CommaList,
+    FiniteFloatRange,
+    OutputDir,
+    OutputFile,
+    WholeNumber,
+    skill_level_option,
+)
 from boxbox.tune.pick import RADIUS, PickRule
 
 
@@ -64,7 +73,7 @@ class StorageURL(click.ParamType):
               help="Tracks each trial races, e.g. e-track-2,g-track-1,aalborg.")
 @click.option("--params", "param_names", type=CommaList("NAME,..."), required=True,
               help="Parameters to search, e.g. mu_scale,brake_mu_scale (ranges from the robot's declaration).")
-@click.option("--trials", type=click.IntRange(1, 100_000), default=20, show_default=True,
+@click.option("--trials", type=WholeNumber(1, 100_000), default=20, show_default=True,
               help="Finished trials (complete or pruned) the study should hold, counted over every worker.")
 @click.option("--laps", type=LAPS, default=2, show_default=True, help="Laps of each race.")
 @click.option("--car", default="car1-trb1", show_default=True, help="The robot's car.")
@@ -73,13 +82,13 @@ class StorageURL(click.ParamType):
 @click.option("--storage", type=StorageURL(), default=None,
               help="postgresql://USER@HOST/DB to share the study between machines (default: a journal file "
                    "in the cache, ~/.cache/boxbox/tune/NAME.log).")
-@click.option("--workers", type=click.IntRange(1, 64), default=1, show_default=True,
+@click.option("--workers", type=WholeNumber(1, 64), default=1, show_default=True,
               help="Local worker processes (each races on its own core).")
-@click.option("--grace-s", type=click.IntRange(2, 86_400), default=15, show_default=True,
+@click.option("--grace-s", type=WholeNumber(2, 86_400), default=15, show_default=True,
               help="PostgreSQL: a trial whose worker sent no heartbeat for this long is failed and run again.")
 @click.option("--damage-limit", type=FiniteFloatRange(0, 100_000), default=500, show_default=True,
               help="A race that ends with more damage counts as a penalty.")
-@click.option("--seed", type=click.IntRange(0, 2**31 - 1), default=None, help="Sampler seed (one worker: repeatable).")
+@click.option("--seed", type=WholeNumber(0, 2**31 - 1), default=None, help="Sampler seed (one worker: repeatable).")
 @click.option("--no-prune", is_flag=True, help="Race every track of every trial (no median pruner).")
 @click.option("--setup-out", type=SetupFile(), default=None,
               help="Write the best parameters here as a setup (default: ~/.cache/boxbox/tune/NAME.toml); "
@@ -87,11 +96,11 @@ class StorageURL(click.ParamType):
 @click.option("--report", "report_dir", type=OutputDir(), default=None,
               help="Write the study's HTML page (history, importances, slices) into this folder.")
 @click.option("--no-compare", is_flag=True, help="Do not race the robot's own values at the end.")
-@click.option("--pick", type=click.Choice(["robust", "fastest"]), default="robust", show_default=True,
+@click.option("--pick", type=Choice(["robust", "fastest"]), default="robust", show_default=True,
               help="The best trial: robust = at least as fast as the robot's own values on every track without "
                    "more damage, as are the trials around it, by more than the study's noise floor, the most "
                    "gained on its worst track; fastest = the smallest total.")
-@click.option("--pick-radius", type=click.FloatRange(0.0, 100.0, min_open=True), default=100 * RADIUS,
+@click.option("--pick-radius", type=FiniteFloatRange(0.0, 100.0, min_open=True), default=100 * RADIUS,
               show_default=True,
               metavar="PERCENT", help="robust: the trials with each value within this share of its range are "
                                       "around a trial; they must not lose either, and their differences make the "
@@ -245,18 +254,18 @@ GENERAL_B = "e-track-4,g-track-2,ruudskogen"  # road tracks of similar kind the 
 @click.option("--params", "param_names", type=CommaList("NAME,..."), default="mu_scale,brake_mu_scale",
               show_default=True, help="Parameters searched.")
 @click.option("--laps", type=LAPS, default=3, show_default=True, help="Laps of each race.")
-@click.option("--trials", type=click.IntRange(2, 10_000), default=8, show_default=True,
+@click.option("--trials", type=WholeNumber(2, 10_000), default=8, show_default=True,
               help="Trials of the 1- and 2-worker runs.")
-@click.option("--storage-trials", type=click.IntRange(1, 10_000), default=30, show_default=True,
+@click.option("--storage-trials", type=WholeNumber(1, 10_000), default=30, show_default=True,
               help="Trials whose storage calls are timed, per storage.")
 @click.option("--storage", type=StorageURL(), default=None,
               help="PostgreSQL to time (default: a server started for the bench in a temporary folder).")
 @click.option("--no-postgres", is_flag=True, help="Time the journal file only.")
-@click.option("--general-trials", type=click.IntRange(0, 10_000), default=0, show_default=True,
+@click.option("--general-trials", type=WholeNumber(0, 10_000), default=0, show_default=True,
               help="Trials of each generalisation study (0: none; the issue asks 50).")
 @click.option("--general-tracks", nargs=2, type=CommaList("TRACK,..."), default=(GENERAL_A, GENERAL_B),
               show_default=True, help="The two sets of tracks: tune on each, race the best on both.")
-@click.option("--rounds", type=click.IntRange(1, 100), default=3, show_default=True,
+@click.option("--rounds", type=WholeNumber(1, 100), default=3, show_default=True,
               help="Times each measure is taken, in turn; the median is shown (the machine's load moves).")
 @click.option("--general-only", is_flag=True,
               help="Only the generalisation studies (no trials per hour, no storage measure).")
