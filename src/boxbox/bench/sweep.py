@@ -103,7 +103,7 @@ class SweepResult:
                  f"**{self.summary()}.**", "",
                  "Stuck: time below 1 m/s outside the pit; longest: the longest such spell; off track: time with "
                  "the car's centre beyond a track edge (the pit lane does not count). Counted by the robot host "
-                 "on every drive step (0.02 s).", "",
+                 "on every drive step (0.020 or 0.022 s).", "",
                  "| " + " | ".join(COLUMNS) + " |",
                  "|" + "|".join("---" if c in ("part", "track", "car", "result") else "---:" for c in COLUMNS) + "|"]
         for r in self.rows:

@@ -23,8 +23,10 @@ from boxbox.cli.types import (
     OutputFile,
     skill_level_option,
 )
+from boxbox.errors import UsageError
 
-SET_HELP = "Override a parameter of the boxbox robot (see `boxbox params`), e.g. --set mu_scale=0.9. Repeatable."
+SET_HELP = ("Set a parameter of the robots that declare it (see `boxbox params --robot SPEC`), "
+            "e.g. --set mu_scale=0.9. Repeatable.")
 
 
 @click.command()
@@ -170,24 +172,47 @@ def _write_report(run_dir: Path, report_dir: Path) -> None:
 @click.command()
 @click.option("--track", default="e-track-2", show_default=True, help="Track name, e.g. g-track-1.")
 @click.option("--car", default="car1-trb1", show_default=True, help="Car name, e.g. car1-trb1.")
+@click.option("--robot", "robot_spec", default="boxbox", show_default=True, metavar="SPEC",
+              help="The robot: NAME (boxbox, middle), path/file.py:Class or module:Class, "
+                   "e.g. --robot my_robot.py:MyRobot.")
 @click.option("--set", "settings", multiple=True, metavar="KEY=VALUE", help=SET_HELP)
-def params(track, car, settings) -> None:
-    """Print the boxbox robot's effective parameters for a track and car, and where each comes from.
+def params(track, car, robot_spec, settings) -> None:
+    """Print a robot's effective parameters for a track and car, and where each comes from.
 
-    Example: boxbox params --track aalborg --set mu_scale=0.9
+    \b
+    Examples:
+      boxbox params --track aalborg --set mu_scale=0.9
+      boxbox params --robot my_robot.py:MyRobot
     """
     from rich.table import Table
 
-    from boxbox.robot.params import load_params, parse_set, setup_files
+    from boxbox.robot.loader import load_robot_class
+    from boxbox.robot.params import TutorialParams, load_params, parse_set, setup_files
+    from boxbox.robot.tunable import declares_params, param_space
 
-    values, sources = load_params(car, track, parse_set(settings))
-    table = Table("parameter", "value", "from", title=f"boxbox robot parameters: {track}, {car}")
-    for key, value in vars(values).items():
-        src = sources[key]
+    cls = load_robot_class(robot_spec)
+    overrides = parse_set(settings)
+    if cls.param_class is TutorialParams:  # the boxbox robot: its setup files, then --set
+        values, sources = load_params(car, track, overrides)
+        rows = [(k, v, sources[k]) for k, v in vars(values).items()]
+        files = setup_files(car, track)
+    elif declares_params(cls):  # any other robot: its declared defaults, then --set
+        space = param_space(cls)
+        given = space.check(overrides, "--set")
+        rows = [(k, given.get(k, v), "--set" if k in given else "default") for k, v in space.defaults.items()]
+        files = []
+    else:
+        if overrides:
+            raise UsageError(f"--set: robot {cls.name} declares no parameters to set (see docs/tuning.md)")
+        out.print(f"robot {cls.name} declares no parameters (a robot declares them with `param_class`, "
+                  "see docs/tuning.md)")
+        return
+    table = Table("parameter", "value", "from", title=f"{cls.name} robot parameters: {track}, {car}")
+    for key, value, src in rows:
         table.add_row(key, str(value), src if src in ("default", "--set") else Path(src).name)
     out.print(table)
-    out.print("setup files, in order: " + ", ".join(str(p) + ("" if p.exists() else " (absent)")
-                                                    for p in setup_files(car, track)))
+    if files:
+        out.print("setup files, in order: " + ", ".join(str(p) + ("" if p.exists() else " (absent)") for p in files))
 
 
 @click.group()

@@ -1,7 +1,9 @@
 """Setting up TORCS for boxbox, idempotently: packages, headers, the bridge, the overlay.
 
-Nothing under /usr is changed apart from installing Debian's packages: our robot lives in an
-overlay (folders of symlinks to the system TORCS plus our own `drivers/boxbox/`).
+Nothing under /usr or /etc is changed apart from installing Debian's packages: our robot lives in
+an overlay (folders of symlinks to the system TORCS plus our own `drivers/boxbox/`), and the headers
+come from Debian's source package fetched with an apt configuration of its own in a private
+temporary folder.
 """
 
 from __future__ import annotations
@@ -10,6 +12,7 @@ import contextlib
 import fcntl
 import hashlib
 import os
+import re
 import shutil
 import struct
 import subprocess
@@ -95,8 +98,9 @@ def install_packages(report: Report = _quiet) -> None:
         raise SetupError(f"apt-get did not install {', '.join(still)}; see {log}")
 
 
-def _deb_src_stanzas() -> str:
-    """deb-src entries mirroring the machine's deb entries (same URIs and suites)."""
+def _deb_src_entries() -> tuple[str, str]:
+    """deb-src entries mirroring the machine's Debian deb entries (same URIs and suites): the
+    deb822 stanzas (.sources) and the one-line entries (sources.list)."""
     stanzas = []
     for path in sorted(Path("/etc/apt/sources.list.d").glob("*.sources")):
         for block in path.read_text().split("\n\n"):
@@ -108,12 +112,13 @@ def _deb_src_stanzas() -> str:
             if fields.get("Types", "").split() == ["deb"] and "debian" in fields.get("URIs", ""):
                 lines = ["Types: deb-src"] + [f"{k}: {v}" for k, v in fields.items() if k != "Types"]
                 stanzas.append("\n".join(lines))
+    one_line = []
     sources_list = Path("/etc/apt/sources.list")
     if sources_list.exists():
         for line in sources_list.read_text().splitlines():
             if line.startswith("deb ") and "debian" in line:
-                stanzas.append(line.replace("deb ", "deb-src ", 1))
-    return "\n\n".join(stanzas) + "\n"
+                one_line.append(line.replace("deb ", "deb-src ", 1))
+    return "\n\n".join(stanzas) + "\n", "\n".join(one_line) + "\n"
 
 
 def headers_dir(report: Report = _quiet) -> Path:
@@ -142,27 +147,90 @@ def headers_dir(report: Report = _quiet) -> Path:
 
 
 def _download_source(tmp: Path, log: Path, report: Report) -> Path:
+    """Debian's torcs orig tarball, fetched into `tmp` (made by mkdtemp: 0700, ours) with an apt
+    configuration of its own in it: deb-src entries mirroring the machine's deb entries and their
+    package lists, so nothing outside `tmp` changes and no root is needed. apt checks the lists'
+    signatures and each file's checksum; the tarball used is the one apt named, checked again."""
     if not shutil.which("apt-get"):
         raise SetupError("the TORCS headers need apt-get (or set TORCS_SRC to a TORCS source tree)")
     report(f"downloading Debian's torcs source package for its headers (log: {log})")
-    src_list = Path("/etc/apt/sources.list.d/boxbox-deb-src.sources")
-    if not src_list.exists():
-        stanzas = _deb_src_stanzas()
-        if not stanzas.strip():
-            raise SetupError("no Debian apt source found to derive a deb-src entry from; set TORCS_SRC")
-        tmp_list = tmp / "boxbox-deb-src.sources"
-        tmp_list.write_text(stanzas)
-        _run(_privileged(["cp", str(tmp_list), str(src_list)]), log, "adding a deb-src entry")
-        _run(_privileged(["apt-get", "update"]), log, "apt-get update")
+    apt = ["apt-get", *_private_apt(tmp)]
     dl = tmp / "download"
-    dl.mkdir()
-    os.chmod(tmp, 0o755)
-    os.chmod(dl, 0o777)  # apt's sandbox user writes here
-    _run(["apt-get", "source", "--download-only", "torcs"], log, "apt-get source", cwd=dl)
-    tarballs = sorted(dl.glob("torcs_*.orig.tar.*"))
-    if not tarballs:
-        raise SetupError(f"apt-get source gave no torcs orig tarball; see {log}")
-    return tarballs[0]
+    dl.mkdir(mode=0o700)
+    _let_apt_sandbox_write(tmp, dl)
+    _run([*apt, "update"], log, "apt-get update (deb-src lists, in a temporary folder)")
+    files = source_files(_output([*apt, "source", "--print-uris", "torcs"], log, "apt-get source --print-uris"))
+    _run([*apt, "source", "--download-only", "torcs"], log, "apt-get source", cwd=dl)
+    return verified_orig_tarball(dl, files)
+
+
+def _private_apt(tmp: Path) -> list[str]:
+    """apt options that keep its sources, lists and caches in tmp/apt."""
+    stanzas, one_line = _deb_src_entries()
+    if not stanzas.strip() and not one_line.strip():
+        raise SetupError("no Debian apt source found to derive a deb-src entry from; set TORCS_SRC")
+    root = tmp / "apt"
+    for sub in ("sources.list.d", "lists/partial", "cache/archives/partial"):
+        (root / sub).mkdir(parents=True)
+    (root / "sources.list.d" / "boxbox-deb-src.sources").write_text(stanzas)
+    (root / "sources.list").write_text(one_line)
+    settings = [f"Dir::Etc::SourceList={root / 'sources.list'}", f"Dir::Etc::SourceParts={root / 'sources.list.d'}",
+                f"Dir::State::Lists={root / 'lists'}", f"Dir::Cache={root / 'cache'}",
+                "Dir::Cache::pkgcache=", "Dir::Cache::srcpkgcache="]
+    return [arg for setting in settings for arg in ("-o", setting)]
+
+
+def _let_apt_sandbox_write(tmp: Path, dl: Path) -> None:
+    """As root, apt downloads as its sandbox user (_apt): it may pass through tmp (0711: no listing,
+    no writing) and write in dl, which it alone (and root) can; nobody else can plant a file there."""
+    import pwd
+
+    if os.geteuid() != 0:
+        return  # apt downloads as us
+    try:
+        sandbox = pwd.getpwnam("_apt")
+    except KeyError:
+        return  # no sandbox user: apt downloads as root
+    os.chmod(tmp, 0o711)
+    os.chown(dl, sandbox.pw_uid, -1)
+
+
+def _output(cmd: list[str], log: Path, what: str) -> str:
+    """The command's standard output (its errors go to the log)."""
+    with open(log, "ab") as errors:
+        proc = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=errors, stdin=subprocess.DEVNULL, text=True)
+    if proc.returncode != 0:
+        tail = log.read_text(errors="replace").strip().splitlines()[-1:] or [""]
+        raise SetupError(f"{what} failed ({' '.join(cmd)}): {tail[0]}; full log: {log}")
+    return proc.stdout
+
+
+def source_files(print_uris: str) -> dict[str, str]:
+    """File name -> sha256 of each file of the source package, from `apt-get source --print-uris`
+    (lines `'URI' NAME SIZE SHA256:HEX`, the checksums of the signed Sources index)."""
+    files = {}
+    for line in print_uris.splitlines():
+        m = re.fullmatch(r"'[^']+' (\S+) \d+ SHA256:([0-9a-f]{64})", line.strip())
+        if m and m.group(1) == Path(m.group(1)).name and not m.group(1).startswith("."):
+            files[m.group(1)] = m.group(2)
+    return files
+
+
+def verified_orig_tarball(folder: Path, files: dict[str, str]) -> Path:
+    """The orig tarball apt named in `files`, in `folder`, with the sha256 the index and the .dsc
+    give it (the .dsc itself checked against the index). Nothing else in the folder is looked at."""
+    dscs = [n for n in files if n.endswith(".dsc")]
+    origs = [n for n in files if re.fullmatch(r"torcs_[^/]+\.orig\.tar\.\w+", n)]
+    if len(dscs) != 1 or len(origs) != 1:
+        raise SetupError(f"apt named no single torcs .dsc and orig tarball: {sorted(files)}")
+    dsc, orig = folder / dscs[0], folder / origs[0]
+    for path in (dsc, orig):
+        if not path.is_file() or _sha256(path) != files[path.name]:
+            raise SetupError(f"{path} is missing or not the file Debian's index names (sha256 differs)")
+    listed = re.findall(r"^ ([0-9a-f]{64}) \d+ (\S+)$", dsc.read_text(errors="replace"), re.M)
+    if (files[orig.name], orig.name) not in listed:
+        raise SetupError(f"{orig.name}: its sha256 is not the one {dsc.name} lists")
+    return orig
 
 
 def _extract_headers(tarball: Path, dest: Path) -> None:
