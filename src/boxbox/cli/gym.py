@@ -51,8 +51,10 @@ def scr_server(port, track, car, opponents, laps, races, client_timeout_s) -> No
               help="Steps of each sub-env of the AsyncVectorEnv.")
 @click.option("--episodes", type=WholeNumber(10, None), default=1_000, show_default=True,
               help="Short episodes for the reset time, memory, files and processes.")
+@click.option("--multi-steps", type=WholeNumber(0, None), default=20_000, show_default=True,
+              help="Steps of the pixel and the 2- and 4-car measurements (0: skip them).")
 @click.option("--json", "json_file", type=OutputFile(), help="Write the rows as JSON.")
-def bench_gym(track, steps, episode_steps, envs, vector_steps, episodes, json_file) -> None:
+def bench_gym(track, steps, episode_steps, envs, vector_steps, episodes, multi_steps, json_file) -> None:
     """The Gymnasium env's speed, reset time and resource use, with gym_torcs's figures beside.
 
     Example: boxbox bench-gym --episodes 200
@@ -69,6 +71,11 @@ def bench_gym(track, steps, episode_steps, envs, vector_steps, episodes, json_fi
     check_race(track, "car1-trb1", 1)
     rows = run_bench(track, steps, episode_steps, envs, vector_steps, episodes,
                      log=lambda text: err.print(f"[dim]bench-gym:[/] {text}", highlight=False))
+    if multi_steps:  # pixels, several learning cars (gym/bench_multi.py)
+        from boxbox.gym.bench_multi import run_multi_bench
+
+        rows += run_multi_bench(track, multi_steps, episode_steps,
+                                log=lambda text: err.print(f"[dim]bench-gym:[/] {text}", highlight=False))
     table = Table(title=f"bench-gym: boxbox/TORCS-v0 on {track}, random actions")
     for col in ("measure", "boxbox/TORCS-v0", "target", "gym_torcs (published)"):
         table.add_column(col, justify="right" if col == "boxbox/TORCS-v0" else "left")

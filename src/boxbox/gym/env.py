@@ -21,6 +21,7 @@ from boxbox.errors import RaceError, UsageError
 from boxbox.gym import reward as rw
 from boxbox.gym.assists import ASSISTS, Assists, check_assists
 from boxbox.gym.pitstop import PitStop
+from boxbox.gym.render import Drawing, check_pixel_size, check_render_mode, pixel_space, render_fps
 from boxbox.gym.sensors import SCR_TRACK_ANGLES_DEG, TrackEdges, opponent_sectors
 from boxbox.gym.session import Session, TorcsGone, usable_cpus
 from boxbox.gym.spaces import ACTION_RANGES, DEFAULT_ACTIONS, ActionReader, ObservationLayout, Observer, action_space
@@ -117,7 +118,7 @@ def check_reset_options(options: Any) -> None:
 class TorcsEnv(gymnasium.Env):
     """One car in a TORCS race, driven by the agent; TORCS's robots as opponents."""
 
-    metadata = {"render_modes": []}
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 50.0}  # render_fps: this env's own (action_repeat)
 
     def __init__(self, track: str = "g-track-1", car: str = "car1-trb1", opponents=(), laps: int = 1, *,
                  action_repeat: int = 1, actions: tuple[str, ...] = DEFAULT_ACTIONS,
@@ -127,7 +128,8 @@ class TorcsEnv(gymnasium.Env):
                  max_damage: float | None = None, off_track_s: float | None = 2.0, stuck_s: float | None = 5.0,
                  skill_level: str | SkillLevel = "semi-pro", grid_position: int | str | None = None,
                  initial_fuel_l: float | None = None, pit_fuel_l: float | None = None, pit_repair: float | None = None,
-                 cpu: int | None = None, render_mode: str | None = None) -> None:
+                 cpu: int | None = None, render_mode: str | None = None, pixels: bool = False,
+                 pixel_size: tuple[int, int] = (96, 96)) -> None:
         # every option checked before anything is set up (validate.py: the command line's checks)
         self.actions, self.assist_names = checked_actions(actions, assists)
         self.action_repeat = validate.whole_number(action_repeat, 1, MAX_ACTION_REPEAT, name="action_repeat")
@@ -137,14 +139,17 @@ class TorcsEnv(gymnasium.Env):
         self.initial_fuel_l, self.pit_fuel_l, self.pit_repair = checked_fuel(initial_fuel_l, pit_fuel_l, pit_repair)
         self.cpu = checked_cpu(cpu)
         flat = validate.flag(flat, name="flat")
-        if render_mode is not None and not isinstance(render_mode, str):
-            validate.fail(f"{render_mode!r} is not a render mode; TORCS runs without a display (use None).",
-                          "render_mode")
-        self.render_mode = render_mode  # accepted (tools pass "rgb_array"), but TORCS runs without a display
+        # pixels (gym/render.py): render() draws the race top-down; pixels=True observes the car's view
+        self.render_mode = check_render_mode(render_mode)
+        self.metadata = {**self.metadata, "render_fps": render_fps(self.action_repeat)}
+        self.pixels = validate.flag(pixels, name="pixels")
+        self.drawing = Drawing(check_pixel_size(pixel_size) if self.pixels else None)
         self.cfg = race_config(track, car, opponents, laps, skill_level, grid_position)
         self.layout = ObservationLayout.make(len(self.angles_deg))
         self.observer = Observer(self.layout, flat)
         self.observation_space = self.layout.flat_space() if flat else self.layout.dict_space()
+        if self.drawing.pixel_size is not None:
+            self.observation_space = pixel_space(self.drawing.pixel_size)
         self.action_space = action_space(self.actions)
         self.reader = ActionReader(self.actions)
         self.session: Session | None = None
@@ -152,7 +157,7 @@ class TorcsEnv(gymnasium.Env):
         self.car: Car | None = None
         self.length_m = 0.0
         self.state: State | None = None
-        self.vector: np.ndarray | None = None
+        self.vector: np.ndarray | None = None  # None with pixels
         self.edges: TrackEdges | None = None
         self.assists: Assists | None = None
         self.pit: PitStop | None = None
@@ -171,7 +176,7 @@ class TorcsEnv(gymnasium.Env):
         self.watch.reset()
         self.state = state
         self.vector = self._vector(state)
-        return self.observer.observation(self.vector), {"state": state}
+        return self._observation(), {"state": state}
 
     def step(self, action):
         if self.state is None or self.session is None:
@@ -185,12 +190,12 @@ class TorcsEnv(gymnasium.Env):
             s, total, progress, reason, fault = self._drive(steer, throttle, brake, clutch, gear)
         if s is not self.state:
             self.state = s
-            self.vector = self._vector(s)
+            self.vector = None if self.pixels else self._vector(s)  # the car's view needs no range finders
         self.ended = reason
         info = {"state": s, "progress_m": progress, "termination": reason, "fault": fault}
         if self.pit is not None:
             info["pit"] = self.pit.phase
-        return self.observer.observation(self.vector), total, reason is not None, False, info
+        return self._observation(), total, reason is not None, False, info
 
     def _drive(self, steer: float, throttle: float, brake: float, clutch: float,
                gear: int) -> tuple[State, float, float, str | None, str | None]:
@@ -218,9 +223,12 @@ class TorcsEnv(gymnasium.Env):
                 break
         return s, total, progress, reason, fault
 
-    def render(self) -> None:
-        """Nothing to show: TORCS runs in console mode (the race's state is in `info`)."""
-        return None
+    def render(self) -> np.ndarray | None:
+        """With render_mode="rgb_array", the race seen from above (gym/render.py): the track, this car
+        in red, every other car in blue; None without a render mode or before the first reset."""
+        if self.render_mode is None:
+            return None
+        return self.drawing.frame(self.state, self.car)
 
     def close(self) -> None:
         if self.session is not None:
@@ -261,6 +269,16 @@ class TorcsEnv(gymnasium.Env):
         self.edges = TrackEdges(started.track, self.angles_deg)
         self.assists = Assists(self.assist_names, started.car)
         self.pit = PitStop.for_car(started.track, started.car) if "pit" in self.actions else None
+        if self.render_mode is not None or self.pixels:
+            self.drawing.new_track(started.track)
+
+    def _observation(self):
+        """The numbers (Dict or flat), or with pixels the car's view."""
+        if self.pixels:
+            assert self.state is not None and self.car is not None
+            return self.drawing.observation(self.state, self.car)
+        assert self.vector is not None
+        return self.observer.observation(self.vector)
 
     def _vector(self, s: State) -> np.ndarray:
         assert self.edges is not None

@@ -23,14 +23,15 @@ _lib: ctypes.CDLL | None = None
 _tried = False
 
 
-def library_path() -> Path:
-    digest = hashlib.sha256(SOURCE.read_bytes() + " ".join(FLAGS).encode()).hexdigest()[:16]
-    return cache_dir() / "gym" / f"raycast-{digest}.so"
+def library_path(source: Path = SOURCE) -> Path:
+    digest = hashlib.sha256(source.read_bytes() + " ".join(FLAGS).encode()).hexdigest()[:16]
+    return cache_dir() / "gym" / f"{source.stem}-{digest}.so"
 
 
-def build() -> Path | None:
-    """The compiled library (built now when missing); None without a C compiler or when it fails."""
-    path = library_path()
+def build(source: Path = SOURCE) -> Path | None:
+    """The compiled library (built now when missing); None without a C compiler or when it fails.
+    (gym/render.py builds its render.c the same way.)"""
+    path = library_path(source)
     if path.exists():
         return path
     compiler = shutil.which("cc") or shutil.which("gcc")
@@ -38,7 +39,7 @@ def build() -> Path | None:
         return None
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f"{path.name}.{os.getpid()}.tmp")  # builders side by side never share a file
-    proc = subprocess.run([compiler, *FLAGS, "-o", str(tmp), str(SOURCE), "-lm"], capture_output=True)
+    proc = subprocess.run([compiler, *FLAGS, "-o", str(tmp), str(source), "-lm"], capture_output=True)
     if proc.returncode != 0:
         tmp.unlink(missing_ok=True)
         return None

@@ -115,6 +115,8 @@ def pick_cpu() -> int:
 class Session:
     """TORCS with one Python car (robot index 0) and TORCS's robots as opponents."""
 
+    torcs_env: dict[str, str] = {}  # more of TORCS's environment (gym/multisession.py: the bridge's batch mode)
+
     def __init__(self, cfg: RaceConfig, overlay: Overlay, cpu: int | None = None,
                  initial_fuel_l: float | None = None, on_pit: PitHandler | None = None) -> None:
         self.cfg, self.overlay = cfg, overlay
@@ -234,7 +236,7 @@ class Session:
         o = self.overlay
         env = dict(os.environ, LD_LIBRARY_PATH=str(o.torcs.shared_lib_dir), BOXBOX_SOCKET=str(self.dir / "bridge.sock"),
                    BOXBOX_STEP_BUDGET_MS="0",  # no limit: a learner may think for as long as it likes
-                   BOXBOX_SETUP_BUDGET_MS=str(SETUP_BUDGET_MS))
+                   BOXBOX_SETUP_BUDGET_MS=str(SETUP_BUDGET_MS), **self.torcs_env)
         cmd = torcs_command(o, self.run)
         with open(self.run.torcs_err, "wb") as err:
             try:

@@ -415,9 +415,7 @@ static float clampf(double v, double lo, double hi) {
     return (float)(v < lo ? lo : (v > hi ? hi : v));
 }
 
-static void drive(int index, tCarElt *car, tSituation *s) {
-    int step = ++g_step[index];
-    if (g_dead) { brake_safely(car); return; }
+static bool send_drive(int index, tCarElt *car, tSituation *s, int step) {
     static unsigned char buf[sizeof(bb_state) + BB_MAX_OPPONENTS * sizeof(bb_opponent)];
     bb_state *st = (bb_state *)buf;
     fill_state(st, car, s);
@@ -427,15 +425,54 @@ static void drive(int index, tCarElt *car, tSituation *s) {
         if (s->cars[i] != car) fill_opponent(&opp[n++], s->cars[i]);
     }
     st->n_opponents = n;
-    int flags = 0;
     if (!bb_send(BB_DRIVE, index, step, n, buf, sizeof(bb_state) + n * sizeof(bb_opponent))) {
         bb_fault("host-gone", index, step);
-        brake_safely(car);
-        return;
+        return false;
     }
-    if (bb_recv(BB_CONTROLS, index, step, g_step_budget_ms, &flags) < 0) { brake_safely(car); return; }
+    return true;
+}
+
+// BOXBOX_BATCH_DRIVE=1 (the Gymnasium env with several learning cars): at the first Python car's
+// drive call of a simulation step, every Python car TORCS will drive in it is sent its DRIVE, then
+// the answers are read in the same order, so the host sees all the cars' states of one step before
+// it answers any (TORCS moves the cars only after every robot's drive call).
+static int g_batch = -1;  // -1: not read yet
+static double g_batch_time = -1e300;
+static bool g_batch_ok[BB_MAX_ROBOTS];
+static bb_controls g_batch_controls[BB_MAX_ROBOTS];
+
+static void drive_batch(tSituation *s) {
+    g_batch_time = s->currentTime;
+    int sent[BB_MAX_ROBOTS], nsent = 0;
+    for (int j = 0; j < BB_MAX_ROBOTS; j++) {
+        g_batch_ok[j] = false;
+        tCarElt *c = g_car[j];
+        if (!c || (c->_state & RM_CAR_STATE_NO_SIMU) || g_dead) continue;
+        if (send_drive(j, c, s, ++g_step[j])) sent[nsent++] = j;
+    }
+    for (int k = 0; k < nsent && !g_dead; k++) {
+        int j = sent[k], flags = 0;
+        if (bb_recv(BB_CONTROLS, j, g_step[j], g_step_budget_ms, &flags) < 0) break;
+        memcpy(&g_batch_controls[j], g_in + sizeof(bb_header), sizeof(bb_controls));
+        g_batch_ok[j] = true;
+    }
+}
+
+static void drive(int index, tCarElt *car, tSituation *s) {
+    if (g_batch < 0) g_batch = env_int("BOXBOX_BATCH_DRIVE", 0) ? 1 : 0;
     bb_controls c;
-    memcpy(&c, g_in + sizeof(bb_header), sizeof c);
+    if (g_batch) {
+        if (!g_dead && s->currentTime != g_batch_time) drive_batch(s);
+        if (g_dead || !g_batch_ok[index]) { brake_safely(car); return; }
+        c = g_batch_controls[index];
+    } else {
+        int step = ++g_step[index];
+        if (g_dead) { brake_safely(car); return; }
+        if (!send_drive(index, car, s, step)) { brake_safely(car); return; }
+        int flags = 0;
+        if (bb_recv(BB_CONTROLS, index, step, g_step_budget_ms, &flags) < 0) { brake_safely(car); return; }
+        memcpy(&c, g_in + sizeof(bb_header), sizeof c);
+    }
     car->_steerCmd = clampf(c.steer, -1.0, 1.0);
     car->_accelCmd = clampf(c.accel, 0.0, 1.0);
     car->_brakeCmd = clampf(c.brake, 0.0, 1.0);

@@ -1,0 +1,133 @@
+"""One TORCS race with several Python cars, all answered from the env's own process.
+
+The bridge runs in its batch mode (BOXBOX_BATCH_DRIVE=1): at a simulation step's first drive call
+of a Python car it sends the DRIVE of every Python car TORCS drives in that step, in robot order,
+and then reads the answers in the same order.  TORCS moves the cars only after every robot's drive
+call, so the states of one batch are all of the same instant, and the env sees every learning car's
+state before it answers any (as the single env sees its one car's).  A car that TORCS no longer
+drives (out of the race) gets no DRIVE: the batch's first message says which Python cars are still
+driven (its opponents' `car_state`), so the session knows how many DRIVEs make the batch.
+"""
+
+from __future__ import annotations
+
+import copy
+import shutil
+
+from boxbox.model import Car, PitOrder, State, Track
+from boxbox.model.state import CAR_STATE_NO_SIMU
+from boxbox.torcs import wire
+from boxbox.torcs.host import complete_car, decode_track
+from boxbox.torcs.launch import RaceConfig
+from boxbox.torcs.setup import Overlay
+
+from boxbox.gym.session import HSIZE, TorcsGone, Session  # isort: skip
+
+Controls = tuple[float, float, float, float, int, bool]  # steer, accel, brake, clutch, gear, pit
+PARKED: Controls = (0.0, 0.0, 1.0, 0.0, 1, False)  # what a car whose episode ended is given: it brakes
+
+
+class MultiSession(Session):
+    """TORCS with len(cfg.robots) Python cars (robot indices 0..n-1) and TORCS's robots as opponents."""
+
+    torcs_env = {"BOXBOX_BATCH_DRIVE": "1"}
+
+    def __init__(self, cfg: RaceConfig, overlay: Overlay, cpu: int | None = None,
+                 initial_fuel_l: float | None = None) -> None:
+        super().__init__(cfg, overlay, cpu=cpu, initial_fuel_l=initial_fuel_l)
+        self.n_cars = len(cfg.robots)
+        self.cars: list[Car] = []  # each Python car's constants (its own pit, its own car index)
+        self.pending: list[tuple[int, int]] = []  # (robot, step) of the DRIVEs awaiting an answer
+        self._base: tuple[bytes, Track, Car] | None = None  # the last race's track blob, decoded
+
+    def start_all(self) -> tuple[Track, list[Car], dict[int, State]]:
+        """A fresh TORCS (the last one killed first), served up to its first batch of drive steps:
+        the track, each Python car's constants and each car's first state."""
+        self.stop()
+        shutil.rmtree(self.local / "results", ignore_errors=True)
+        self.ended = False
+        self.proc = self._spawn()
+        self._running.append(self.proc)
+        self.conn = self._accept()
+        self.conn.settimeout(60.0)
+        chunks: dict[int, list[bytes]] = {}
+        self.cars = [None] * self.n_cars  # type: ignore[list-item]
+        while True:
+            n = self._recv()
+            kind, robot, step, count = wire.HEADER.unpack_from(self._buf, 0)
+            if kind == wire.DRIVE:
+                assert self._base is not None and all(car is not None for car in self.cars)
+                return self._base[1], self.cars, self._batch(robot, step, count)
+            if kind == wire.HELLO:
+                self._reply(wire.HELLO, robot, step, wire.HELLO_REC, (wire.PROTOCOL_VERSION, 0.0, 0.0))
+            elif kind == wire.NEW_TRACK:
+                chunks.setdefault(robot, []).append(bytes(self._buf[HSIZE:n]))
+                if step + 1 == count:
+                    self.cars[robot] = self._decode(b"".join(chunks.pop(robot)))
+                    fuel = -1.0 if self.initial_fuel_l is None else float(self.initial_fuel_l)
+                    self._reply(wire.FUEL, robot, step, wire.FUEL_REC, (fuel, float("nan"), float("nan")))
+            elif kind == wire.NEW_RACE:
+                complete_car(self.cars[robot], bytes(self._buf[HSIZE:n]))
+                self._reply(wire.ACK, robot, step)
+            else:
+                raise TorcsGone(f"TORCS sent message kind {kind} before the race started")
+
+    def drive_all(self, controls: dict[int, Controls]) -> dict[int, State] | None:
+        """Answer the pending batch (a robot missing from `controls` brakes); the next batch's states
+        by robot, or None when the race has ended."""
+        if self.conn is None or self.ended:
+            return None
+        out = self._out
+        for robot, step in self.pending:
+            wire.HEADER.pack_into(out, 0, wire.CONTROLS, robot, step, 0)
+            steer, accel, brake, clutch, gear, pit = controls.get(robot, PARKED)
+            wire.CONTROLS_REC.pack_into(out, HSIZE, steer, accel, brake, clutch, gear, 1.0 if pit else 0.0)
+            self._send(out)
+        self.pending = []
+        while True:
+            try:
+                self._recv()
+            except TorcsGone:
+                if self.proc is not None and self.proc.poll() == 0:  # TORCS ended the race and exited
+                    self.ended = True
+                    return None
+                raise
+            kind, robot, step, count = wire.HEADER.unpack_from(self._buf, 0)
+            if kind == wire.DRIVE:
+                return self._batch(robot, step, count)
+            if kind == wire.PIT_CMD:
+                self._reply(wire.PIT_ORDER, robot, step, wire.PIT_ORDER_REC, (PitOrder().fuel_l, PitOrder().repair))
+            elif kind == wire.END_RACE:
+                self.ended = True
+                self._reply(wire.ACK, robot, step)
+                return None
+
+    # --- pieces --------------------------------------------------------------------------------
+    def _batch(self, robot: int, step: int, count: int) -> dict[int, State]:
+        """The batch whose first DRIVE is in the buffer: every DRIVE of it, by robot."""
+        first = self._state(count)
+        states = {robot: first}
+        self.pending = [(robot, step)]
+        for other in self._driven_after(robot, first):
+            self._recv()
+            kind, r, step, count = wire.HEADER.unpack_from(self._buf, 0)
+            if kind != wire.DRIVE or r != other:
+                raise TorcsGone(f"TORCS sent message kind {kind} for car {r} in the middle of a batch (car {other} "
+                                "was due)")
+            states[r] = self._state(count)
+            self.pending.append((r, step))
+        return states
+
+    def _driven_after(self, robot: int, first: State) -> list[int]:
+        """The Python cars after `robot` that TORCS drives in this step (the bridge sends in robot order)."""
+        by_index = {int(o.car_index): int(o.car_state) for o in first.opponents}
+        return [j for j in range(robot + 1, self.n_cars)
+                if not by_index.get(self.cars[j].car_index, CAR_STATE_NO_SIMU) & CAR_STATE_NO_SIMU]
+
+    def _decode(self, blob: bytes) -> Car:
+        """The track (decoded once while the race stays the same) and a car of its own for a robot."""
+        if self._base is None or self._base[0] != blob:
+            track, car = decode_track(blob, self.cfg.track, self.cfg.category)
+            car.name = self.cfg.car
+            self._base = (blob, track, car)
+        return copy.deepcopy(self._base[2])

@@ -1,0 +1,145 @@
+"""Several learning cars in one real TORCS race: PettingZoo's API test, a reward and an end per car,
+SuperSuit's vectorisation, determinism and clean-up (gym/parallel.py, gym/multisession.py)."""
+
+from __future__ import annotations
+
+import glob
+import os
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+
+import numpy as np
+import psutil
+import pytest
+import supersuit
+from pettingzoo.test import parallel_api_test
+
+import boxbox.gym
+from boxbox.errors import UsageError
+from boxbox.gym.env import NeedsReset
+
+
+def middle(obs, speed_mps: float) -> np.ndarray:
+    """Steer along the track axis at about speed_mps."""
+    steer = 2.0 * float(obs["angle_rad"][0]) - 0.6 * float(obs["track_pos"][0])
+    throttle = 0.2 * (speed_mps - float(obs["speed_mps"][0]))
+    return np.array([np.clip(steer, -1, 1), np.clip(throttle, 0, 1), 0.0], dtype=np.float32)
+
+
+def session_dirs() -> set[str]:
+    return set(glob.glob(os.path.join(tempfile.gettempdir(), f"boxbox-gym-{os.getpid()}-*")))
+
+
+def test_passes_pettingzoos_parallel_api_test(overlay):
+    env = boxbox.gym.parallel_env(cars=3, track="g-track-1", opponents=["bt:2"])
+    assert env.possible_agents == ["car_0", "car_1", "car_2"]
+    parallel_api_test(env, num_cycles=200)
+    env.close()
+
+
+def test_each_car_drives_with_its_own_reward_and_one_ends_while_the_others_go_on(overlay):
+    before = session_dirs()
+    env = boxbox.gym.parallel_env(cars=3, track="g-track-1", off_track_s=0.2)
+    obs, infos = env.reset(seed=0)
+    states = [infos[a]["state"] for a in env.agents]
+    assert len({(s.x_m, s.y_m) for s in states}) == 3 and all(s.sim_time_s >= 0.0 for s in states)  # one instant
+    assert len({s.sim_time_s for s in states}) == 1
+    totals = dict.fromkeys(env.possible_agents, 0.0)
+    ended_at = None
+    for step in range(250):
+        actions = {"car_0": middle(obs["car_0"], 25.0), "car_1": middle(obs["car_1"], 12.0)}
+        if "car_2" in env.agents:
+            actions["car_2"] = np.array([1.0, 1.0, 0.0], np.float32)  # full lock left: off the track
+        obs, rewards, terminations, truncations, infos = env.step(actions)
+        for agent, reward in rewards.items():
+            totals[agent] += reward
+        if terminations.get("car_2"):
+            ended_at = step
+            assert infos["car_2"]["termination"] == "off-track"
+            assert not terminations["car_0"] and not terminations["car_1"]
+        assert set(obs) == set(rewards) == set(terminations) == set(truncations) == set(infos)
+    assert ended_at is not None and env.agents == ["car_0", "car_1"]  # car_2 left, the others went on
+    assert totals["car_0"] > totals["car_1"] > 20.0  # each its own progress: the faster car gained more
+    assert all(i["state"].sim_time_s == infos["car_0"]["state"].sim_time_s for i in infos.values())
+    with pytest.raises(UsageError, match="no action for car_1"):
+        env.step({"car_0": middle(obs["car_0"], 25.0)})
+    pid = env.torcs_pid
+    env.close()
+    assert not psutil.pid_exists(pid) and session_dirs() == before
+
+
+def test_the_same_actions_give_the_same_race(overlay):
+    env = boxbox.gym.parallel_env(cars=2, track="g-track-1", opponents=["bt:2"], flat=True)
+    rng = np.random.default_rng(3)
+    actions = rng.uniform([-0.2, 0.3, 0.0], [0.2, 1.0, 0.1], size=(80, 2, 3)).astype(np.float32)
+    runs = []
+    for _ in range(2):
+        obs, _ = env.reset(seed=1)
+        trace = [np.concatenate([obs[a] for a in env.possible_agents])]
+        for a in actions:
+            obs, rewards, *_ = env.step({agent: a[i] for i, agent in enumerate(env.agents)})
+            trace.append(np.concatenate([obs[agent] for agent in sorted(obs)] + [list(rewards.values())]))
+        runs.append(np.concatenate(trace))
+    env.close()
+    assert np.array_equal(runs[0], runs[1])
+
+
+def test_supersuit_vectorises_it(overlay):
+    def make():
+        return supersuit.black_death_v3(boxbox.gym.parallel_env(cars=2, track="g-track-1", flat=True, stuck_s=0.5))
+
+    vec = supersuit.concat_vec_envs_v1(supersuit.pettingzoo_env_to_vec_env_v1(make()), 2, num_cpus=0,
+                                       base_class="gymnasium")
+    obs, infos = vec.reset(seed=0)
+    assert obs.shape == (4, vec.observation_space.shape[0])  # 2 envs x 2 cars
+    dones = 0
+    for _ in range(150):  # standing still: stuck after 0.5 s, the envs reset themselves
+        obs, rewards, terminations, truncations, infos = vec.step(np.zeros((4, 3), np.float32))
+        dones += int(terminations.sum())
+    assert obs.shape == (4, vec.observation_space.shape[0]) and np.isfinite(obs).all()
+    assert dones >= 4
+    vec.close()
+
+
+def test_pixels_and_render_for_every_car(overlay):
+    env = boxbox.gym.parallel_env(cars=2, track="g-track-1", pixels=True, render_mode="rgb_array")
+    obs, _ = env.reset(seed=0)
+    assert all(o.shape == (96, 96, 3) and o.dtype == np.uint8 for o in obs.values())
+    assert env.observation_space("car_0").contains(obs["car_0"])
+    assert not np.array_equal(obs["car_0"], obs["car_1"])  # each car's own view
+    frame = env.render()
+    assert frame.dtype == np.uint8 and frame.ndim == 3
+    env.close()
+
+
+def test_step_before_reset_and_bad_options_are_refused(overlay):
+    with pytest.raises(UsageError, match="cars"):
+        boxbox.gym.parallel_env(cars=11)
+    with pytest.raises(UsageError, match="pit"):
+        boxbox.gym.parallel_env(cars=2, actions=("steer", "throttle", "brake", "pit"))
+    env = boxbox.gym.parallel_env(cars=2)
+    with pytest.raises(NeedsReset):
+        env.step({})
+    env.close()
+
+
+def test_killing_the_process_leaves_no_torcs(overlay):
+    code = ("import boxbox.gym, sys\n"
+            "env = boxbox.gym.parallel_env(cars=2, track='g-track-1')\n"
+            "env.reset()\n"
+            "print(env.torcs_pid, env.session.dir, flush=True)\n"
+            "sys.stdin.read()\n")
+    proc = subprocess.Popen([sys.executable, "-c", code], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    pid, folder = proc.stdout.readline().split()
+    assert psutil.pid_exists(int(pid))
+    proc.send_signal(signal.SIGKILL)
+    proc.wait()
+    deadline = time.monotonic() + 5
+    while psutil.pid_exists(int(pid)) and psutil.Process(int(pid)).status() != psutil.STATUS_ZOMBIE:
+        assert time.monotonic() < deadline, "TORCS outlived the env's process"
+        time.sleep(0.05)
+    proc.stdin.close()
+    proc.stdout.close()
