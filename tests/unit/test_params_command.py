@@ -9,7 +9,7 @@ from boxbox.cli import main_group
 ROBOT = '''
 from dataclasses import dataclass
 
-from boxbox import Robot
+from boxbox import Controls, Robot
 from boxbox.robot.params import Bound
 
 
@@ -23,6 +23,9 @@ class Gainer(Robot):
     name = "gainer"
     param_class = GainParams
     param_bounds = {"gain": Bound(0.1, 10.0)}
+
+    def drive(self, state):
+        return Controls()
 '''
 
 
