@@ -109,3 +109,19 @@ def spare_slip_ratio(peak_slip: float, lateral_share: float) -> float:
     g-track-1's long turn with the throttle's full slip there)."""
     spare = 1.0 - lateral_share * lateral_share
     return peak_slip * math.sqrt(spare) if spare > 0.0 else 0.0
+
+
+def combined_slip_room(peak_slip: float, lateral_slip: float) -> float:
+    """The longitudinal slip ratio (slip / the car's speed, as the traction control counts it) that
+    keeps a driven tyre's combined slip at its peak, given the lateral slip it has now (its side speed
+    / the car's speed: measured, not assumed as spare_slip_ratio does).  simuv2 divides both slip
+    speeds by the wheel's surface speed where that is the larger (a spinning wheel), so with the
+    ratio r the combined slip is sqrt(r^2 + sy^2) / (1 + r) <= peak; 0 once the tyre slides
+    sideways past its peak, where any wheelspin turns its force forward and the car spins."""
+    p2, sy2 = peak_slip * peak_slip, lateral_slip * lateral_slip
+    if sy2 >= p2:
+        return 0.0
+    if p2 >= 1.0:  # a peak at slip 1 or more: the wheel's own speed bounds the combined slip first
+        return math.inf
+    # the larger root of (1 - p^2) r^2 - 2 p^2 r + sy^2 - p^2 = 0
+    return (p2 + math.sqrt(p2 * p2 - (1.0 - p2) * (sy2 - p2))) / (1.0 - p2)

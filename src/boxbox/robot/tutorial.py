@@ -31,7 +31,14 @@ from boxbox.control.pit_brake import ENTRY, EXIT, FREE, GAVE_UP, HOLD, LANE, LIM
 from boxbox.control.speed import SpeedProfile, allowed_speed, bump_speed, crest_speed
 from boxbox.control.steering import steer_to_line, steer_to_point
 from boxbox.control.trackwidth import CUT_LIMIT_CAR_WIDTHS
-from boxbox.control.traction import SlipParams, abs_filter, driven_wheel_speed_mps, spare_slip_ratio, tcl_from_slip
+from boxbox.control.traction import (
+    SlipParams,
+    abs_filter,
+    combined_slip_room,
+    driven_wheel_speed_mps,
+    spare_slip_ratio,
+    tcl_from_slip,
+)
 from boxbox.model import Car, CarSetup, Controls, PitOrder, State, Track
 from boxbox.model.car import FWD, RWD
 from boxbox.model.constants import DRIVE_STEP_S, G_MPS2
@@ -234,6 +241,8 @@ class TutorialRobot(Robot):
         # in first gear at 44 % slip, which the tutorial's 10 m/s range allowed at 16 m/s)
         holds = self._peak_slip > 0.0 and tyre.falls_past_peak(*shape, SkillLevel(car.skill_level).skid_factor)
         self._holds_peak = holds and len(car.torque_curve_nm) >= 2
+        # the weight on the front axle is the CG's share of the wheelbase behind it
+        self._cg_to_rear_m = car.front_weight_share * 0.6 * car.length_m
         front_ca, rear_ca = carmodel.axle_downforce_coefficients(car)
         front_w = car.front_weight_share * car.mass_kg * G_MPS2
         rear_w = car.mass_kg * G_MPS2 - front_w
@@ -793,7 +802,14 @@ class TutorialRobot(Robot):
             return 0.0, tcl_from_slip(accel, v, slip_mps, self.slip, 0.0)
         v2 = v * v
         share = v2 * self._k_per_mu[int(s.dist_from_start_m / self.step_m) % self.n] / (G_MPS2 + v2 * self._ca_per_kg)
-        return 0.0, tcl_from_slip(accel, v, slip_mps, self.slip, spare_slip_ratio(self._peak_slip, share))
+        room = spare_slip_ratio(self._peak_slip, share)
+        if self.car.drivetrain == RWD:
+            # the rear axle's own lateral slip, measured: the body's side speed plus the yaw's at the
+            # axle (car1-ow1 out of e-track-2's 37 m/s right-hander at 13 deg body slip spun with 27 %
+            # wheelspin, which the turn's share alone allowed)
+            rear_slip = (s.speed_y_mps - self._cg_to_rear_m * s.yaw_rate_rps) / v
+            room = min(room, combined_slip_room(self._peak_slip, rear_slip))
+        return 0.0, tcl_from_slip(accel, v, slip_mps, self.slip, room)
 
     def _drive_room(self, s: State, v: float, accel: float) -> float:
         """Where the level's tyre loses force past its peak (pro): no more throttle than the grip

@@ -2,7 +2,14 @@ import dataclasses
 
 import pytest
 
-from boxbox.control.traction import SlipParams, abs_filter, driven_wheel_speed_mps, spare_slip_ratio, tcl_filter
+from boxbox.control.traction import (
+    SlipParams,
+    abs_filter,
+    combined_slip_room,
+    driven_wheel_speed_mps,
+    spare_slip_ratio,
+    tcl_filter,
+)
 from boxbox.model.car import AWD, FWD, RWD
 
 R = (0.33, 0.33, 0.3, 0.3)  # fr, fl, rr, rl
@@ -122,3 +129,28 @@ def test_tcl_range_ratio_shuts_the_throttle_within_the_peaks_slip_at_low_speed()
     assert tcl_filter(1.0, 16.0, spins(16, 16, 20, 20), R, RWD, held) == pytest.approx(1.0 - 2.0 / 4.16)
     # at speed the fixed 10 m/s is the smaller range and holds as before
     assert tcl_filter(1.0, 50.0, spins(50, 50, 55, 55), R, RWD, held) == pytest.approx(0.7)
+
+
+def test_combined_slip_room_keeps_the_combined_slip_at_the_peak():
+    # no side slip: r / (1 + r) = peak, r = p / (1 - p); the room shrinks as the side slip grows
+    assert combined_slip_room(0.25, 0.0) == pytest.approx(0.25 / 0.75)
+    r = combined_slip_room(0.25, 0.15)
+    assert ((r * r + 0.15**2) ** 0.5) / (1.0 + r) == pytest.approx(0.25)
+    assert combined_slip_room(0.25, -0.15) == pytest.approx(r) and 0.0 < r < 0.25 / 0.75
+    # sliding sideways at or past the peak: no room at all
+    assert combined_slip_room(0.25, 0.25) == 0.0 and combined_slip_room(0.25, -0.4) == 0.0
+    assert combined_slip_room(1.2, 0.3) == float("inf")
+
+
+def test_combined_slip_room_cuts_the_throttle_of_a_car_sliding_out_of_a_turn():
+    # car1-ow1 out of e-track-2's right-hander (tyre peak 0.214): 36.7 m/s, rear side slip 0.26,
+    # 27 % wheelspin (9.9 m/s).  The turn's share (0.5 here) left 0.15 x 36.7 = 5.5 m/s and 56 % of
+    # the throttle; the measured slip leaves the fixed 2 m/s, and 21 %
+    ratio = SlipParams(tcl_slip_ratio=0.15)
+    wheels = spins(36.7, 36.7, 46.6, 46.6)
+    assert tcl_filter(1.0, 36.7, wheels, R, RWD, ratio, spare_slip_ratio(0.214, 0.5)) == pytest.approx(
+        1.0 - (9.9 - 0.15 * 36.7) / 10.0)
+    room = min(spare_slip_ratio(0.214, 0.5), combined_slip_room(0.214, 0.26))
+    assert tcl_filter(1.0, 36.7, wheels, R, RWD, ratio, room) == pytest.approx(1.0 - (9.9 - 2.0) / 10.0)
+    # gripping (side slip 0.05): the turn's share still sets the room, nothing changes
+    assert combined_slip_room(0.214, 0.05) > spare_slip_ratio(0.214, 0.5) > 0.15
