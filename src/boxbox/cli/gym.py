@@ -51,8 +51,11 @@ def scr_server(port, track, car, opponents, laps, races, client_timeout_s) -> No
               help="Steps of each sub-env of the AsyncVectorEnv.")
 @click.option("--episodes", type=WholeNumber(10, None), default=1_000, show_default=True,
               help="Short episodes for the reset time, memory, files and processes.")
+@click.option("--policy-steps", type=WholeNumber(0, None), default=40_000, show_default=True,
+              help="Env steps of the random policy with the env's limits, without a spare race and with one "
+                   "(0: skip it).")
 @click.option("--json", "json_file", type=OutputFile(), help="Write the rows as JSON.")
-def bench_gym(track, steps, episode_steps, envs, vector_steps, episodes, json_file) -> None:
+def bench_gym(track, steps, episode_steps, envs, vector_steps, episodes, policy_steps, json_file) -> None:
     """The Gymnasium env's speed, reset time and resource use, with gym_torcs's figures beside.
 
     Example: boxbox bench-gym --episodes 200
@@ -67,7 +70,7 @@ def bench_gym(track, steps, episode_steps, envs, vector_steps, episodes, json_fi
 
     ready()
     check_race(track, "car1-trb1", 1)
-    rows = run_bench(track, steps, episode_steps, envs, vector_steps, episodes,
+    rows = run_bench(track, steps, episode_steps, envs, vector_steps, episodes, policy_steps,
                      log=lambda text: err.print(f"[dim]bench-gym:[/] {text}", highlight=False))
     table = Table(title=f"bench-gym: boxbox/TORCS-v0 on {track}, random actions")
     for col in ("measure", "boxbox/TORCS-v0", "target", "gym_torcs (published)"):

@@ -201,6 +201,7 @@ class TorcsEnv(gymnasium.Env):
             self.pit.request()
         with self.session.pin:
             s, total, progress, reason, fault = self._drive(steer, throttle, brake, clutch, gear)
+            self.session.advance_spares()  # the next episode's race, one message further (never waits)
         if s is not self.state:
             self.state = s
             self.vector = self._vector(s)

@@ -13,8 +13,8 @@ TORCS is pinned to one core, and the thread that drives it runs there while it d
 reset: `Session.pin`), as they strictly alternate: the round trip costs ~3 us instead of ~50 us
 across cores (docs/architecture.md); between steps the thread has its own cores back, so threads it
 starts (a learner's) are not pinned.  TORCS dies with the thread that started it
-(PR_SET_PDEATHSIG: the reset's thread, or the spare pool's worker, which lives until close; in
-practice with the env's process) and is killed by process group when its race is done and on
+(PR_SET_PDEATHSIG, set by util-linux's setpriv before it execs TORCS; in practice with the
+env's process) and is killed by process group when its race is done and on
 close.  The session's folder (a folder per race: TORCS's local folder, the race file, the socket,
 TORCS's stderr) is a temporary folder removed on close (or by the next session, when the env's
 process was killed outright).
@@ -84,15 +84,15 @@ class RaceOrder:
 
 
 class Shared:
-    """What a session's races share across threads: the processes running (killed at close, or
-    when the env is dropped), the decoded tracks, and whether the session is closed."""
+    """What a session's races share with its clean-up (which may run in any thread, from the
+    garbage collector): the processes running, the decoded tracks, whether the session is closed."""
 
     def __init__(self, folder: Path) -> None:
         self.folder = folder
         self.lock = threading.Lock()
         self.running: list[subprocess.Popen] = []
         self.closed = False
-        self.tracks: dict[tuple[bytes, str, str], tuple[Track, Car]] = {}  # NEW_TRACK's bytes -> decoded
+        self.tracks: dict[tuple[str, str], tuple[bytes, Track, Car]] = {}  # NEW_TRACK's bytes, decoded
 
 
 def _clean_up(shared: Shared) -> None:
@@ -157,31 +157,77 @@ class Race:
         self.run = RunDir(folder)  # the names of TORCS's files in it
         self.on_pit: PitHandler | None = None  # the env's, once the race is handed over
         self.proc: subprocess.Popen | None = None
+        self.listener: socket.socket | None = None
         self.conn: socket.socket | None = None
+        self.started: Started | None = None  # the first drive step at 0 s, once set up
         self.killed = False
         self.ended = False  # TORCS ended the race (END_RACE)
         self._buf = bytearray(wire.MAX_MESSAGE_BYTES + 64)
         self._out = bytearray(HSIZE + wire.CONTROLS_REC.size)
         self._step = 0
         self._track: tuple[Track, Car] | None = None
+        self._chunks: list[bytes] = []  # NEW_TRACK's
 
     # --- making it ready ---------------------------------------------------------------------
     def prepare(self) -> Started:
         """TORCS started and served up to its first drive step at 0 s (the car cannot move before)."""
-        listener = self._listen()
-        try:
+        while not self.advance(block=True):
+            pass
+        assert self.started is not None
+        return self.started
+
+    def advance(self, block: bool = False) -> bool:
+        """Take the race's set-up as far as it goes without waiting (with `block`: to its end):
+        spawn TORCS, accept it, answer HELLO, NEW_TRACK, NEW_RACE and the start countdown's drive
+        steps.  True once it is ready (`started`)."""
+        if self.started is not None:
+            return True
+        if self.proc is None:
+            self.listener = self._listen()
             self._spawn()
-            self.conn = self._accept(listener)
-        finally:
-            listener.close()
-        self.conn.settimeout(ANSWER_TIMEOUT_S)
-        state: State | None = self._handshake()
-        while state is not None and state.sim_time_s < 0.0:
-            state = self.drive(0.0, 0.0, 0.0, 0.0, 0, False)
-        if state is None:
+        if self.conn is None:
+            self.conn = self._accept(block)
+            if self.conn is None:
+                return False
+        self.conn.settimeout(ANSWER_TIMEOUT_S if block else 0.0)
+        while True:
+            try:
+                n = self._recv()
+            except BlockingIOError:
+                return False
+            if self._setup_message(n):
+                self.conn.settimeout(ANSWER_TIMEOUT_S)
+                return True
+
+    def _setup_message(self, n: int) -> bool:
+        """Answer one set-up message; True at the first drive step at 0 s."""
+        kind, robot, step, count = wire.HEADER.unpack_from(self._buf, 0)
+        if kind == wire.DRIVE:
+            self._step = step
+            state = self._state(count)
+            if state.sim_time_s >= 0.0:
+                assert self._track is not None
+                self.started = Started(self._track[0], self._track[1], state)
+                return True
+            self._send_controls(0.0, 0.0, 0.0, 0.0, 0, False)  # the countdown: the car cannot move yet
+        elif kind == wire.HELLO:
+            self._reply(wire.HELLO, robot, step, wire.HELLO_REC, (wire.PROTOCOL_VERSION, 0.0, 0.0))
+        elif kind == wire.NEW_TRACK:
+            self._chunks.append(bytes(self._buf[HSIZE:n]))
+            if step + 1 == count:
+                self._new_track(b"".join(self._chunks))
+                fuel = self.order.initial_fuel_l
+                self._reply(wire.FUEL, robot, step, wire.FUEL_REC,
+                            (-1.0 if fuel is None else float(fuel), math.nan, math.nan))
+        elif kind == wire.NEW_RACE:
+            assert self._track is not None
+            complete_car(self._track[1], bytes(self._buf[HSIZE:n]))
+            self._reply(wire.ACK, robot, step)
+        elif kind in (wire.END_RACE, wire.SHUTDOWN):
             raise TorcsGone("the race ended before it started")
-        assert self._track is not None
-        return Started(self._track[0], self._track[1], state)
+        else:
+            raise TorcsGone(f"TORCS sent message kind {kind} before the race started")
+        return False
 
     def _listen(self) -> socket.socket:
         with self.shared.lock:  # not in a folder that close() is removing
@@ -197,50 +243,23 @@ class Race:
             raise
         return listener
 
-    def _handshake(self) -> State:
-        """HELLO, NEW_TRACK (answered with the start fuel), NEW_RACE: the first drive step's state."""
-        chunks: list[bytes] = []
-        while True:
-            n = self._recv()
-            kind, robot, step, count = wire.HEADER.unpack_from(self._buf, 0)
-            if kind == wire.DRIVE:
-                self._step = step
-                return self._state(count)
-            if kind == wire.HELLO:
-                self._reply(wire.HELLO, robot, step, wire.HELLO_REC, (wire.PROTOCOL_VERSION, 0.0, 0.0))
-            elif kind == wire.NEW_TRACK:
-                chunks.append(bytes(self._buf[HSIZE:n]))
-                if step + 1 == count:
-                    self._new_track(b"".join(chunks))
-                    fuel = self.order.initial_fuel_l
-                    self._reply(wire.FUEL, robot, step, wire.FUEL_REC,
-                                (-1.0 if fuel is None else float(fuel), math.nan, math.nan))
-            elif kind == wire.NEW_RACE:
-                assert self._track is not None
-                complete_car(self._track[1], bytes(self._buf[HSIZE:n]))
-                self._reply(wire.ACK, robot, step)
-            else:
-                raise TorcsGone(f"TORCS sent message kind {kind} before the race started")
-
     def _new_track(self, blob: bytes) -> None:
-        """The track (decoded once per session and track) and a copy of the car's file constants
-        (NEW_RACE completes it for this race: its pit, its grid slot)."""
-        key = (blob, self.cfg.track, self.cfg.car)
+        """The track (decoded once per session, track and car) and a copy of the car's file
+        constants (NEW_RACE completes the copy for this race: its pit, its grid slot)."""
+        key = (self.cfg.track, self.cfg.car)
         decoded = self.shared.tracks.get(key)
-        if decoded is None:
+        if decoded is None or decoded[0] != blob:
             track, car = decode_track(blob, self.cfg.track, self.cfg.category)
             car.name = self.cfg.car
-            decoded = self.shared.tracks[key] = (track, car)
-        self._track = (decoded[0], copy.copy(decoded[1]))
+            decoded = self.shared.tracks[key] = (blob, track, car)
+        self._track = (decoded[1], copy.copy(decoded[2]))
 
     # --- the race ----------------------------------------------------------------------------
     def drive(self, steer: float, accel: float, brake: float, clutch: float, gear: int, pit: bool) -> State | None:
         """Answer the pending drive step; the next step's state, or None when the race has ended."""
         if self.conn is None or self.ended:
             return None
-        wire.HEADER.pack_into(self._out, 0, wire.CONTROLS, 0, self._step, 0)
-        wire.CONTROLS_REC.pack_into(self._out, HSIZE, steer, accel, brake, clutch, gear, 1.0 if pit else 0.0)
-        self._send(self._out)
+        self._send_controls(steer, accel, brake, clutch, gear, pit)
         while True:
             try:
                 self._recv()
@@ -261,6 +280,18 @@ class Race:
                 self._reply(wire.ACK, robot, step)
                 return None
 
+    def _send_controls(self, steer: float, accel: float, brake: float, clutch: float, gear: int, pit: bool) -> None:
+        wire.HEADER.pack_into(self._out, 0, wire.CONTROLS, 0, self._step, 0)
+        wire.CONTROLS_REC.pack_into(self._out, HSIZE, steer, accel, brake, clutch, gear, 1.0 if pit else 0.0)
+        self._send(self._out)
+
+    def move_to(self, cpu: int) -> None:
+        """Run TORCS on `cpu` from now on (a spare handed over: the reset's thread drives it there)."""
+        if cpu != self.cpu and self.proc is not None:
+            with contextlib.suppress(OSError):
+                os.sched_setaffinity(self.proc.pid, {cpu})
+            self.cpu = cpu
+
     def kill(self) -> None:
         """Kill TORCS (its process group) now; `reap` collects it."""
         with self.shared.lock:
@@ -270,18 +301,23 @@ class Race:
             with contextlib.suppress(ProcessLookupError, PermissionError):
                 os.killpg(proc.pid, signal.SIGKILL)
 
-    def reap(self) -> None:
-        """After `kill`: wait for TORCS, close the connection, remove the race's folder."""
+    def reap(self, block: bool = True) -> bool:
+        """After `kill`: collect TORCS, close the sockets, remove the race's folder.  Without
+        `block`, only when TORCS is gone already (False: not yet)."""
         self.kill()
         if self.proc is not None:
+            if not block and self.proc.poll() is None:
+                return False
             self.proc.wait()
             with self.shared.lock, contextlib.suppress(ValueError):
                 self.shared.running.remove(self.proc)
-        if self.conn is not None:
-            self.conn.close()
-            self.conn = None
+        for sock in (self.conn, self.listener):
+            if sock is not None:
+                sock.close()
+        self.conn = self.listener = None
         self.on_pit = None
         shutil.rmtree(self.run.path, ignore_errors=True)
+        return True
 
     @property
     def socket_path(self) -> Path:
@@ -294,7 +330,7 @@ class Race:
                    BOXBOX_STEP_BUDGET_MS="0",  # no limit: a learner may think for as long as it likes
                    BOXBOX_SETUP_BUDGET_MS=str(SETUP_BUDGET_MS))
         cmd = torcs_command(o, self.run)
-        with self.shared.lock, open(self.run.torcs_err, "wb") as err:
+        with self.shared.lock, open(self.run.torcs_err, "wb") as err:  # (a spawn without a preexec_fn: a vfork)
             if self.shared.closed or self.killed:
                 raise TorcsGone("the session was closed")
             try:
@@ -313,17 +349,23 @@ class Race:
                                 "run `boxbox setup`") from None
             self.shared.running.append(self.proc)
 
-    def _accept(self, listener: socket.socket) -> socket.socket:
-        assert self.proc is not None
-        listener.settimeout(0.05)
+    def _accept(self, block: bool) -> socket.socket | None:
+        """TORCS's connection (None when it has not connected yet and `block` is off)."""
+        listener = self.listener
+        assert listener is not None and self.proc is not None
+        listener.settimeout(0.05 if block else 0.0)
         deadline = time.monotonic() + CONNECT_TIMEOUT_S
         while True:
             try:
                 conn, _ = listener.accept()
+                listener.close()
+                self.listener = None
                 return conn
-            except TimeoutError:
+            except (TimeoutError, BlockingIOError):
                 if self.proc.poll() is not None:
                     raise TorcsGone(f"TORCS {self.exit_text()} before it connected: {self.torcs_words()}") from None
+                if not block:
+                    return None
                 if time.monotonic() > deadline:
                     raise TorcsGone(f"TORCS did not connect within {CONNECT_TIMEOUT_S:.0f} s") from None
 
@@ -331,6 +373,8 @@ class Race:
         assert self.conn is not None
         try:
             n = self.conn.recv_into(self._buf)
+        except BlockingIOError:
+            raise
         except TimeoutError:
             raise TorcsGone(f"TORCS did not answer within {ANSWER_TIMEOUT_S:.0f} s") from None
         except OSError:
@@ -417,6 +461,7 @@ class Session:
         if taken is not None:
             race, started = taken
             started.spare = True
+            race.move_to(self.cpu)  # loaded on the spares' core, it races on the session's
         else:
             race = self._new_race(order)
             self.race = race  # killed by stop() or close() if it fails half way
@@ -433,9 +478,14 @@ class Session:
             return None
         return self.race.drive(steer, accel, brake, clutch, gear, pit)
 
+    def advance_spares(self) -> None:
+        """Take the spares' set-up a step further without waiting (the env calls it every step)."""
+        if self.pool is not None and self.pool.pending:
+            self.pool.advance()
+
     def stop(self) -> None:
         """Kill the race's TORCS (its process group); nothing of the race is left (a spare pool
-        collects it in its worker, off the reset's time)."""
+        collects it later, off the reset's time)."""
         race, self.race = self.race, None
         if race is None:
             return

@@ -2,21 +2,23 @@
 reset takes one over instead of waiting for a fresh TORCS (~25 ms, most of it TORCS loading).
 
 The pool keeps a spare for each of the next episodes (`plan`, with the episodes the env has drawn
-ahead from its seeded RNG); `take` hands over the one made for the reset's episode (waiting for it
-if it is still loading), or none when the reset asked for another race (the env then starts a
+ahead from its seeded RNG); `take` hands over the one made for the reset's episode (finishing its
+set-up if it is not done), or none when the reset asked for another race (the env then starts a
 fresh TORCS: the same race a spare would have been, so the episode is the same bit for bit).
-Spares are made in worker threads (one per spare, living until close: TORCS dies with the
-thread that started it), which mostly wait on TORCS; races that are done are killed at once and
-collected there too, off the reset's time.
+
+No thread: the env's own thread takes each spare's set-up a little further at every step
+(`advance`: one socket call that does not wait; TORCS loads on its own meanwhile, and answers the
+next set-up message when it is ready), so the set-up takes no core time from the learner beyond
+those calls and no lock is held: a thread would hold Python's GIL while the learner's thread waits
+on TORCS's answer, costing up to 5 ms (the GIL's switch interval) a step.  Races done with are
+killed at once and collected at a later step, when TORCS has gone.
 """
 
 from __future__ import annotations
 
-import contextlib
 from collections.abc import Callable, Sequence
-from concurrent.futures import Future, ThreadPoolExecutor
 
-from boxbox.gym.session import Race, RaceOrder, Started
+from boxbox.gym.session import Race, RaceOrder, Started, TorcsGone
 
 MAX_SPARES = 8
 
@@ -27,19 +29,19 @@ class SparePool:
     def __init__(self, depth: int, new_race: Callable[[RaceOrder, bool], Race]) -> None:
         self.depth = depth
         self.new_race = new_race
-        self.workers = ThreadPoolExecutor(max_workers=depth + 1, thread_name_prefix="boxbox-spare")
-        self.spares: list[tuple[Race, Future[Started]]] = []  # in the order they were started
+        self.spares: list[Race] = []  # in the order of the episodes they are for
+        self.dying: list[Race] = []  # killed, to collect
         self.taken = 0  # spares handed over (tests and the bench read it)
-        self.reaping: list[Future] = []  # races being collected
+        self.pending = False  # a spare to set up, or a race to collect: `advance` has work
 
     def take(self, order: RaceOrder) -> tuple[Race, Started] | None:
         """The spare made for `order` (its key), ready; None when there is none (or it failed)."""
-        for i, (race, future) in enumerate(self.spares):
+        for i, race in enumerate(self.spares):
             if race.order == order:
                 del self.spares[i]
                 try:
-                    started = future.result()
-                except Exception:  # noqa: BLE001  (a spare that failed is dropped; the reset starts afresh)
+                    started = race.prepare()
+                except TorcsGone:  # a spare that failed is dropped; the reset starts afresh
                     self.retire(race)
                     return None
                 self.taken += 1
@@ -47,53 +49,59 @@ class SparePool:
         return None
 
     def plan(self, upcoming: Sequence[RaceOrder]) -> None:
-        """Keep the spares that match the next episodes, drop the others, start the missing ones."""
+        """Keep the spares that match the next episodes, drop the others, add the missing ones
+        (set up from the next `advance` on)."""
         wanted = list(upcoming[: self.depth])
-        kept: list[tuple[Race, Future[Started]]] = []
-        for race, future in self.spares:
+        kept: list[Race] = []
+        for race in self.spares:
             if race.order in wanted:
                 wanted.remove(race.order)
-                kept.append((race, future))
+                kept.append(race)
             else:
-                self.retire(race, future)
-        for order in wanted:
-            race = self.new_race(order, True)
-            kept.append((race, self.workers.submit(race.prepare)))
+                self.retire(race)
+        kept += [self.new_race(order, True) for order in wanted]
         self.spares = kept
+        self.pending = True
 
-    def retire(self, race: Race, future: Future | None = None) -> None:
-        """Kill a race now (a spare still loading stops there) and collect it in a worker."""
-        if future is not None and future.cancel():
-            race.reap()  # never started: nothing runs, only its folder (if any) to remove
-            return
+    def advance(self) -> None:
+        """One non-waiting turn: collect a race that has gone, and take the first spare that is
+        not ready one message further."""
+        if self.dying and self.dying[0].reap(block=False):
+            del self.dying[0]
+        for race in self.spares:
+            if race.started is None:
+                try:
+                    race.advance()
+                except TorcsGone:  # prepare() at the reset says what went wrong, or a fresh start
+                    pass
+                return
+        self.pending = bool(self.dying)
+
+    def retire(self, race: Race) -> None:
+        """Kill a race now; it is collected at a later `advance` (or at close)."""
         race.kill()
-        self.reaping = [f for f in self.reaping if not f.done()]
-        with contextlib.suppress(RuntimeError):  # the pool is closing: close() reaps it
-            self.reaping.append(self.workers.submit(_reap_after, race, future))
-            return
-        race.reap()
+        self.dying.append(race)
+        self.pending = True
 
     def settle(self) -> None:
-        """Wait until every spare is ready (or failed) and every race done with is collected: the
-        processes and files are then those of the race and its spares (tests, bench-gym)."""
-        for future in [f for _race, f in self.spares] + self.reaping:
-            with contextlib.suppress(Exception):
-                future.result()
-        self.reaping = []
+        """Finish every spare's set-up and collect every race done with: the processes and files
+        are then those of the race and its spares (tests, bench-gym)."""
+        for race in self.spares:
+            try:
+                race.prepare()
+            except TorcsGone:
+                pass
+        for race in self.dying:
+            race.reap()
+        self.dying = []
+        self.pending = False
 
     def close(self) -> None:
-        """Kill every spare and wait for the workers (nothing of them is left)."""
-        spares, self.spares = self.spares, []
-        for race, _future in spares:
+        """Kill every spare and collect them all (nothing of them is left)."""
+        races, self.spares = self.spares + self.dying, []
+        self.dying = []
+        for race in races:
             race.kill()
-        self.workers.shutdown(wait=True, cancel_futures=True)
-        for race, _future in spares:
+        for race in races:
             race.reap()
-
-
-def _reap_after(race: Race, future: Future | None) -> None:
-    if future is not None:  # its prepare ends (TORCS is killed) before it is collected
-        with contextlib.suppress(Exception):
-            future.result()
-    race.reap()
-
+        self.pending = False
