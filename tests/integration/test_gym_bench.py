@@ -27,7 +27,7 @@ def test_bench_gym_small(overlay):
     no_spare = row("random policy, resets included, no spare")
     spare = row("random policy, resets included, a spare race")
     assert number(no_spare.value) > 300 and number(spare.value) > 300
-    assert "resets took a spare" in row("random policy, a spare race: reset").gym_torcs
+    assert "resets took a spare" in row("random policy, a spare race (spares=1, the default): reset").gym_torcs
     rss, fds, kids = (row(m).value for m in ("memory", "open file descriptors", "child processes"))
     first, last = (number(v) for v in rss.split(" / "))
     assert last - first < 5.0  # MB over 20 episodes after the 10th
