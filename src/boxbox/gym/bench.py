@@ -22,6 +22,7 @@ import os
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 import gymnasium
 import numpy as np
@@ -158,7 +159,8 @@ def reset_soak(track: str, episodes: int, steps: int = 20, seed: int = 0) -> Soa
         for a in actions:
             env.step(a)
         if episode in (10, episodes):
-            env.unwrapped.session.settle()  # the spare ready, the last race collected
+            torcs_env: Any = env.unwrapped
+            torcs_env.session.settle()  # the spare ready, the last race collected
             marks.append((me.memory_info().rss / 2**20, len(os.listdir("/proc/self/fd")),
                           len(me.children(recursive=True))))
     env.close()

@@ -145,7 +145,7 @@ class Episodes:
     def __init__(self, laps: int, **options: Any) -> None:
         self.laps = validate.laps(laps, name="laps")
         self.draws = {key: parse_draw(options[key], CHECKS[key], key, list_is_one=key == "opponents",
-                                      numbers=(0.0, MAX_FUEL_L) if key == "initial_fuel_l" else None)
+                                      numbers=(0, MAX_FUEL_L) if key == "initial_fuel_l" else None)
                       for key in EPISODE_KEYS}
         self._configs: dict[tuple, RaceConfig] = {}
         setup.ensure_ready()
