@@ -13,16 +13,24 @@ def number(text: str) -> float:
 
 
 def test_bench_gym_small(overlay):
-    rows = run_bench(steps=3000, episode_steps=500, vector_envs=2, vector_steps=300, episodes=30)
-    by = {r.measure.split(",")[0] + ("" if "Async" not in r.measure else " async"): r for r in rows}
+    rows = run_bench(steps=3000, episode_steps=500, vector_envs=2, vector_steps=300, episodes=30, policy_steps=2000)
+    by = {r.measure: r for r in rows}
+
+    def row(start: str):
+        return next(r for r in rows if r.measure.startswith(start))
+
     assert number(rows[0].value) > 2000  # one env (the target, 10,000, is met on a quiet machine)
     assert number(rows[1].value) > 1000  # with a reset every 500 steps
-    assert number(by["env steps/s async"].value) > 500
-    reset = rows[3].value
-    assert number(reset) < 300  # ms, the median
-    rss, fds, kids = (r.value for r in rows[4:7])
+    assert number(row("env steps/s, AsyncVectorEnv").value) > 500
+    assert number(row("reset, median").value) < 300  # ms, the median
+    # the random policy without and with a spare race: every reset with one took a spare
+    no_spare = row("random policy, resets included, no spare")
+    spare = row("random policy, resets included, a spare race")
+    assert number(no_spare.value) > 300 and number(spare.value) > 300
+    assert "resets took a spare" in row("random policy, a spare race (spares=1, the default): reset").gym_torcs
+    rss, fds, kids = (row(m).value for m in ("memory", "open file descriptors", "child processes"))
     first, last = (number(v) for v in rss.split(" / "))
     assert last - first < 5.0  # MB over 20 episodes after the 10th
-    assert fds.split(" / ")[0] == fds.split(" / ")[1] and kids == "1 / 1"
+    assert fds.split(" / ")[0] == fds.split(" / ")[1] and kids == "2 / 2"  # TORCS and its spare
     table = markdown(rows)
-    assert table.count("\n") == len(rows) + 1 and "gym_torcs #31" in table
+    assert table.count("\n") == len(rows) + 1 and "gym_torcs #31" in table and by

@@ -50,3 +50,19 @@ def test_render_draws_the_race_for_record_video(overlay, tmp_path):
     assert np.hypot(*(end - start)) > 3  # 2 s at full throttle: the car moved across the picture
     assert len(colour_pixels(frames[-1], OTHER_CAR)) > 0
     env.close()
+
+
+def test_the_drawing_follows_the_episodes_track(overlay):
+    # varied episodes (gym/episodes.py) with pixels: each reset's track is drawn, not the first one's
+    env = gymnasium.make(ID, track=["g-track-1", "e-track-2"], render_mode="rgb_array", pixels=True)
+    frames, views = {}, {}
+    for track in ("g-track-1", "e-track-2", "g-track-1"):
+        obs, info = env.reset(seed=0, options={"track": track})
+        assert info["track"] == track and env.unwrapped.drawing.track is env.unwrapped.track
+        frame = env.render()
+        if track in frames:  # the same track again: the same picture
+            assert np.array_equal(frame, frames[track]) and np.array_equal(obs, views[track])
+        frames[track], views[track] = frame, obs
+    first, second = frames["g-track-1"], frames["e-track-2"]
+    assert first.shape != second.shape or not np.array_equal(first, second)
+    env.close()

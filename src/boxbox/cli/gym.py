@@ -51,10 +51,14 @@ def scr_server(port, track, car, opponents, laps, races, client_timeout_s) -> No
               help="Steps of each sub-env of the AsyncVectorEnv.")
 @click.option("--episodes", type=WholeNumber(10, None), default=1_000, show_default=True,
               help="Short episodes for the reset time, memory, files and processes.")
+@click.option("--policy-steps", type=WholeNumber(0, None), default=40_000, show_default=True,
+              help="Env steps of the random policy with the env's limits, without a spare race and with one "
+                   "(0: skip it).")
 @click.option("--multi-steps", type=WholeNumber(0, None), default=20_000, show_default=True,
               help="Steps of the pixel and the 2- and 4-car measurements (0: skip them).")
 @click.option("--json", "json_file", type=OutputFile(), help="Write the rows as JSON.")
-def bench_gym(track, steps, episode_steps, envs, vector_steps, episodes, multi_steps, json_file) -> None:
+def bench_gym(track, steps, episode_steps, envs, vector_steps, episodes, policy_steps, multi_steps,
+              json_file) -> None:
     """The Gymnasium env's speed, reset time and resource use, with gym_torcs's figures beside.
 
     Example: boxbox bench-gym --episodes 200
@@ -69,7 +73,7 @@ def bench_gym(track, steps, episode_steps, envs, vector_steps, episodes, multi_s
 
     ready()
     check_race(track, "car1-trb1", 1)
-    rows = run_bench(track, steps, episode_steps, envs, vector_steps, episodes,
+    rows = run_bench(track, steps, episode_steps, envs, vector_steps, episodes, policy_steps,
                      log=lambda text: err.print(f"[dim]bench-gym:[/] {text}", highlight=False))
     if multi_steps:  # pixels, several learning cars (gym/bench_multi.py)
         from boxbox.gym.bench_multi import run_multi_bench

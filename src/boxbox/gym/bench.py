@@ -4,6 +4,10 @@ Measured (`run_bench`):
 - env steps a second, one env on one core (the env pins itself and its TORCS to one core), random
   actions on g-track-1, episodes of `episode_steps` steps; the figure without the resets and
   with them;
+- a random policy (Gaussian actions) with the env's own limits (the car leaves the track within a
+  few hundred steps, so resets weigh): env steps a second, resets included, and the reset median
+  and 95th percentile, without spare races (`spares=0`, each reset starts TORCS) and with one,
+  alternating in rounds in the same run (the machine's load moves);
 - the same with an AsyncVectorEnv of `vector_envs` envs (env steps a second, all envs together);
 - over `episodes` short episodes (a reset and 20 random steps each): the median and 95th
   percentile reset time, and this process's memory, open files and child processes after the
@@ -17,7 +21,8 @@ from __future__ import annotations
 import os
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import Any
 
 import gymnasium
 import numpy as np
@@ -69,6 +74,56 @@ def single_env(track: str, steps: int, episode_steps: int, seed: int = 0) -> tup
     return steps / (wall - resets_s), steps / wall
 
 
+@dataclass
+class PolicyRun:
+    steps: int = 0
+    wall_s: float = 0.0
+    resets_s: list[float] = field(default_factory=list)
+    spares_used: int = 0
+
+    def row(self, label: str, target: str = "") -> list[Row]:
+        rate = self.steps / self.wall_s if self.wall_s else 0.0
+        times = np.array(self.resets_s or [0.0]) * 1000
+        return [Row(f"random policy, resets included, {label}: env steps/s ({len(self.resets_s)} episodes)",
+                    f"{rate:,.0f}", ">= 10,000" if target else ""),
+                Row(f"random policy, {label}: reset median (95th percentile)",
+                    f"{np.median(times):.2f} ms ({np.percentile(times, 95):.2f} ms)", target,
+                    "" if not self.spares_used else f"{self.spares_used} resets took a spare")]
+
+
+def policy_actions(space, n: int, rng: np.random.Generator) -> np.ndarray:
+    """Gaussian actions (sd 0.5 about the middle of each column), clipped to the space."""
+    mid, half = (space.high + space.low) / 2, (space.high - space.low) / 2
+    return np.clip(rng.normal(mid, 0.5 * half, size=(n, *space.shape)), space.low, space.high).astype(np.float32)
+
+
+def random_policy(track: str, steps: int, spares: int, run: PolicyRun, seed: int = 0) -> None:
+    """`steps` env steps of a random policy through gymnasium.make with the env's own limits."""
+    env = gymnasium.make(ENV_ID, track=track, flat=True, spares=spares)
+    actions = policy_actions(env.action_space, min(steps, 10_000), np.random.default_rng(seed))
+    env.reset(seed=seed)
+    started = time.perf_counter()
+    for i in range(steps):
+        _, _, terminated, truncated, _ = env.step(actions[i % len(actions)])
+        if terminated or truncated:
+            t = time.perf_counter()
+            _, info = env.reset()
+            run.resets_s.append(time.perf_counter() - t)
+            run.spares_used += bool(info["spare"])
+    run.wall_s += time.perf_counter() - started
+    run.steps += steps
+    env.close()
+
+
+def spares_compared(track: str, steps: int, rounds: int = 2) -> tuple[PolicyRun, PolicyRun]:
+    """(without spares, with one): `rounds` rounds of steps/rounds steps each, alternating."""
+    old, new = PolicyRun(), PolicyRun()
+    for r in range(rounds):
+        random_policy(track, steps // rounds, 0, old, seed=r)
+        random_policy(track, steps // rounds, 1, new, seed=r)
+    return old, new
+
+
 def vector_env(track: str, n_envs: int, steps: int, episode_steps: int, seed: int = 0) -> float:
     """Env steps a second of an AsyncVectorEnv (each sub-env steps `steps` times)."""
     venv = gymnasium.vector.AsyncVectorEnv([lambda: make_env(track, episode_steps)] * n_envs)
@@ -89,7 +144,7 @@ class Soak:
     reset_p95_s: float
     rss_mb: tuple[float, float]  # after the 10th episode, after the last
     fds: tuple[int, int]
-    processes: tuple[int, int]  # this process's children (one TORCS)
+    processes: tuple[int, int]  # this process's children (TORCS and its spare)
 
 
 def reset_soak(track: str, episodes: int, steps: int = 20, seed: int = 0) -> Soak:
@@ -104,6 +159,8 @@ def reset_soak(track: str, episodes: int, steps: int = 20, seed: int = 0) -> Soa
         for a in actions:
             env.step(a)
         if episode in (10, episodes):
+            torcs_env: Any = env.unwrapped
+            torcs_env.session.settle()  # the spare ready, the last race collected
             marks.append((me.memory_info().rss / 2**20, len(os.listdir("/proc/self/fd")),
                           len(me.children(recursive=True))))
     env.close()
@@ -113,11 +170,14 @@ def reset_soak(track: str, episodes: int, steps: int = 20, seed: int = 0) -> Soa
 
 
 def run_bench(track: str = "g-track-1", steps: int = 100_000, episode_steps: int = 1000, vector_envs: int = 8,
-              vector_steps: int = 5_000, episodes: int = 1000, log: Log = lambda text: None) -> list[Row]:
+              vector_steps: int = 5_000, episodes: int = 1000, policy_steps: int = 40_000,
+              log: Log = lambda text: None) -> list[Row]:
     """Every measurement as table rows (measure, boxbox's figure, the target, gym_torcs's figure)."""
     cores = len(os.sched_getaffinity(0))
     log(f"one env: {steps} steps of random actions")
     bare, with_resets = single_env(track, steps, episode_steps)
+    log(f"a random policy with the env's limits: {policy_steps} steps without spare races and with one")
+    old, new = spares_compared(track, policy_steps) if policy_steps else (PolicyRun(), PolicyRun())
     log(f"AsyncVectorEnv of {vector_envs}: {vector_steps} steps each")
     vec = vector_env(track, vector_envs, vector_steps, episode_steps) if vector_envs else 0.0
     log(f"{episodes} episodes of a reset and 20 steps")
@@ -126,6 +186,8 @@ def run_bench(track: str = "g-track-1", steps: int = 100_000, episode_steps: int
         Row("env steps/s, 1 env on 1 core, random actions", f"{bare:,.0f}", ">= 10,000 (aim 20,000)",
             f"{GYM_TORCS_STEPS_PER_S} ({GYM_TORCS_SOURCES})"),
         Row(f"the same with a reset every {episode_steps} steps", f"{with_resets:,.0f}"),
+        *old.row("no spare (spares=0: TORCS started at each reset)"),
+        *new.row("a spare race (spares=1, the default)", "<= 3 ms"),
         Row(f"env steps/s, AsyncVectorEnv of {vector_envs} on {cores} cores (all envs)", f"{vec:,.0f}"),
         Row(f"reset, median of {episodes} (95th percentile)",
             f"{soak.reset_median_s * 1000:.1f} ms ({soak.reset_p95_s * 1000:.1f} ms)", "< 300 ms",

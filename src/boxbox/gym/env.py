@@ -2,15 +2,18 @@
 
     env = gymnasium.make("boxbox/TORCS-v0", track="g-track-1", opponents=["bt:2"], laps=1)
 
-Each `reset` starts a fresh race (a new TORCS process, ~20 ms); each `step` answers the pending
-drive call with the action's controls and returns at the next one (`action_repeat` drive calls
-of 0.02 s each with the same action).  Spaces: gym/spaces.py; reward and termination:
-gym/reward.py; sensors: gym/sensors.py; docs/gym.md has it all with the figures.
+Each `reset` starts a fresh race (a new TORCS process: a spare made ready while the last episode
+ran, gym/spare.py, or one started then, ~25 ms), its track, car and the rest drawn from the options
+(gym/episodes.py); each `step` answers the pending drive call with the action's controls and
+returns at the next one (`action_repeat` drive calls of 0.02 s each with the same action).
+Spaces: gym/spaces.py; reward and termination: gym/reward.py; sensors: gym/sensors.py;
+docs/gym.md has it all with the figures.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping
+from dataclasses import replace
 from typing import Any
 
 import gymnasium
@@ -20,11 +23,13 @@ from boxbox import validate
 from boxbox.errors import RaceError, UsageError
 from boxbox.gym import reward as rw
 from boxbox.gym.assists import ASSISTS, Assists, check_assists
+from boxbox.gym.episodes import EPISODE_KEYS, Episode, Episodes, EpisodeStream, add_scr_noise, stream_seed
 from boxbox.gym.pitstop import PitStop
 from boxbox.gym.render import Drawing, check_pixel_size, check_render_mode, pixel_space, render_fps
 from boxbox.gym.sensors import SCR_TRACK_ANGLES_DEG, TrackEdges, opponent_sectors
-from boxbox.gym.session import Session, TorcsGone, usable_cpus
+from boxbox.gym.session import RaceOrder, Session, Started, TorcsGone, usable_cpus
 from boxbox.gym.spaces import ACTION_RANGES, DEFAULT_ACTIONS, ActionReader, ObservationLayout, Observer, action_space
+from boxbox.gym.spare import MAX_SPARES
 from boxbox.model import Car, PitOrder, State, Track
 from boxbox.model.skill import SkillLevel
 from boxbox.torcs import setup
@@ -34,7 +39,8 @@ from boxbox.torcs.launch import RaceConfig
 MAX_ACTION_REPEAT = 1000  # 20 s of simulated time per step
 MAX_FUEL_L = 1000.0  # beyond any car's tank
 MAX_REPAIR = 100_000.0  # damage points (the car is out at 10000)
-RESET_OPTIONS: tuple[str, ...] = ()  # the keys reset(options=...) takes (none yet: the race is the env's)
+RESET_OPTIONS: tuple[str, ...] = EPISODE_KEYS  # the keys reset(options=...) takes
+DEFAULT_SPARES = 1  # spare races made ready ahead (docs/gym.md: one keeps resets at a few ms)
 
 
 class NeedsReset(UsageError, gymnasium.error.ResetNeeded):
@@ -102,17 +108,15 @@ def checked_reward(reward_fn: Any, reward_weights: Any) -> tuple[rw.RewardFn | N
 
 
 def check_reset_options(options: Any) -> None:
-    """reset(options=...) takes the keys of RESET_OPTIONS (none yet): an unknown one is refused,
-    not ignored (the track, the car and the rest are the env's, given when it is made)."""
+    """reset(options=...) takes the keys of RESET_OPTIONS: an unknown one is refused, not ignored."""
     if options is None:
         return
     if not isinstance(options, Mapping):
         validate.fail(f"{options!r} is not a dict of reset options.", "options")
     unknown = sorted(str(key) for key in options if key not in RESET_OPTIONS)
     if unknown:
-        takes = ", ".join(RESET_OPTIONS) or "none yet"
-        validate.fail(f"reset() does not take {', '.join(map(repr, unknown))} (reset options: {takes}); give the "
-                      "track, car, opponents and the rest when making the env.", "options")
+        validate.fail(f"reset() does not take {', '.join(map(repr, unknown))} (reset options: "
+                      f"{', '.join(RESET_OPTIONS)}).", "options")
 
 
 class TorcsEnv(gymnasium.Env):
@@ -129,22 +133,30 @@ class TorcsEnv(gymnasium.Env):
                  skill_level: str | SkillLevel = "semi-pro", grid_position: int | str | None = None,
                  initial_fuel_l: float | None = None, pit_fuel_l: float | None = None, pit_repair: float | None = None,
                  cpu: int | None = None, render_mode: str | None = None, pixels: bool = False,
-                 pixel_size: tuple[int, int] = (96, 96)) -> None:
+                 pixel_size: tuple[int, int] = (96, 96), spares: int = DEFAULT_SPARES,
+                 sensor_noise: bool = False) -> None:
         # every option checked before anything is set up (validate.py: the command line's checks)
         self.actions, self.assist_names = checked_actions(actions, assists)
         self.action_repeat = validate.whole_number(action_repeat, 1, MAX_ACTION_REPEAT, name="action_repeat")
         self.angles_deg = validate.angle_list(track_sensor_angles_deg, name="track_sensor_angles_deg")
         self.reward_fn, self.weights = checked_reward(reward_fn, reward_weights)
         self.watch = rw.Watch(rw.Limits(max_damage, off_track_s, stuck_s))
-        self.initial_fuel_l, self.pit_fuel_l, self.pit_repair = checked_fuel(initial_fuel_l, pit_fuel_l, pit_repair)
+        _, self.pit_fuel_l, self.pit_repair = checked_fuel(None, pit_fuel_l, pit_repair)
         self.cpu = checked_cpu(cpu)
+        self.spares = validate.whole_number(spares, 0, MAX_SPARES, name="spares")
+        self.sensor_noise = validate.flag(sensor_noise, name="sensor_noise")
         flat = validate.flag(flat, name="flat")
         # pixels (gym/render.py): render() draws the race top-down; pixels=True observes the car's view
         self.render_mode = check_render_mode(render_mode)
         self.metadata = {**self.metadata, "render_fps": render_fps(self.action_repeat)}
         self.pixels = validate.flag(pixels, name="pixels")
         self.drawing = Drawing(check_pixel_size(pixel_size) if self.pixels else None)
-        self.cfg = race_config(track, car, opponents, laps, skill_level, grid_position)
+        self.episodes = Episodes(laps, track=track, car=car, opponents=opponents, grid_position=grid_position,
+                                 skill_level=skill_level, initial_fuel_l=initial_fuel_l)
+        self._stream: EpisodeStream | None = None  # the episodes drawn from the seed, from the first reset
+        self.episode: Episode | None = None  # the episode running
+        self.cfg = self.episodes.config(self.episodes.first())  # the race running (until the first reset: the first's)
+        self._edges: dict[int, tuple[Track, TrackEdges]] = {}  # by track (decoded once per session)
         self.layout = ObservationLayout.make(len(self.angles_deg))
         self.observer = Observer(self.layout, flat)
         self.observation_space = self.layout.flat_space() if flat else self.layout.dict_space()
@@ -166,17 +178,23 @@ class TorcsEnv(gymnasium.Env):
     # --- the Gymnasium API ---------------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         check_reset_options(options)
+        chosen = self.episodes.explicit(options)
         super().reset(seed=seed)
+        if seed is not None or self._stream is None:
+            self._stream = EpisodeStream(self.episodes, stream_seed(self.np_random))
+        episode = replace(self._stream.next(), **chosen)
+        order = self._order(episode)  # an unknown track given to reset() is refused here, before TORCS
+        upcoming = [self._order(e) for e in self._stream.peek(self.spares)]
         if self.session is None:
-            self.session = Session(self.cfg, setup.ensure_ready(), cpu=self.cpu, initial_fuel_l=self.initial_fuel_l,
-                                   on_pit=self._pit_order)
+            self.session = Session(setup.ensure_ready(), cpu=self.cpu, on_pit=self._pit_order, spares=self.spares)
         self.ended = None
         with self.session.pin:
-            state = self._start()
+            started = self._start(order, upcoming)
+        self.episode, self.cfg = episode, order.cfg
         self.watch.reset()
-        self.state = state
+        self.state = state = started.state
         self.vector = self._vector(state)
-        return self._observation(), {"state": state}
+        return self._observation(), self._reset_info(order, started)
 
     def step(self, action):
         if self.state is None or self.session is None:
@@ -188,6 +206,7 @@ class TorcsEnv(gymnasium.Env):
             self.pit.request()
         with self.session.pin:
             s, total, progress, reason, fault = self._drive(steer, throttle, brake, clutch, gear)
+            self.session.advance_spares()  # the next episode's race, one message further (never waits)
         if s is not self.state:
             self.state = s
             self.vector = None if self.pixels else self._vector(s)  # the car's view needs no range finders
@@ -243,34 +262,47 @@ class TorcsEnv(gymnasium.Env):
         return self.session.pid if self.session is not None else None
 
     # --- pieces --------------------------------------------------------------------------------
-    def _start(self) -> State:
-        """A fresh race, past TORCS's start countdown (the car cannot move before 0 s)."""
+    def _order(self, episode: Episode) -> RaceOrder:
+        return RaceOrder(episode, self.episodes.config(episode), episode.initial_fuel_l)
+
+    def _start(self, order: RaceOrder, upcoming: list[RaceOrder]) -> Started:
+        """The episode's race at 0 s, past TORCS's start countdown (the car cannot move before)."""
         assert self.session is not None
         for _attempt in range(2):  # a TORCS that fails to start once is tried once more
             try:
-                started = self.session.start()
-                if started.track is not self.track:
-                    self._new_track(started)
-                state: State | None = started.state
-                while state is not None and state.sim_time_s < 0.0:
-                    state = self.session.drive(0.0, 0.0, 0.0, 0.0, 0, False)
-                if state is not None:
-                    if self.pit is not None:
-                        self.pit.reset()
-                    return state
-                error = "the race ended before it started"
+                started = self.session.start(order, upcoming)
+                self._new_race(started)
+                if self.pit is not None:
+                    self.pit.reset()
+                return started
             except TorcsGone as exc:
                 error = str(exc)
-        raise RaceError(f"TORCS could not start the race ({self.cfg.track}, {self.cfg.car}): {error}")
+        raise RaceError(f"TORCS could not start the race ({order.cfg.track}, {order.cfg.car}): {error}")
 
-    def _new_track(self, started) -> None:
-        self.track, self.car = started.track, started.car
-        self.length_m = float(started.track.length_m)
-        self.edges = TrackEdges(started.track, self.angles_deg)
-        self.assists = Assists(self.assist_names, started.car)
-        self.pit = PitStop.for_car(started.track, started.car) if "pit" in self.actions else None
-        if self.render_mode is not None or self.pixels:
-            self.drawing.new_track(started.track)
+    def _new_race(self, started: Started) -> None:
+        """What the race's track and car decide, rebuilt only when they change."""
+        car_changed = started.car != self.car
+        if started.track is not self.track:
+            self.track = started.track
+            self.length_m = float(started.track.length_m)
+            if id(started.track) not in self._edges:
+                self._edges[id(started.track)] = (started.track, TrackEdges(started.track, self.angles_deg))
+            self.edges = self._edges[id(started.track)][1]
+            if self.render_mode is not None or self.pixels:
+                self.drawing.new_track(started.track)
+            car_changed = True  # the pit stop is the track's too
+        self.car = started.car
+        if car_changed:
+            self.assists = Assists(self.assist_names, started.car)
+            self.pit = PitStop.for_car(started.track, started.car) if "pit" in self.actions else None
+
+    def _reset_info(self, order: RaceOrder, started: Started) -> dict[str, Any]:
+        """What reset() returns in info: the first state and what the episode's race is."""
+        cfg = order.cfg
+        return {"state": started.state, "track": cfg.track, "track_length_m": float(started.track.length_m),
+                "car": cfg.car, "opponents": tuple(f"{m}:{i}" for m, i in cfg.opponents),
+                "grid_position": cfg.grid_position or 1, "skill_level": cfg.skill_level.torcs_name,
+                "initial_fuel_l": float(started.state.fuel_l), "spare": started.spare}
 
     def _observation(self):
         """The numbers (Dict or flat), or with pixels the car's view."""
@@ -282,7 +314,10 @@ class TorcsEnv(gymnasium.Env):
 
     def _vector(self, s: State) -> np.ndarray:
         assert self.edges is not None
-        return self.observer.vector(s, self.edges.ranges(s), opponent_sectors(s))
+        ranges, sectors = self.edges.ranges(s), opponent_sectors(s)
+        if self.sensor_noise:
+            ranges, sectors = add_scr_noise(self.np_random, ranges, sectors)
+        return self.observer.vector(s, ranges, sectors)
 
     def _controls(self, s: State, steer: float, throttle: float, brake: float, clutch: float,
                   gear: int) -> tuple[tuple, bool]:

@@ -12,7 +12,7 @@ driven (its opponents' `car_state`), so the session knows how many DRIVEs make t
 from __future__ import annotations
 
 import copy
-import shutil
+from pathlib import Path
 
 from boxbox.model import Car, PitOrder, State, Track
 from boxbox.model.state import CAR_STATE_NO_SIMU
@@ -21,35 +21,61 @@ from boxbox.torcs.host import complete_car, decode_track
 from boxbox.torcs.launch import RaceConfig
 from boxbox.torcs.setup import Overlay
 
-from boxbox.gym.session import HSIZE, TorcsGone, Session  # isort: skip
+from boxbox.gym.session import ANSWER_TIMEOUT_S, HSIZE, Race, RaceOrder, Session, Shared, TorcsGone  # isort: skip
 
 Controls = tuple[float, float, float, float, int, bool]  # steer, accel, brake, clutch, gear, pit
 PARKED: Controls = (0.0, 0.0, 1.0, 0.0, 1, False)  # what a car whose episode ended is given: it brakes
 
 
 class MultiSession(Session):
-    """TORCS with len(cfg.robots) Python cars (robot indices 0..n-1) and TORCS's robots as opponents."""
-
-    torcs_env = {"BOXBOX_BATCH_DRIVE": "1"}
+    """The parallel env's races, one at a time (no spares): each a `MultiRace`."""
 
     def __init__(self, cfg: RaceConfig, overlay: Overlay, cpu: int | None = None,
                  initial_fuel_l: float | None = None) -> None:
-        super().__init__(cfg, overlay, cpu=cpu, initial_fuel_l=initial_fuel_l)
-        self.n_cars = len(cfg.robots)
-        self.cars: list[Car] = []  # each Python car's constants (its own pit, its own car index)
-        self.pending: list[tuple[int, int]] = []  # (robot, step) of the DRIVEs awaiting an answer
-        self._base: tuple[bytes, Track, Car] | None = None  # the last race's track blob, decoded
+        super().__init__(overlay, cpu=cpu)
+        self.cfg = cfg
+        self.order = RaceOrder("multi", cfg, initial_fuel_l)  # every reset: the same race
+        self.multi: MultiRace | None = None  # the race running (`race` too, which stop() and close() kill)
 
     def start_all(self) -> tuple[Track, list[Car], dict[int, State]]:
-        """A fresh TORCS (the last one killed first), served up to its first batch of drive steps:
+        """A fresh TORCS (the last race killed first), served up to its first batch of drive steps:
         the track, each Python car's constants and each car's first state."""
         self.stop()
-        shutil.rmtree(self.local / "results", ignore_errors=True)
-        self.ended = False
-        self.proc = self._spawn()
-        self._running.append(self.proc)
-        self.conn = self._accept()
-        self.conn.settimeout(60.0)
+        self.race = self.multi = self._new_race(self.order)  # killed by stop() or close() if it fails half way
+        return self.multi.start_all()
+
+    def drive_all(self, controls: dict[int, Controls]) -> dict[int, State] | None:
+        """Answer the pending batch (a robot missing from `controls` brakes); the next batch's states
+        by robot, or None when the race has ended."""
+        if self.multi is None or self.race is not self.multi:
+            return None
+        return self.multi.drive_all(controls)
+
+    def _new_race(self, order: RaceOrder, spare: bool = False) -> MultiRace:
+        self._count += 1
+        return MultiRace(order, self.overlay, self.shared, self.dir / f"r{self._count}", self.cpu)
+
+
+class MultiRace(Race):
+    """One TORCS process with len(cfg.robots) Python cars (robot indices 0..n-1) and TORCS's robots
+    as opponents."""
+
+    torcs_env = {"BOXBOX_BATCH_DRIVE": "1"}
+
+    def __init__(self, order: RaceOrder, overlay: Overlay, shared: Shared, folder: Path, cpu: int) -> None:
+        super().__init__(order, overlay, shared, folder, cpu)
+        self.n_cars = len(order.cfg.robots)
+        self.cars: list[Car] = []  # each Python car's constants (its own pit, its own car index)
+        self.pending: list[tuple[int, int]] = []  # (robot, step) of the DRIVEs awaiting an answer
+        self._base: tuple[Track, Car] | None = None  # the race's track and the car's file constants
+
+    def start_all(self) -> tuple[Track, list[Car], dict[int, State]]:
+        """TORCS started and served up to its first batch of drive steps."""
+        self.listener = self._listen()
+        self._spawn()
+        self.conn = self._accept(block=True)
+        assert self.conn is not None
+        self.conn.settimeout(ANSWER_TIMEOUT_S)
         chunks: dict[int, list[bytes]] = {}
         self.cars = [None] * self.n_cars  # type: ignore[list-item]
         while True:
@@ -57,14 +83,14 @@ class MultiSession(Session):
             kind, robot, step, count = wire.HEADER.unpack_from(self._buf, 0)
             if kind == wire.DRIVE:
                 assert self._base is not None and all(car is not None for car in self.cars)
-                return self._base[1], self.cars, self._batch(robot, step, count)
+                return self._base[0], self.cars, self._batch(robot, step, count)
             if kind == wire.HELLO:
                 self._reply(wire.HELLO, robot, step, wire.HELLO_REC, (wire.PROTOCOL_VERSION, 0.0, 0.0))
             elif kind == wire.NEW_TRACK:
                 chunks.setdefault(robot, []).append(bytes(self._buf[HSIZE:n]))
                 if step + 1 == count:
                     self.cars[robot] = self._decode(b"".join(chunks.pop(robot)))
-                    fuel = -1.0 if self.initial_fuel_l is None else float(self.initial_fuel_l)
+                    fuel = -1.0 if self.order.initial_fuel_l is None else float(self.order.initial_fuel_l)
                     self._reply(wire.FUEL, robot, step, wire.FUEL_REC, (fuel, float("nan"), float("nan")))
             elif kind == wire.NEW_RACE:
                 complete_car(self.cars[robot], bytes(self._buf[HSIZE:n]))
@@ -125,9 +151,12 @@ class MultiSession(Session):
                 if not by_index.get(self.cars[j].car_index, CAR_STATE_NO_SIMU) & CAR_STATE_NO_SIMU]
 
     def _decode(self, blob: bytes) -> Car:
-        """The track (decoded once while the race stays the same) and a car of its own for a robot."""
-        if self._base is None or self._base[0] != blob:
+        """The track (decoded once per session) and a car of its own for a robot."""
+        key = (self.cfg.track, self.cfg.car)
+        decoded = self.shared.tracks.get(key)
+        if decoded is None or decoded[0] != blob:
             track, car = decode_track(blob, self.cfg.track, self.cfg.category)
             car.name = self.cfg.car
-            self._base = (blob, track, car)
-        return copy.deepcopy(self._base[2])
+            decoded = self.shared.tracks[key] = (blob, track, car)
+        self._base = (decoded[1], decoded[2])
+        return copy.deepcopy(decoded[2])

@@ -1,24 +1,29 @@
-"""One TORCS race driven from this process: the env is the robot host.
+"""TORCS races driven from this process: the env is the robot host.
 
 TORCS runs in console mode as `boxbox race` runs it (torcs/launch.py prepares the same local
 folder and race file), with the bridge connecting to a socket this process listens on.  There
-is no robot host process: `Session.drive` answers the pending DRIVE message with the controls
-and reads the next one, so a step is one socket round trip.  Each race is a fresh TORCS process
-(it starts in about 20 ms), so a reset leaves nothing of the last race behind.
+is no robot host process: `Race.drive` answers the pending DRIVE message with the controls and
+reads the next one, so a step is one socket round trip.  Each episode is a fresh TORCS process
+(`Race`), so a reset leaves nothing of the last race behind.  A race is made ready up to its first
+drive step at 0 s (`Race.prepare`: spawn, HELLO, NEW_TRACK, NEW_RACE, the start countdown), either
+when the reset asks for it or ahead of it, as a spare (gym/spare.py), which the reset then takes
+over in microseconds.
 
 TORCS is pinned to one core, and the thread that drives it runs there while it drives (a step, a
 reset: `Session.pin`), as they strictly alternate: the round trip costs ~3 us instead of ~50 us
 across cores (docs/architecture.md); between steps the thread has its own cores back, so threads it
 starts (a learner's) are not pinned.  TORCS dies with the thread that started it
-(PR_SET_PDEATHSIG; in practice with the env's process) and is killed by process group on every
-reset and on close.  The run folder (TORCS's local folder, the race file, the
-socket, TORCS's stderr) is a temporary folder removed on close (or by the next session, when the
-env's process was killed outright).
+(PR_SET_PDEATHSIG, set by util-linux's setpriv before it execs TORCS; in practice with the
+env's process) and is killed by process group when its race is done and on
+close.  The session's folder (a folder per race: TORCS's local folder, the race file, the socket,
+TORCS's stderr) is a temporary folder removed on close (or by the next session, when the env's
+process was killed outright).
 """
 
 from __future__ import annotations
 
 import contextlib
+import copy
 import math
 import os
 import shutil
@@ -26,10 +31,11 @@ import signal
 import socket
 import subprocess
 import tempfile
+import threading
 import time
 import weakref
-from collections.abc import Callable
-from dataclasses import dataclass
+from collections.abc import Callable, Hashable, Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from boxbox.errors import RaceError
@@ -48,6 +54,10 @@ CONNECT_TIMEOUT_S = 30.0  # TORCS connects within ~20 ms; this much means it is 
 ANSWER_TIMEOUT_S = 60.0  # TORCS answers a step in microseconds; this much means it hangs
 SETUP_BUDGET_MS = 120_000
 FOLDER_PREFIX = "boxbox-gym-"  # TMP/boxbox-gym-<pid>-*: a session's folder
+# util-linux's setpriv sets PR_SET_PDEATHSIG before it execs TORCS: a spawn without a preexec_fn
+# is a vfork (~0.3 ms), where Python's fork for a preexec_fn takes ~8 ms with numpy loaded, holding
+# the GIL (a spare's spawn would stall the learner's steps that long)
+SETPRIV = shutil.which("setpriv")
 
 PitHandler = Callable[[State], PitOrder]
 
@@ -60,18 +70,44 @@ class TorcsGone(Exception):
 class Started:
     track: Track
     car: Car
-    state: State  # the first drive step's state
+    state: State  # the first drive step's state, at 0 s (past the start countdown)
+    spare: bool = False  # the race was made ready ahead, as a spare
 
 
-def _clean_up(folder: Path, running: list[subprocess.Popen]) -> None:
-    """What a session leaves: TORCS and the folder (at close, or when the env is dropped without
-    it, or at exit)."""
+@dataclass(frozen=True)
+class RaceOrder:
+    """A race to make ready: `key` names it (equal keys are the same race, so a spare is taken
+    for it), `cfg` and the start fuel say what it is."""
+    key: Hashable
+    cfg: RaceConfig = field(compare=False)
+    initial_fuel_l: float | None = field(default=None, compare=False)
+
+
+class Shared:
+    """What a session's races share with its clean-up (which may run in any thread, from the
+    garbage collector): the processes running, the decoded tracks, whether the session is closed."""
+
+    def __init__(self, folder: Path) -> None:
+        self.folder = folder
+        self.lock = threading.Lock()
+        self.running: list[subprocess.Popen] = []
+        self.closed = False
+        self.tracks: dict[tuple[str, str], tuple[bytes, Track, Car]] = {}  # NEW_TRACK's bytes, decoded
+
+
+def _clean_up(shared: Shared) -> None:
+    """What a session leaves: TORCS processes and the folder (at close, or when the env is dropped
+    without it, or at exit)."""
+    with shared.lock:
+        shared.closed = True  # no race spawns or makes a folder after this
+        running = list(shared.running)
+        shared.running.clear()
     for proc in running:
         with contextlib.suppress(ProcessLookupError, PermissionError):
             os.killpg(proc.pid, signal.SIGKILL)
         with contextlib.suppress(subprocess.TimeoutExpired):
             proc.wait(timeout=5)
-    shutil.rmtree(folder, ignore_errors=True)
+    shutil.rmtree(shared.folder, ignore_errors=True)
 
 
 class CorePin:
@@ -112,82 +148,120 @@ def pick_cpu() -> int:
     return cpus[os.getpid() % len(cpus)]
 
 
-class Session:
-    """TORCS with one Python car (robot index 0) and TORCS's robots as opponents."""
+class Race:
+    """One TORCS process with one Python car (robot index 0) and TORCS's robots as opponents, in a
+    folder of its own under the session's."""
 
     torcs_env: dict[str, str] = {}  # more of TORCS's environment (gym/multisession.py: the bridge's batch mode)
 
-    def __init__(self, cfg: RaceConfig, overlay: Overlay, cpu: int | None = None,
-                 initial_fuel_l: float | None = None, on_pit: PitHandler | None = None) -> None:
-        self.cfg, self.overlay = cfg, overlay
-        self.initial_fuel_l = initial_fuel_l
-        self.on_pit = on_pit or (lambda state: PitOrder())
-        self.cpu = pick_cpu() if cpu is None else cpu
-        remove_stale_sockets(FOLDER_PREFIX)  # of env processes killed outright
-        self.dir = Path(tempfile.mkdtemp(prefix=f"{FOLDER_PREFIX}{os.getpid()}-"))  # short: a socket path has 108 bytes
-        self.run = RunDir(self.dir)  # the names of TORCS's files in it
+    def __init__(self, order: RaceOrder, overlay: Overlay, shared: Shared, folder: Path, cpu: int) -> None:
+        self.order, self.cfg, self.overlay, self.shared, self.cpu = order, order.cfg, overlay, shared, cpu
+        self.run = RunDir(folder)  # the names of TORCS's files in it
+        self.on_pit: PitHandler | None = None  # the env's, once the race is handed over
         self.proc: subprocess.Popen | None = None
-        self._running: list[subprocess.Popen] = []  # what an env dropped without close() leaves to clean up
-        self._finalizer = weakref.finalize(self, _clean_up, self.dir, self._running)
-        self.pin = CorePin(self.cpu)  # `with session.pin:` around a step or a reset
-        self.conn: socket.socket | None = None
         self.listener: socket.socket | None = None
+        self.conn: socket.socket | None = None
+        self.started: Started | None = None  # the first drive step at 0 s, once set up
+        self.killed = False
         self.ended = False  # TORCS ended the race (END_RACE)
-        self._track_blob = b""
-        self._track: tuple[Track, Car] | None = None
         self._buf = bytearray(wire.MAX_MESSAGE_BYTES + 64)
         self._out = bytearray(HSIZE + wire.CONTROLS_REC.size)
         self._step = 0
-        try:
-            self.local = prepare_local_dir(self.run, overlay, cfg)
-            self.listener = socket.socket(socket.AF_UNIX, socket.SOCK_SEQPACKET | socket.SOCK_CLOEXEC)
-            self.listener.bind(str(self.dir / "bridge.sock"))
-            self.listener.listen(1)
-        except BaseException:
-            self.close()
-            raise
+        self._track: tuple[Track, Car] | None = None
+        self._chunks: list[bytes] = []  # NEW_TRACK's
 
-    # --- a race ------------------------------------------------------------------------------
-    def start(self) -> Started:
-        """A fresh TORCS (the last one killed first), served up to its first drive step."""
-        self.stop()
-        shutil.rmtree(self.local / "results", ignore_errors=True)  # a finished race's results file
-        self.ended = False
-        self.proc = self._spawn()
-        self._running.append(self.proc)
-        self.conn = self._accept()
-        self.conn.settimeout(ANSWER_TIMEOUT_S)
-        chunks: list[bytes] = []
+    # --- making it ready ---------------------------------------------------------------------
+    def prepare(self) -> Started:
+        """TORCS started and served up to its first drive step at 0 s (the car cannot move before)."""
+        while not self.advance(block=True):
+            pass
+        assert self.started is not None
+        return self.started
+
+    def advance(self, block: bool = False) -> bool:
+        """Take the race's set-up as far as it goes without waiting (with `block`: to its end):
+        spawn TORCS, accept it, answer HELLO, NEW_TRACK, NEW_RACE and the start countdown's drive
+        steps.  True once it is ready (`started`)."""
+        if self.started is not None:
+            return True
+        if self.proc is None:
+            self.listener = self._listen()
+            self._spawn()
+        if self.conn is None:
+            self.conn = self._accept(block)
+            if self.conn is None:
+                return False
+        self.conn.settimeout(ANSWER_TIMEOUT_S if block else 0.0)
         while True:
-            n = self._recv()
-            kind, robot, step, count = wire.HEADER.unpack_from(self._buf, 0)
-            if kind == wire.DRIVE:
-                self._step = step
-                state = self._state(count)
-                track, car = self._track  # type: ignore[misc]
-                return Started(track, car, state)
-            if kind == wire.HELLO:
-                self._reply(wire.HELLO, robot, step, wire.HELLO_REC, (wire.PROTOCOL_VERSION, 0.0, 0.0))
-            elif kind == wire.NEW_TRACK:
-                chunks.append(bytes(self._buf[HSIZE:n]))
-                if step + 1 == count:
-                    self._new_track(b"".join(chunks))
-                    fuel = -1.0 if self.initial_fuel_l is None else float(self.initial_fuel_l)
-                    self._reply(wire.FUEL, robot, step, wire.FUEL_REC, (fuel, math.nan, math.nan))
-            elif kind == wire.NEW_RACE:
-                assert self._track is not None
-                complete_car(self._track[1], bytes(self._buf[HSIZE:n]))
-                self._reply(wire.ACK, robot, step)
-            else:
-                raise TorcsGone(f"TORCS sent message kind {kind} before the race started")
+            try:
+                n = self._recv()
+            except BlockingIOError:
+                return False
+            if self._setup_message(n):
+                self.conn.settimeout(ANSWER_TIMEOUT_S)
+                return True
 
+    def _setup_message(self, n: int) -> bool:
+        """Answer one set-up message; True at the first drive step at 0 s."""
+        kind, robot, step, count = wire.HEADER.unpack_from(self._buf, 0)
+        if kind == wire.DRIVE:
+            self._step = step
+            state = self._state(count)
+            if state.sim_time_s >= 0.0:
+                assert self._track is not None
+                self.started = Started(self._track[0], self._track[1], state)
+                return True
+            self._send_controls(0.0, 0.0, 0.0, 0.0, 0, False)  # the countdown: the car cannot move yet
+        elif kind == wire.HELLO:
+            self._reply(wire.HELLO, robot, step, wire.HELLO_REC, (wire.PROTOCOL_VERSION, 0.0, 0.0))
+        elif kind == wire.NEW_TRACK:
+            self._chunks.append(bytes(self._buf[HSIZE:n]))
+            if step + 1 == count:
+                self._new_track(b"".join(self._chunks))
+                fuel = self.order.initial_fuel_l
+                self._reply(wire.FUEL, robot, step, wire.FUEL_REC,
+                            (-1.0 if fuel is None else float(fuel), math.nan, math.nan))
+        elif kind == wire.NEW_RACE:
+            assert self._track is not None
+            complete_car(self._track[1], bytes(self._buf[HSIZE:n]))
+            self._reply(wire.ACK, robot, step)
+        elif kind in (wire.END_RACE, wire.SHUTDOWN):
+            raise TorcsGone("the race ended before it started")
+        else:
+            raise TorcsGone(f"TORCS sent message kind {kind} before the race started")
+        return False
+
+    def _listen(self) -> socket.socket:
+        with self.shared.lock:  # not in a folder that close() is removing
+            if self.shared.closed or self.killed:
+                raise TorcsGone("the session was closed")
+            prepare_local_dir(self.run, self.overlay, self.cfg)
+        listener = socket.socket(socket.AF_UNIX, socket.SOCK_SEQPACKET | socket.SOCK_CLOEXEC)
+        try:
+            listener.bind(str(self.socket_path))
+            listener.listen(1)
+        except BaseException:
+            listener.close()
+            raise
+        return listener
+
+    def _new_track(self, blob: bytes) -> None:
+        """The track (decoded once per session, track and car) and a copy of the car's file
+        constants (NEW_RACE completes the copy for this race: its pit, its grid slot)."""
+        key = (self.cfg.track, self.cfg.car)
+        decoded = self.shared.tracks.get(key)
+        if decoded is None or decoded[0] != blob:
+            track, car = decode_track(blob, self.cfg.track, self.cfg.category)
+            car.name = self.cfg.car
+            decoded = self.shared.tracks[key] = (blob, track, car)
+        self._track = (decoded[1], copy.copy(decoded[2]))
+
+    # --- the race ----------------------------------------------------------------------------
     def drive(self, steer: float, accel: float, brake: float, clutch: float, gear: int, pit: bool) -> State | None:
         """Answer the pending drive step; the next step's state, or None when the race has ended."""
         if self.conn is None or self.ended:
             return None
-        wire.HEADER.pack_into(self._out, 0, wire.CONTROLS, 0, self._step, 0)
-        wire.CONTROLS_REC.pack_into(self._out, HSIZE, steer, accel, brake, clutch, gear, 1.0 if pit else 0.0)
-        self._send(self._out)
+        self._send_controls(steer, accel, brake, clutch, gear, pit)
         while True:
             try:
                 self._recv()
@@ -201,63 +275,99 @@ class Session:
                 self._step = step
                 return self._state(count)
             if kind == wire.PIT_CMD:
-                order = self.on_pit(self._state(0))
+                order = self.on_pit(self._state(0)) if self.on_pit is not None else PitOrder()
                 self._reply(wire.PIT_ORDER, robot, step, wire.PIT_ORDER_REC, (order.fuel_l, order.repair))
             elif kind == wire.END_RACE:
                 self.ended = True
                 self._reply(wire.ACK, robot, step)
                 return None
 
-    def stop(self) -> None:
-        """Kill TORCS (its process group) and drop the connection; nothing of the race is left."""
-        if self.conn is not None:
-            self.conn.close()
-            self.conn = None
-        if self.proc is not None:
-            with contextlib.suppress(ProcessLookupError, PermissionError):
-                os.killpg(self.proc.pid, signal.SIGKILL)
-            self.proc.wait()
-            self.proc = None
-            self._running.clear()
+    def _send_controls(self, steer: float, accel: float, brake: float, clutch: float, gear: int, pit: bool) -> None:
+        wire.HEADER.pack_into(self._out, 0, wire.CONTROLS, 0, self._step, 0)
+        wire.CONTROLS_REC.pack_into(self._out, HSIZE, steer, accel, brake, clutch, gear, 1.0 if pit else 0.0)
+        self._send(self._out)
 
-    def close(self) -> None:
-        self.stop()
-        if self.listener is not None:
-            self.listener.close()
-            self.listener = None
-        self._finalizer()  # TORCS, the folder
+    def move_to(self, cpu: int) -> None:
+        """Run TORCS on `cpu` from now on (a spare handed over: the reset's thread drives it there)."""
+        if cpu != self.cpu and self.proc is not None:
+            with contextlib.suppress(OSError):
+                os.sched_setaffinity(self.proc.pid, {cpu})
+            self.cpu = cpu
+
+    def kill(self) -> None:
+        """Kill TORCS (its process group) now; `reap` collects it."""
+        with self.shared.lock:
+            self.killed = True
+            proc = self.proc
+        if proc is not None:
+            with contextlib.suppress(ProcessLookupError, PermissionError):
+                os.killpg(proc.pid, signal.SIGKILL)
+
+    def reap(self, block: bool = True) -> bool:
+        """After `kill`: collect TORCS, close the sockets, remove the race's folder.  Without
+        `block`, only when TORCS is gone already (False: not yet)."""
+        self.kill()
+        if self.proc is not None:
+            if not block and self.proc.poll() is None:
+                return False
+            self.proc.wait()
+            with self.shared.lock, contextlib.suppress(ValueError):
+                self.shared.running.remove(self.proc)
+        for sock in (self.conn, self.listener):
+            if sock is not None:
+                sock.close()
+        self.conn = self.listener = None
+        self.on_pit = None
+        shutil.rmtree(self.run.path, ignore_errors=True)
+        return True
 
     @property
-    def pid(self) -> int | None:
-        return self.proc.pid if self.proc is not None else None
+    def socket_path(self) -> Path:
+        return self.run.path / "bridge.sock"
 
     # --- plumbing ----------------------------------------------------------------------------
-    def _spawn(self) -> subprocess.Popen:
+    def _spawn(self) -> None:
         o = self.overlay
-        env = dict(os.environ, LD_LIBRARY_PATH=str(o.torcs.shared_lib_dir), BOXBOX_SOCKET=str(self.dir / "bridge.sock"),
+        env = dict(os.environ, LD_LIBRARY_PATH=str(o.torcs.shared_lib_dir), BOXBOX_SOCKET=str(self.socket_path),
                    BOXBOX_STEP_BUDGET_MS="0",  # no limit: a learner may think for as long as it likes
                    BOXBOX_SETUP_BUDGET_MS=str(SETUP_BUDGET_MS), **self.torcs_env)
         cmd = torcs_command(o, self.run)
-        with open(self.run.torcs_err, "wb") as err:
+        with self.shared.lock, open(self.run.torcs_err, "wb") as err:  # (a spawn without a preexec_fn: a vfork)
+            if self.shared.closed or self.killed:
+                raise TorcsGone("the session was closed")
             try:
-                return subprocess.Popen(cmd, cwd=o.data_dir, env=env, stdin=subprocess.DEVNULL,
-                                        stdout=subprocess.DEVNULL, stderr=err, preexec_fn=child_setup(self.cpu),
-                                        start_new_session=True)
+                if SETPRIV is not None:
+                    self.proc = subprocess.Popen([SETPRIV, "--pdeathsig", "KILL", "--", *cmd], cwd=o.data_dir,
+                                                 env=env, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                                                 stderr=err, start_new_session=True)
+                    with contextlib.suppress(OSError):
+                        os.sched_setaffinity(self.proc.pid, {self.cpu})
+                else:
+                    self.proc = subprocess.Popen(cmd, cwd=o.data_dir, env=env, stdin=subprocess.DEVNULL,
+                                                 stdout=subprocess.DEVNULL, stderr=err,
+                                                 preexec_fn=child_setup(self.cpu), start_new_session=True)
             except OSError as exc:
                 raise RaceError(f"TORCS could not be started ({cmd[0]}): {exc.strerror or exc}; "
                                 "run `boxbox setup`") from None
+            self.shared.running.append(self.proc)
 
-    def _accept(self) -> socket.socket:
-        assert self.listener is not None and self.proc is not None
-        self.listener.settimeout(0.05)
+    def _accept(self, block: bool) -> socket.socket | None:
+        """TORCS's connection (None when it has not connected yet and `block` is off)."""
+        listener = self.listener
+        assert listener is not None and self.proc is not None
+        listener.settimeout(0.05 if block else 0.0)
         deadline = time.monotonic() + CONNECT_TIMEOUT_S
         while True:
             try:
-                conn, _ = self.listener.accept()
+                conn, _ = listener.accept()
+                listener.close()
+                self.listener = None
                 return conn
-            except TimeoutError:
+            except (TimeoutError, BlockingIOError):
                 if self.proc.poll() is not None:
                     raise TorcsGone(f"TORCS {self.exit_text()} before it connected: {self.torcs_words()}") from None
+                if not block:
+                    return None
                 if time.monotonic() > deadline:
                     raise TorcsGone(f"TORCS did not connect within {CONNECT_TIMEOUT_S:.0f} s") from None
 
@@ -265,6 +375,8 @@ class Session:
         assert self.conn is not None
         try:
             n = self.conn.recv_into(self._buf)
+        except BlockingIOError:
+            raise
         except TimeoutError:
             raise TorcsGone(f"TORCS did not answer within {ANSWER_TIMEOUT_S:.0f} s") from None
         except OSError:
@@ -298,13 +410,6 @@ class Session:
             opps = ()
         return State._make(vals + (opps,))
 
-    def _new_track(self, blob: bytes) -> None:
-        """The track and the car's file constants, decoded once while the race stays the same."""
-        if blob != self._track_blob or self._track is None:
-            self._track = decode_track(blob, self.cfg.track, self.cfg.category)
-            self._track[1].name = self.cfg.car
-            self._track_blob = blob
-
     def _gone_text(self) -> str:
         if self.proc is not None:
             with contextlib.suppress(subprocess.TimeoutExpired):
@@ -328,3 +433,90 @@ class Session:
         except OSError:
             return ""
         return " | ".join(ln.strip() for ln in lines if ln.strip())[-300:]
+
+
+class Session:
+    """The env's races, one at a time, with spares made ready ahead (`spares` of them, 0: none)."""
+
+    def __init__(self, overlay: Overlay, cpu: int | None = None, on_pit: PitHandler | None = None,
+                 spares: int = 0, spare_cpu: int | None = None) -> None:
+        from boxbox.gym.spare import SparePool  # (spare.py builds on this module)
+
+        self.overlay = overlay
+        self.on_pit = on_pit or (lambda state: PitOrder())
+        self.cpu = pick_cpu() if cpu is None else cpu
+        remove_stale_sockets(FOLDER_PREFIX)  # of env processes killed outright
+        self.dir = Path(tempfile.mkdtemp(prefix=f"{FOLDER_PREFIX}{os.getpid()}-"))  # short: a socket path has 108 bytes
+        self.shared = Shared(self.dir)
+        self._finalizer = weakref.finalize(self, _clean_up, self.shared)
+        self.pin = CorePin(self.cpu)  # `with session.pin:` around a step or a reset
+        self.race: Race | None = None
+        self._count = 0  # races made: their folders' names
+        self.pool = SparePool(spares, self._new_race) if spares else None
+        self.pool_cpu = self.cpu if spare_cpu is None else spare_cpu
+
+    def start(self, order: RaceOrder, upcoming: Sequence[RaceOrder] = ()) -> Started:
+        """The race `order` asks for, at its first drive step (the last race killed first): a spare
+        made ready for it when there is one, else a fresh TORCS.  Then spares for `upcoming`."""
+        self.stop()
+        taken = self.pool.take(order) if self.pool is not None else None
+        if taken is not None:
+            race, started = taken
+            started.spare = True
+            race.move_to(self.cpu)  # loaded on the spares' core, it races on the session's
+        else:
+            race = self._new_race(order)
+            self.race = race  # killed by stop() or close() if it fails half way
+            started = race.prepare()
+        race.on_pit = self.on_pit
+        self.race = race
+        if self.pool is not None:
+            self.pool.plan(upcoming)
+        return started
+
+    def drive(self, steer: float, accel: float, brake: float, clutch: float, gear: int, pit: bool) -> State | None:
+        """Answer the pending drive step of the race; the next state, or None when it has ended."""
+        if self.race is None:
+            return None
+        return self.race.drive(steer, accel, brake, clutch, gear, pit)
+
+    def advance_spares(self) -> None:
+        """Take the spares' set-up a step further without waiting (the env calls it every step)."""
+        if self.pool is not None and self.pool.pending:
+            self.pool.advance()
+
+    def stop(self) -> None:
+        """Kill the race's TORCS (its process group); nothing of the race is left (a spare pool
+        collects it later, off the reset's time)."""
+        race, self.race = self.race, None
+        if race is None:
+            return
+        if self.pool is not None:
+            self.pool.retire(race)
+        else:
+            race.reap()
+
+    def close(self) -> None:
+        self.stop()
+        if self.pool is not None:
+            self.pool.close()
+        self._finalizer()  # TORCS, the folder
+
+    def settle(self) -> None:
+        """Wait for the spares to be ready and the races done with to be collected (tests, bench-gym)."""
+        if self.pool is not None:
+            self.pool.settle()
+
+    @property
+    def pid(self) -> int | None:
+        race = self.race
+        return race.proc.pid if race is not None and race.proc is not None else None
+
+    @property
+    def ended(self) -> bool:
+        return self.race is None or self.race.ended
+
+    def _new_race(self, order: RaceOrder, spare: bool = False) -> Race:
+        self._count += 1
+        return Race(order, self.overlay, self.shared, self.dir / f"r{self._count}",
+                    self.pool_cpu if spare else self.cpu)

@@ -86,7 +86,8 @@ def test_the_options_of_issue_48_are_refused_in_one_line(no_setup):
 def test_reset_refuses_options_it_does_not_take():
     check_reset_options(None)
     check_reset_options({})
-    for options, words in (({"track": "e-track-2"}, "reset() does not take 'track' (reset options: none yet)"),
+    takes = "track, car, opponents, grid_position, skill_level, initial_fuel_l"
+    for options, words in (({"laps": 3}, f"reset() does not take 'laps' (reset options: {takes})"),
                            ("track", "'track' is not a dict of reset options")):
         with pytest.raises(UsageError, match=words.replace("(", r"\(").replace(")", r"\)")):
             check_reset_options(options)
