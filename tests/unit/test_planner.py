@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from boxbox.control.frenet_planner import Cars, Planner, Scene, blend_bases
+from boxbox.control.frenet_planner import Cars, Planner, PlannerParams, Scene, blend_bases
 from boxbox.control.prediction import SpreadParams, horizon_times, predict
 
 T = horizon_times(3.0, 0.2)
@@ -141,10 +141,14 @@ def test_a_lapped_car_is_passed_without_contact():
 
 
 def test_a_pass_once_started_keeps_its_side():
-    planner = Planner()
-    first = planner.plan(_scene(), _cars((12.0, 0.5, 25.0, 3)))
-    # half-way: the car drifts a little towards the side we chose; the other side now looks as good
-    second = planner.plan(_scene(offset=first.end_offset_m * 0.5, d=first.end_offset_m * 0.5),
-                          _cars((9.0, 0.5 + 0.3 * math.copysign(1.0, first.end_offset_m), 25.0, 3)))
-    assert math.copysign(1.0, second.end_offset_m) == math.copysign(1.0, first.end_offset_m)
-    assert second.committed == 3 and second.side == first.side
+    """Started on the right of a car 12 m ahead; it then drifts right, towards us: the left is
+    clearer now, and without the commitment (switch_m 0) the plan swerves across its nose."""
+    def second_plan(switch_m):
+        planner = Planner(PlannerParams(switch_m=switch_m))
+        first = planner.plan(_scene(left=7.0, right=-7.0), _cars((12.0, 0.3, 25.0, 3)))
+        assert first.end_offset_m < -2.0 and first.committed == 3 and first.side == -1.0
+        return planner.plan(_scene(offset=-1.0, d=-1.0, left=7.0, right=-7.0), _cars((12.0, -1.5, 25.0, 3)))
+
+    kept, free = second_plan(20.0), second_plan(0.0)
+    assert kept.end_offset_m < -2.0 and kept.committed == 3 and kept.side == -1.0
+    assert free.end_offset_m > 2.0
