@@ -92,7 +92,7 @@ def race(track: str = "e-track-2", *, laps: int = 3, robots: str | type[Robot] |
         values = {**from_file, **values}
     options = RaceOptions(fuel_laps=args["fuel_laps"], pit_laps=tuple(sorted(args["pit_laps"])),
                           pit_mode=args["pit_mode"], robot_args={"set": values} if values else {})
-    names = _robot_names(specs, options, args["track"], args["car"])
+    names = checks.check_robots(specs, options, args["track"], args["car"])
     overlay = torcs_setup.ensure_ready()
     category, opp = checks.check_race(args["track"], args["car"], len(specs), args["opponents"], args["pit_laps"],
                                       args["laps"])
@@ -141,17 +141,3 @@ def _checked(**given: Any) -> dict[str, Any]:
                     for r in validate.robot_list(given["robots"], name="robots")]
     return out
 
-
-def _robot_names(specs: list[str], options: RaceOptions, track: str, car: str) -> list[str]:
-    """Each robot's class loaded and its settings checked (before the set-up, as the command line
-    does); the names its cars race under."""
-    from boxbox.robot.loader import load_robot_class
-    from boxbox.torcs.checks import check_field
-
-    check_field(len(specs), 0)
-    names = []
-    for i, spec in enumerate(specs):
-        cls = load_robot_class(spec)
-        cls.check_setup(options, track, car)
-        names.append(f"{cls.name} {i + 1}")
-    return names

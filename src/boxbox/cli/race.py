@@ -78,7 +78,7 @@ def race(track, car, laps, robots, opponents, fuel_laps, pit_laps, pit_mode, jso
     Examples:
       boxbox race --track g-track-1 --laps 2 --json r.json
       boxbox race --robot my_robot.py:MyRobot --opponents bt:2,berniw:3
-      boxbox race --fuel-laps 5 --pit-laps 3 --report out/
+      boxbox race --laps 5 --fuel-laps 3 --pit-laps 2 --report out/
       boxbox race --opponents inferno:3,bt:2 --grid-position last --skill-level pro
     """
     from boxbox.robot.base import RaceOptions
@@ -90,7 +90,7 @@ def race(track, car, laps, robots, opponents, fuel_laps, pit_laps, pit_mode, jso
     values = {**_setup_values(setup_file, specs), **parse_set(settings)}
     options = RaceOptions(fuel_laps=fuel_laps, pit_laps=tuple(sorted(pit_laps)), pit_mode=pit_mode,
                           robot_args={"set": values} if values else {})
-    names = _robot_names(specs, options, track, car)
+    names = checks.check_robots(specs, options, track, car)
     overlay = ready()  # first: on a fresh machine the names below can only be checked once TORCS is there
     category, opp = checks.check_race(track, car, len(specs), opponents, pit_laps, laps)
     grid_slot = checks.check_grid_position(grid_position, len(opp))
@@ -113,19 +113,6 @@ def _setup_values(setup_file: Path | None, specs: list[str]) -> dict:
     check_setup_for([load_robot_class(s) for s in specs], values, str(setup_file))
     return values
 
-
-def _robot_names(specs: list[str], options, track: str, car: str) -> list[str]:
-    """Each Python robot's class loaded and its settings checked; the names its cars race under."""
-    from boxbox.robot.loader import load_robot_class
-    from boxbox.torcs.checks import check_field
-
-    check_field(len(specs), 0)
-    names = []
-    for i, spec in enumerate(specs):
-        cls = load_robot_class(spec)
-        cls.check_setup(options, track, car)
-        names.append(f"{cls.name} {i + 1}")
-    return names
 
 
 def _finish(result, laps: int, report_dir: Path | None) -> None:

@@ -8,11 +8,15 @@ line that says what to do.  They read the installed TORCS, so call them after th
 from __future__ import annotations
 
 from collections.abc import Iterable
+from typing import TYPE_CHECKING
 
 from boxbox.errors import UsageError
 from boxbox.torcs import catalog
 from boxbox.torcs.paths import MAX_PYTHON_CARS
 from boxbox.torcs.wire import MAX_OPPONENTS
+
+if TYPE_CHECKING:
+    from boxbox.robot.base import RaceOptions
 
 # Cars in one race: the race file's driver list declares at most 40 (`racefile.race_xml`), and the
 # bridge hands a Python car at most wire.MAX_OPPONENTS others.
@@ -40,6 +44,20 @@ def check_field(python_cars: int, opponents: int) -> None:
     if total > MAX_CARS:
         raise UsageError(f"{total} cars in one race: at most {MAX_CARS} race together; "
                          f"drop {total - MAX_CARS} opponent(s)")
+
+
+def check_robots(specs: list[str], options: RaceOptions, track: str, car: str) -> list[str]:
+    """Each Python robot's class loaded and its settings checked (before the set-up, on the command
+    line and in boxbox.race alike); the names its cars race under."""
+    from boxbox.robot.loader import load_robot_class
+
+    check_field(len(specs), 0)
+    names = []
+    for i, spec in enumerate(specs):
+        cls = load_robot_class(spec)
+        cls.check_setup(options, track, car)
+        names.append(f"{cls.name} {i + 1}")
+    return names
 
 
 def check_pit_laps(track: str, pit_laps: Iterable[int], laps: int) -> None:
