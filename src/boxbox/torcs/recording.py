@@ -34,7 +34,7 @@ from boxbox.model.state import CAR_STATE_DNF, CAR_STATE_FINISH, CAR_STATE_PIT
 from boxbox.model.track import LEFT, RIGHT, STRAIGHT, Track
 from boxbox.torcs import wire
 from boxbox.torcs.rundir import RunDir
-from boxbox.torcs.telemetry import track_info
+from boxbox.torcs.telemetry import Telemetry, track_info
 
 METADATA_KEY = b"boxbox"
 SAMPLE_S = 0.1  # 10 samples a simulated second, one in about 5 drive steps (the viewer interpolates)
@@ -399,21 +399,8 @@ def write_recording(rec: RaceRecorder | None, run_dir: RunDir, slots) -> list[st
     return lost
 
 
-@dataclass
-class Recording:
-    """A recording read back: numpy columns (nulls as NaN) and the metadata."""
-
-    columns: dict[str, np.ndarray]
-    meta: dict
-
-    @property
-    def rows(self) -> int:
-        return len(self.columns["time_s"]) if self.columns else 0
-
-    def car(self, index: int) -> dict[str, np.ndarray]:
-        """The rows of one car, in time order."""
-        mask = self.columns["car"] == index
-        return {k: v[mask] for k, v in self.columns.items()}
+class Recording(Telemetry):
+    """A recording read back: numpy columns (nulls as NaN) and the metadata, as a telemetry file's."""
 
     @property
     def cars(self) -> list[int]:
