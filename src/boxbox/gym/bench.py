@@ -57,9 +57,13 @@ def make_env(track: str, episode_steps: int, **kwargs):
 
 def single_env(track: str, steps: int, episode_steps: int, seed: int = 0) -> tuple[float, float]:
     """(steps a second without the resets, steps a second with them)."""
-    env = make_env(track, episode_steps)
-    rng = np.random.default_rng(seed)
-    actions = _actions(env.action_space, min(steps, 10_000), rng)
+    return timed_steps(make_env(track, episode_steps), steps, seed)
+
+
+def timed_steps(env: gymnasium.Env, steps: int, seed: int = 0) -> tuple[float, float]:
+    """`steps` random actions through env, reset at each episode's end, then the env closed:
+    (steps a second without the resets, steps a second with them)."""
+    actions = _actions(env.action_space, min(steps, 10_000), np.random.default_rng(seed))
     env.reset(seed=seed)
     resets_s = 0.0
     started = time.perf_counter()

@@ -14,26 +14,14 @@ import gymnasium
 import numpy as np
 
 from boxbox.gym import ENV_ID
-from boxbox.gym.bench import Log, Row, _actions
+from boxbox.gym.bench import Log, Row, _actions, timed_steps
 from boxbox.gym.parallel import parallel_env
 
 
 def pixel_steps_per_s(track: str, steps: int, episode_steps: int, seed: int = 0) -> float:
     env = gymnasium.make(ENV_ID, track=track, stuck_s=None, off_track_s=None, max_episode_steps=episode_steps,
                          pixels=True)
-    actions = _actions(env.action_space, min(steps, 10_000), np.random.default_rng(seed))
-    env.reset(seed=seed)
-    resets_s = 0.0
-    started = time.perf_counter()
-    for i in range(steps):
-        _, _, terminated, truncated, _ = env.step(actions[i % len(actions)])
-        if terminated or truncated:
-            t = time.perf_counter()
-            env.reset()
-            resets_s += time.perf_counter() - t
-    wall = time.perf_counter() - started
-    env.close()
-    return steps / (wall - resets_s)
+    return timed_steps(env, steps, seed)[0]
 
 
 def parallel_steps_per_s(track: str, cars: int, steps: int, episode_steps: int, seed: int = 0) -> float:
