@@ -49,9 +49,10 @@ class NeedsReset(UsageError, gymnasium.error.ResetNeeded):
 
 
 def race_config(track: str, car: str, opponents, laps: int, skill_level: str | SkillLevel,
-                grid_position: int | str | None) -> RaceConfig:
-    """The race the env drives, checked against the installed TORCS (set up first when needed):
-    UsageError with one line when something is wrong."""
+                grid_position: int | str | None = None, cars: int = 1) -> RaceConfig:
+    """The race the env drives (`cars` learning cars: 'gym', or 'car_0'.. for the parallel env),
+    checked against the installed TORCS (set up first when needed): UsageError with one line when
+    something is wrong."""
     track = validate.text(track, "track name", "g-track-1", name="track")
     car = validate.text(car, "car name", "car1-trb1", name="car")
     laps = validate.laps(laps, name="laps")
@@ -60,8 +61,9 @@ def race_config(track: str, car: str, opponents, laps: int, skill_level: str | S
         validate.skill_level(skill_level, name="skill_level"))
     position = validate.grid_position(grid_position, name="grid_position")
     setup.ensure_ready()
-    category, opps = check_race(track, car, 1, entries, laps=laps)
-    return RaceConfig(track=track, category=category, car=car, laps=laps, robots=["gym"], robot_names=["gym"],
+    category, opps = check_race(track, car, cars, entries, laps=laps)
+    names = ["gym"] if cars == 1 else [f"car_{i}" for i in range(cars)]
+    return RaceConfig(track=track, category=category, car=car, laps=laps, robots=list(names), robot_names=names,
                       opponents=opps, telemetry=False, skill_level=level,
                       grid_position=check_grid_position(position, len(opps)))
 

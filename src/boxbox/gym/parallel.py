@@ -27,7 +27,7 @@ from boxbox import validate
 from boxbox.errors import RaceError, UsageError
 from boxbox.gym import reward as rw
 from boxbox.gym.assists import Assists
-from boxbox.gym.env import MAX_ACTION_REPEAT, NeedsReset, checked_actions, checked_cpu, checked_reward
+from boxbox.gym.env import MAX_ACTION_REPEAT, NeedsReset, checked_actions, checked_cpu, checked_reward, race_config
 from boxbox.gym.multisession import Controls, MultiSession
 from boxbox.gym.render import CAR_COLOURS, Drawing, check_pixel_size, check_render_mode, pixel_space, render_fps
 from boxbox.gym.sensors import SCR_TRACK_ANGLES_DEG, TrackEdges, opponent_sectors
@@ -36,25 +36,7 @@ from boxbox.gym.spaces import DEFAULT_ACTIONS, ActionReader, ObservationLayout, 
 from boxbox.model import Car, State, Track
 from boxbox.model.skill import SkillLevel
 from boxbox.torcs import setup
-from boxbox.torcs.checks import check_race
-from boxbox.torcs.launch import RaceConfig
 from boxbox.torcs.paths import MAX_PYTHON_CARS
-
-
-def multi_race_config(cars: int, track: str, car: str, opponents, laps: int,
-                      skill_level: str | SkillLevel) -> RaceConfig:
-    """The race with `cars` Python cars, checked against the installed TORCS (set up first when needed)."""
-    track = validate.text(track, "track name", "g-track-1", name="track")
-    car = validate.text(car, "car name", "car1-trb1", name="car")
-    laps = validate.laps(laps, name="laps")
-    entries = validate.opponent_list(opponents, name="opponents")
-    level = skill_level if isinstance(skill_level, SkillLevel) else SkillLevel.parse(
-        validate.skill_level(skill_level, name="skill_level"))
-    setup.ensure_ready()
-    category, opps = check_race(track, car, cars, entries, laps=laps)
-    names = [f"car_{i}" for i in range(cars)]
-    return RaceConfig(track=track, category=category, car=car, laps=laps, robots=list(names), robot_names=names,
-                      opponents=opps, telemetry=False, skill_level=level)
 
 
 class Racer:
@@ -105,7 +87,7 @@ class TorcsParallelEnv(ParallelEnv):
         self.metadata = {**self.metadata, "render_fps": render_fps(self.action_repeat)}
         self.pixels = validate.flag(pixels, name="pixels")
         self.drawing = Drawing(check_pixel_size(pixel_size) if self.pixels else None)
-        self.cfg = multi_race_config(n, track, car, opponents, laps, skill_level)
+        self.cfg = race_config(track, car, opponents, laps, skill_level, cars=n)
         self.layout = ObservationLayout.make(len(self.angles_deg))
         self.observer = Observer(self.layout, flat)
         self.possible_agents = [f"car_{i}" for i in range(n)]
