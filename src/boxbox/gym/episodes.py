@@ -139,6 +139,18 @@ CHECKS: dict[str, Callable[[Any], Any]] = {
 }
 
 
+def check_reset_options(options: Any) -> None:
+    """reset(options=...) takes the keys of EPISODE_KEYS: an unknown one is refused, not ignored."""
+    if options is None:
+        return
+    if not isinstance(options, Mapping):
+        validate.fail(f"{options!r} is not a dict of reset options.", "options")
+    unknown = sorted(str(key) for key in options if key not in EPISODE_KEYS)
+    if unknown:
+        validate.fail(f"reset() does not take {', '.join(map(repr, unknown))} (reset options: "
+                      f"{', '.join(EPISODE_KEYS)}).", "options")
+
+
 class Episodes:
     """The env's episode options, checked (against the installed TORCS too), and the races they make."""
 
@@ -161,15 +173,8 @@ class Episodes:
 
     def explicit(self, options: Any) -> dict[str, Any]:
         """reset(options=...)'s values, checked: one value per key (UsageError for an unknown key)."""
-        if options is None:
-            return {}
-        if not isinstance(options, Mapping):
-            validate.fail(f"{options!r} is not a dict of reset options.", "options")
-        unknown = sorted(str(key) for key in options if key not in EPISODE_KEYS)
-        if unknown:
-            validate.fail(f"reset() does not take {', '.join(map(repr, unknown))} (reset options: "
-                          f"{', '.join(EPISODE_KEYS)}).", "options")
-        return {key: CHECKS[key](value) for key, value in options.items()}
+        check_reset_options(options)
+        return {key: CHECKS[key](value) for key, value in (options or {}).items()}
 
     def config(self, episode: Episode) -> RaceConfig:
         """The episode's race, checked against the installed TORCS once (UsageError, one line)."""

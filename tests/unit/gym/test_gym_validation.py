@@ -12,7 +12,8 @@ from hypothesis import strategies as st
 
 from boxbox.errors import UsageError
 from boxbox.gym import env as env_module
-from boxbox.gym.env import TorcsEnv, check_reset_options
+from boxbox.gym.env import TorcsEnv
+from boxbox.gym.episodes import check_reset_options
 from boxbox.gym.scr import Action, parse_init
 from boxbox.gym.spaces import ActionReader
 
