@@ -111,13 +111,8 @@ class MultiRace(Race):
             self._send(out)
         self.pending = []
         while True:
-            try:
-                self._recv()
-            except TorcsGone:
-                if self.proc is not None and self.proc.poll() == 0:  # TORCS ended the race and exited
-                    self.ended = True
-                    return None
-                raise
+            if not self._recv_in_race():
+                return None
             kind, robot, step, count = wire.HEADER.unpack_from(self._buf, 0)
             if kind == wire.DRIVE:
                 return self._batch(robot, step, count)

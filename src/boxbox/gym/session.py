@@ -263,13 +263,8 @@ class Race:
             return None
         self._send_controls(steer, accel, brake, clutch, gear, pit)
         while True:
-            try:
-                self._recv()
-            except TorcsGone:
-                if self.proc is not None and self.proc.poll() == 0:  # TORCS ended the race and exited
-                    self.ended = True
-                    return None
-                raise
+            if not self._recv_in_race():
+                return None
             kind, robot, step, count = wire.HEADER.unpack_from(self._buf, 0)
             if kind == wire.DRIVE:
                 self._step = step
@@ -370,6 +365,18 @@ class Race:
                     return None
                 if time.monotonic() > deadline:
                     raise TorcsGone(f"TORCS did not connect within {CONNECT_TIMEOUT_S:.0f} s") from None
+
+    def _recv_in_race(self) -> bool:
+        """The next message into the buffer; False (and the race ended) when TORCS has ended the
+        race and exited cleanly, TorcsGone when it went otherwise."""
+        try:
+            self._recv()
+        except TorcsGone:
+            if self.proc is not None and self.proc.poll() == 0:
+                self.ended = True
+                return False
+            raise
+        return True
 
     def _recv(self) -> int:
         assert self.conn is not None
