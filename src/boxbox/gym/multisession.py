@@ -17,7 +17,7 @@ from pathlib import Path
 from boxbox.model import Car, PitOrder, State, Track
 from boxbox.model.state import CAR_STATE_NO_SIMU
 from boxbox.torcs import wire
-from boxbox.torcs.host import complete_car, decode_track
+from boxbox.torcs.host import complete_car
 from boxbox.torcs.launch import RaceConfig
 from boxbox.torcs.setup import Overlay
 
@@ -147,11 +147,5 @@ class MultiRace(Race):
 
     def _decode(self, blob: bytes) -> Car:
         """The track (decoded once per session) and a car of its own for a robot."""
-        key = (self.cfg.track, self.cfg.car)
-        decoded = self.shared.tracks.get(key)
-        if decoded is None or decoded[0] != blob:
-            track, car = decode_track(blob, self.cfg.track, self.cfg.category)
-            car.name = self.cfg.car
-            decoded = self.shared.tracks[key] = (blob, track, car)
-        self._base = (decoded[1], decoded[2])
-        return copy.deepcopy(decoded[2])
+        self._base = self._decoded(blob)
+        return copy.deepcopy(self._base[1])

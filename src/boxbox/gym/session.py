@@ -248,13 +248,18 @@ class Race:
     def _new_track(self, blob: bytes) -> None:
         """The track (decoded once per session, track and car) and a copy of the car's file
         constants (NEW_RACE completes the copy for this race: its pit, its grid slot)."""
+        track, car = self._decoded(blob)
+        self._track = (track, copy.copy(car))
+
+    def _decoded(self, blob: bytes) -> tuple[Track, Car]:
+        """NEW_TRACK's track and car, decoded once per session and shared: copy the car to change it."""
         key = (self.cfg.track, self.cfg.car)
         decoded = self.shared.tracks.get(key)
         if decoded is None or decoded[0] != blob:
             track, car = decode_track(blob, self.cfg.track, self.cfg.category)
             car.name = self.cfg.car
             decoded = self.shared.tracks[key] = (blob, track, car)
-        self._track = (decoded[1], copy.copy(decoded[2]))
+        return decoded[1], decoded[2]
 
     # --- the race ----------------------------------------------------------------------------
     def drive(self, steer: float, accel: float, brake: float, clutch: float, gear: int, pit: bool) -> State | None:
