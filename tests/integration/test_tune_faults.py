@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import contextlib
 import datetime
+import os
 import signal
 import subprocess
 import sys
@@ -66,25 +67,18 @@ def between_races(worker: psutil.Process, study: str) -> None:
 
 
 def in_its_claim(worker: psutil.Process, study: str) -> None:
-    """Inside its first claim, holding the claim lock: the test holds the journal's write lock a
-    moment at a time, so the worker stops at each of its writes, until the write it stops at is
-    its claim's (it holds NAME.lock then: /proc/locks); killed there, the lock still held."""
-    import fcntl
-
+    """Inside its first claim, holding the claim lock, its trial made but not yet beating: the
+    front runs with BOXBOX_TUNE_PAUSE_IN_CLAIM_S, so the worker waits there (it holds NAME.lock
+    then: /proc/locks); killed there, the lock still held."""
     from boxbox.tune.storage import journal_path
 
-    claim, write = journal_path(study).with_suffix(".lock"), Path(f"{journal_path(study)}.flock")
-    deadline = time.monotonic() + 60
-    while time.monotonic() < deadline:
-        with open(write, "a") as held:
-            fcntl.flock(held, fcntl.LOCK_EX)
-            time.sleep(0.05)  # the worker runs on to its next write, and waits there
-            if _holds(worker.pid, claim):  # killed as it waits, the write lock still ours: its claim never ends
-                worker.send_signal(signal.SIGKILL)
-                _until(lambda: not _exists_unreaped(worker.pid) or worker.status() == psutil.STATUS_ZOMBIE)
-                return
-        time.sleep(0.002)
-    raise AssertionError("the worker never claimed")
+    claim = journal_path(study).with_suffix(".lock")
+    _until(lambda: _holds(worker.pid, claim))
+    worker.send_signal(signal.SIGKILL)
+    _until(lambda: not _exists_unreaped(worker.pid) or worker.status() == psutil.STATUS_ZOMBIE)
+
+
+PAUSED_IN_CLAIM_S = "2"  # the workers' pause inside each claim when the kill lands in one
 
 
 def _holds(pid: int, path: Path) -> bool:
@@ -133,9 +127,10 @@ def test_a_worker_killed(overlay, request, tmp_path, storage, victim, moment):
     study = f"fault-{uuid.uuid4().hex[:8]}"
     setup = tmp_path / "new" / "folder" / "best.toml"
     extra = ["--storage", url, "--grace-s", "60"] if url else []
+    env = dict(os.environ, BOXBOX_TUNE_PAUSE_IN_CLAIM_S=PAUSED_IN_CLAIM_S) if moment is in_its_claim else None
     front = subprocess.Popen(tune_cmd("--study", study, "--trials", str(TRIALS), "--workers", "2", "--seed", "5",
                                       "--setup-out", str(setup), "--report", str(tmp_path / "report"), *extra),
-                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
     try:
         worker = workers_of(front, 2)[victim - 1]
         moment(worker, study)

@@ -103,10 +103,19 @@ def _claim(study: Any, storage: Storage, target: int) -> tuple[Any, bool]:
         if c.get("WAITING", 0) == 0 and finished + c.get("RUNNING", 0) >= target:
             return None, False  # others run the last trials: wait, one of them may die
         trial = _ask(study, queued=c.get("WAITING", 0) > 0, tag=worker_tag())
+        _pause_for_tests()
         # the first beat before anything else: Optuna never finds a trial without one stale, so a
         # worker killed between the two would leave it RUNNING for good
         storage.beat(trial._trial_id)
         return trial, False
+
+
+def _pause_for_tests() -> None:
+    """BOXBOX_TUNE_PAUSE_IN_CLAIM_S seconds here: the tests kill a worker at the riskiest moment of
+    its claim (a trial made, not yet beating, the lock held), which otherwise lasts microseconds."""
+    hold_s = os.environ.get("BOXBOX_TUNE_PAUSE_IN_CLAIM_S")
+    if hold_s:
+        time.sleep(float(hold_s))
 
 
 def _ask(study: Any, queued: bool, tag: str) -> Any:
