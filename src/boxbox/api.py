@@ -13,6 +13,7 @@ one-line message), TORCS is set up when it is missing, and the race runs in its 
 from __future__ import annotations
 
 import dataclasses
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -68,7 +69,8 @@ def race(track: str = "e-track-2", *, laps: int = 3, robots: str | type[Robot] |
     this race, so the same call gives the same race), 'on' (the shared store, kept across races)
     or 'off'. pit_laps: '3,7' or [3, 7]. settings: robot parameters, a dict {'mu_scale': 0.9} or
     'KEY=VALUE' strings as --set; setup: a TOML setup file of them, as --setup (settings win over
-    it). report: True writes RUN_DIR/report.html, a folder writes it there.
+    it). report: True writes RUN_DIR/report.html, a folder writes it there (a report that fails
+    is a warning, and the result is returned).
     step_budget_ms, setup_budget_s: as --step-budget-ms and --setup-budget-s.
 
     Every argument is checked first, with the command line's checks (boxbox/validate.py): a bad
@@ -108,8 +110,16 @@ def race(track: str = "e-track-2", *, laps: int = 3, robots: str | type[Robot] |
         restore_handlers()  # a race stopped by Ctrl-C leaves its own handler in place
     result = RaceResult(**{f.name: getattr(raced, f.name) for f in dataclasses.fields(raced)})
     if args["report"] is not False:
-        result.report(None if args["report"] is True else args["report"])
+        _report(result, None if args["report"] is True else args["report"])
     return result
+
+
+def _report(result: RaceResult, out_dir: Path | None) -> None:
+    """The race's report; one that fails is a warning, as on the command line: the result stands."""
+    try:
+        result.report(out_dir)
+    except Exception as exc:  # noqa: BLE001 (any report failure: the race's result is what matters)
+        warnings.warn(f"the report was not written: {type(exc).__name__}: {exc}; try result.report()", stacklevel=3)
 
 
 def _checked(**given: Any) -> dict[str, Any]:

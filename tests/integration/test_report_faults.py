@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import json
 
+import pytest
+
 import boxbox
 from helpers import ROBOTS, read_json, run_boxbox
 
@@ -50,6 +52,15 @@ def test_a_report_that_cannot_be_written_keeps_the_race_error_and_exit_status(tm
     [line] = error_lines(proc)
     assert "ValueError: deliberate failure in drive" in line
     assert "the report was not written" in proc.stderr
+
+
+def test_the_python_api_returns_the_result_when_its_report_cannot_be_written(tmp_path, overlay):
+    rep = tmp_path / "rep"
+    (rep / "report.html").mkdir(parents=True)
+    with pytest.warns(UserWarning, match=r"the report was not written: .*; try result\.report\(\)"):
+        result = boxbox.race("g-track-1", laps=1, run_dir=tmp_path / "run", report=rep)
+    assert result.error is None and result.drivers[0].laps == 1  # the race's result is not lost
+    assert result.report(tmp_path / "elsewhere").exists()
 
 
 def test_a_result_json_of_the_wrong_shape_is_one_line(tmp_path):
