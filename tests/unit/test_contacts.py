@@ -22,6 +22,7 @@ from boxbox.report.contacts import (
 from boxbox.report.incidents import Frames
 
 TRACK_M = 300.0
+RADIUS_M = TRACK_M / (2.0 * np.pi)
 T = np.round(np.arange(0.0, 60.0, 0.1), 1)  # 6 laps at 30 m/s: every 5 m of track seen six times
 LENGTHS = {0: 4.5, 1: 4.5, 2: 4.5}
 
@@ -36,8 +37,13 @@ def car(raced: np.ndarray, mid: np.ndarray | float = 0.0, damage: np.ndarray | f
 def columns(cars: dict[int, dict]) -> dict[str, np.ndarray]:
     """A recording's columns of these cars (TORCS index -> car()) at the samples T."""
     cols: dict[str, list] = {k: [] for k in ("car", "time_s", "lap", "dist_m", "dist_raced_m", "to_middle_m",
-                                             "speed_mps", "damage")}
+                                             "speed_mps", "damage", "x_m", "y_m", "yaw_rad")}
     for index, c in cars.items():
+        # a round track, driven anticlockwise: the middle line's radius RADIUS_M, the left inwards
+        angle = c["raced"] / RADIUS_M
+        cols["x_m"] += list((RADIUS_M - c["mid"]) * np.cos(angle))
+        cols["y_m"] += list((RADIUS_M - c["mid"]) * np.sin(angle))
+        cols["yaw_rad"] += list(angle + np.pi / 2.0)
         cols["car"] += [index] * len(T)
         cols["time_s"] += list(T)
         cols["lap"] += list(c["raced"] // TRACK_M + 1)
@@ -133,7 +139,7 @@ def test_lapping_and_the_car_that_took_damage_too():
     bystander = car(30.0 * T + 0.5, -2.0)  # nearer, untouched
     [c] = contacts({0: us, 1: lapped, 2: bystander})
     assert (c.other, c.lapping) == (1, "we lap it")
-    assert c.ahead_m == pytest.approx(3.0, abs=0.01)
+    assert c.ahead_m == pytest.approx(3.0, abs=0.1)
 
 
 def test_no_damage_no_contacts_and_car_not_recorded():

@@ -2,13 +2,13 @@
 
 From the car's damage series (telemetry: every drive step) and the race recording (every car, 10
 times a simulated second): each rise of the damage count (rises under MERGE_S apart are one
-incident) gets the other car involved (the nearest whose centre was within a car's length, one whose
-own damage rose then first), where it was in the track's frame (along the track: ahead, behind, or
-alongside; across), the speed we closed on it at, whether one of the two was lapping the other,
-and whether either changed line in the BEFORE_S before: moved towards the other by more than
-LINE_CHANGE_M off the line that car usually drives there (its median offset from the track's middle
-over the race, per LINE_BIN_M of track).  Damage with no car near is the wall or the road, or the
-end of a contact just before (AFTER_S).
+incident) gets the other car involved (the nearest whose centre was within a car's length on the
+map, one whose own damage rose then first), where it was in our car's frame (ahead, behind, or
+alongside), the speed we closed on it at, whether one of the two was lapping the other, and whether
+either changed line in the BEFORE_S before: moved towards the other by more than LINE_CHANGE_M off
+the line that car usually drives there (its median offset from the track's middle over the race,
+per LINE_BIN_M of track).  Damage with no car near is the wall or the road, or the end of a contact
+just before (AFTER_S), with or without a car within NEAR_M.
 
 `cause` sorts an incident into one of CAUSES; `NOT_AVOIDABLE` are those that nothing but not being
 there avoids (hit from behind on our own line).  Pure functions over plain arrays: `load_race` reads
@@ -28,6 +28,7 @@ from boxbox.report.incidents import Frames
 
 MERGE_S = 1.0  # damage rises this close in time are one incident (as report/damage.py counts them)
 REACH_SLACK_M = 1.0  # "within a car's length": centres at most the longer car's length plus this apart
+ALONG_MAX_M = 20.0  # and no further apart along the track (a car across a hairpin is not in the contact)
 BEFORE_S = 1.0  # a change of line is judged over this long before the first hit
 LINE_CHANGE_M = 0.5  # a move towards the other car this far off the car's usual line is a change of line
 SIDE_SHARE = 0.75  # centres closer lengthwise than this share of the two cars' mean length: alongside
@@ -62,15 +63,15 @@ class Contact:
     damage: int  # points taken in it
     kind: str  # "ahead" (we hit it), "behind" (it hit us), "side" (alongside), "alone" (no car near)
     other: int = -1  # TORCS car index of the other car (-1: none)
-    ahead_m: float = math.nan  # its centre ahead of ours along the track (- behind)
-    left_m: float = math.nan  # its centre left of ours across the track (- right)
+    ahead_m: float = math.nan  # its centre ahead of ours, in our car's frame (- behind)
+    left_m: float = math.nan  # its centre left of ours, in our car's frame (- right)
     closing_mps: float = math.nan  # our speed less its, CLOSING_S before the first hit
     lapping: str = ""  # "we lap it", "it laps us" or ""
     we_moved_m: float = math.nan  # our move off our usual line towards it over BEFORE_S (- away)
     it_moved_m: float = math.nan  # its move off its usual line towards us
     other_damage: int = 0  # what the other car took in the same moments
     after: str = ""  # alone: the cause of the contact AFTER_S before, else ""
-    nearest_m: float = math.nan  # the nearest other car's centre from ours (along and across the track)
+    nearest_m: float = math.nan  # the nearest other car's centre from ours
 
     @property
     def cause(self) -> str:
@@ -166,9 +167,7 @@ def _other_car(f: Frames, us: int, t: float, track_length_m: float, lengths: dic
     a sample before, the nearest among those whose own damage rose then, else the nearest."""
     best: tuple[bool, float, int] | None = None
     for when in (t, t - 0.1):
-        ahead = _wrapped(at_time(f, "dist_raced_m", when) - at_time(f, "dist_raced_m", when)[us], track_length_m)
-        left = at_time(f, "to_middle_m", when) - at_time(f, "to_middle_m", when)[us]
-        gap = np.hypot(ahead, left)
+        gap = _gaps(f, us, when, track_length_m)
         for k, car in enumerate(f.cars):
             reach = max(lengths.get(car, 4.5), lengths.get(f.cars[us], 4.5)) + REACH_SLACK_M
             if k == us or not gap[k] <= reach:
@@ -179,12 +178,28 @@ def _other_car(f: Frames, us: int, t: float, track_length_m: float, lengths: dic
     return -1 if best is None else best[2]
 
 
+def _gaps(f: Frames, us: int, t: float, track_length_m: float) -> np.ndarray:
+    """Every car's centre from ours at time t on the map (m; the track's frame stretches distances
+    in a turn); inf for a car further than ALONG_MAX_M along the track (across a hairpin)."""
+    x, y = at_time(f, "x_m", t), at_time(f, "y_m", t)
+    raced = at_time(f, "dist_raced_m", t)
+    along = _wrapped(raced - raced[us], track_length_m)
+    return np.where(np.abs(along) <= ALONG_MAX_M, np.hypot(x - x[us], y - y[us]), np.inf)
+
+
+def _car_frame(f: Frames, us: int, k: int, t: float) -> tuple[float, float]:
+    """Car column k's centre from ours at time t in our car's frame: (ahead, left), m."""
+    x, y = at_time(f, "x_m", t), at_time(f, "y_m", t)
+    yaw = float(f.cols["yaw_rad"][int(np.argmin(np.abs(f.times - t))), us])  # the nearest sample's
+    dx, dy = float(x[k] - x[us]), float(y[k] - y[us])
+    return dx * math.cos(yaw) + dy * math.sin(yaw), -dx * math.sin(yaw) + dy * math.cos(yaw)
+
+
 def _nearest_m(f: Frames, us: int, t: float, track_length_m: float) -> float:
-    """The nearest other car's centre from ours at time t, in the track's frame (inf: none seen)."""
-    ahead = _wrapped(at_time(f, "dist_raced_m", t) - at_time(f, "dist_raced_m", t)[us], track_length_m)
-    gap = np.hypot(ahead, at_time(f, "to_middle_m", t) - at_time(f, "to_middle_m", t)[us])
-    gap[us] = np.nan
-    return float(np.nanmin(gap)) if np.isfinite(gap).any() else math.inf
+    """The nearest other car's centre from ours at time t (inf: none seen)."""
+    gap = _gaps(f, us, t, track_length_m)
+    gap[us] = np.inf
+    return float(np.nan_to_num(gap, nan=np.inf).min())
 
 
 def _lapping(raced_gap_m: float, track_length_m: float) -> str:
@@ -199,12 +214,12 @@ def classify(f: Frames, us: int, k: int, c: Contact, lines: np.ndarray, track_le
     where it was, speeds, lapping, who changed line (other_damage left as it is)."""
     t = c.time_s
     raced = at_time(f, "dist_raced_m", t)
-    ahead = float(_wrapped(raced - raced[us], track_length_m)[k])
-    left = float(at_time(f, "to_middle_m", t)[k] - at_time(f, "to_middle_m", t)[us])
+    ahead, left = _car_frame(f, us, k, t)
     mean_len = (lengths.get(f.cars[us], 4.5) + lengths.get(f.cars[k], 4.5)) / 2.0
     kind = "side" if abs(ahead) < SIDE_SHARE * mean_len else ("ahead" if ahead > 0 else "behind")
     before = float(at_time(f, "to_middle_m", t - BEFORE_S)[k] - at_time(f, "to_middle_m", t - BEFORE_S)[us])
-    side = 1.0 if (before if math.isfinite(before) and before != 0.0 else left) >= 0.0 else -1.0  # where it came from
+    now = float(at_time(f, "to_middle_m", t)[k] - at_time(f, "to_middle_m", t)[us])
+    side = 1.0 if (before if math.isfinite(before) and before != 0.0 else now) >= 0.0 else -1.0  # where it came from
     moved = (_off_line(f, lines, t) - _off_line(f, lines, t - BEFORE_S)) * side
     speed = at_time(f, "speed_mps", t - CLOSING_S)
     lapping = _lapping(float(raced[k] - raced[us]), track_length_m)
