@@ -94,6 +94,15 @@ def test_hit_from_behind_on_our_line():
     assert c.lapping == ""
 
 
+def test_hit_from_behind_braking():
+    raced = np.where(T < 39.0, 30.0 * T, 30.0 * 39.0 + 30.0 * (T - 39.0) - 4.0 * (T - 39.0) ** 2)  # 8 m/s2
+    us = car(raced, 0.0, hit_at(40.0))
+    it = car(30.0 * T - 8.5, 0.0, hit_at(40.0))  # 8.5 m behind at 30 m/s: at our tail after a second of it
+    [c] = contacts({0: us, 1: it})
+    assert (c.kind, c.cause) == ("behind", BEHIND_HELD)
+    assert c.we_slowed_mps == pytest.approx(8.0, abs=0.5)
+
+
 def test_hit_from_behind_after_moving_across_its_nose():
     mid = -2.0 * np.clip(T - 39.0, 0.0, 1.0)  # we move 2 m right in the last second, onto it
     us = car(30.0 * T, mid, hit_at(40.0))

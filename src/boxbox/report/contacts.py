@@ -66,6 +66,7 @@ class Contact:
     ahead_m: float = math.nan  # its centre ahead of ours, in our car's frame (- behind)
     left_m: float = math.nan  # its centre left of ours, in our car's frame (- right)
     closing_mps: float = math.nan  # our speed less its, CLOSING_S before the first hit
+    we_slowed_mps: float = math.nan  # how much our speed fell over the BEFORE_S before the first hit
     lapping: str = ""  # "we lap it", "it laps us" or ""
     we_moved_m: float = math.nan  # our move off our usual line towards it over BEFORE_S (- away)
     it_moved_m: float = math.nan  # its move off its usual line towards us
@@ -222,9 +223,10 @@ def classify(f: Frames, us: int, k: int, c: Contact, lines: np.ndarray, track_le
     side = 1.0 if (before if math.isfinite(before) and before != 0.0 else now) >= 0.0 else -1.0  # where it came from
     moved = (_off_line(f, lines, t) - _off_line(f, lines, t - BEFORE_S)) * side
     speed = at_time(f, "speed_mps", t - CLOSING_S)
+    slowed = float(at_time(f, "speed_mps", t - BEFORE_S)[us] - at_time(f, "speed_mps", t)[us])
     lapping = _lapping(float(raced[k] - raced[us]), track_length_m)
     return replace(c, kind=kind, other=f.cars[k], ahead_m=ahead, left_m=left, closing_mps=float(speed[us] - speed[k]),
-                   lapping=lapping, we_moved_m=float(moved[us]), it_moved_m=float(-moved[k]))
+                   we_slowed_mps=slowed, lapping=lapping, we_moved_m=float(moved[us]), it_moved_m=float(-moved[k]))
 
 
 def find_contacts(f: Frames, car: int, time_s: np.ndarray, damage: np.ndarray, track_length_m: float,
