@@ -20,7 +20,7 @@ from boxbox.cli.limit import limit
 from boxbox.cli.race import drill, params, race
 from boxbox.cli.reliability import soak, sweep
 from boxbox.cli.replay import replay
-from boxbox.cli.report import report
+from boxbox.cli.report import contacts, report
 from boxbox.cli.tune import bench_tune, tune
 from boxbox.errors import BoxboxError
 
@@ -39,8 +39,8 @@ def main_group() -> None:
 
 
 for _command in (race, params, drill, setup, doctor, tracks, cars, robots, bench, bench_speed, bench_pits,
-                 bench_field, bench_telemetry, bench_learning, report, replay, sweep, soak, scr_server, bench_gym,
-                 limit, tune, bench_tune):
+                 bench_field, bench_telemetry, bench_learning, report, contacts, replay, sweep, soak, scr_server,
+                 bench_gym, limit, tune, bench_tune):
     main_group.add_command(_command)
 
 

@@ -40,3 +40,87 @@ def _limit_speed(run_dir: Path):
         err.print(f"[yellow]no limit lap in the report: {exc}[/]")
         return None
     return lap.dist_m, lap.speed_mps
+
+
+@click.command("contacts")
+@click.argument("run_dirs", nargs=-1, type=click.Path(exists=True, file_okay=False, resolve_path=True,
+                                                      path_type=Path))
+@click.option("--bench", "bench_file", type=click.Path(exists=True, dir_okay=False, path_type=Path),
+              help="Take the robot's run dirs from a `bench-field --json` file.")
+@click.option("--each", is_flag=True, help="Also list every incident.")
+@click.option("--json", "json_file", type=OutputFile(), help="Write every race's incidents to this JSON file.")
+def contacts(run_dirs: tuple[Path, ...], bench_file: Path | None, each: bool, json_file: Path | None) -> None:
+    """Why the Python car took its damage (docs/racecraft.md): each damage incident of the first
+    Python car of each race put down to a cause (hit from behind, into the car ahead, side by side
+    and who changed line, alone), with the damage each cause holds and what would be left without it.
+
+    Example: boxbox contacts RUN_DIR
+    """
+    import json
+
+    from boxbox.errors import UsageError
+    from boxbox.files import write_json_atomic
+    from boxbox.report.contacts import bench_run_dirs, load_race
+
+    dirs = list(run_dirs)
+    if bench_file is not None:
+        try:
+            dirs += bench_run_dirs(json.loads(bench_file.read_text()))
+        except (OSError, ValueError, AttributeError, KeyError, TypeError) as exc:
+            raise UsageError(f"--bench {bench_file}: not a bench-field --json file ({exc})") from None
+    if not dirs:
+        raise UsageError("give run dirs (RUN_DIR...) or --bench FILE")
+    missing = [d for d in dirs if not (d / "recording.parquet").exists()]
+    if missing:
+        raise UsageError(f"{missing[0]} has no recording.parquet (a race with a Python car writes one)")
+    races = [load_race(d) for d in dirs]
+    if each:
+        out.print(_each_table(races))
+    out.print(_cause_table(races))
+    out.print(_scenario_table(races))
+    if json_file is not None:
+        write_json_atomic(json_file, [r.to_json() for r in races], indent=1)
+
+
+def _each_table(races):
+    from rich.table import Table
+
+    table = Table(title="every incident")
+    for col in ("track", "lap", "dist m", "damage", "cause", "other", "ahead m", "left m", "closing m/s",
+                "lapping", "we moved m", "it moved m"):
+        table.add_column(col, justify="left" if col in ("track", "cause", "lapping") else "right")
+    for r in races:
+        for c in r.contacts:
+            nums = [f"{v:.1f}" if v == v else "-" for v in (c.ahead_m, c.left_m, c.closing_mps)]
+            moved = [f"{v:.1f}" if v == v else "-" for v in (c.we_moved_m, c.it_moved_m)]
+            table.add_row(r.track, str(c.lap), f"{c.dist_m:.0f}", str(c.damage), c.cause,
+                          str(c.other) if c.other >= 0 else "-", *nums, c.lapping or "-", *moved)
+    return table
+
+
+def _cause_table(races):
+    from rich.table import Table
+
+    from boxbox.report.contacts import LOW_DAMAGE, cause_rows
+
+    table = Table(title=f"damage by cause over {len(races)} races")
+    for col in ("cause", "incidents", "damage", "share", "on lap 1", "lapping", "others' damage",
+                f"races >= {LOW_DAMAGE} it leads"):
+        table.add_column(col, justify="left" if col == "cause" else "right")
+    for r in cause_rows(races):
+        table.add_row(r["cause"], str(r["incidents"]), str(r["damage"]), f"{100 * r['share']:.0f} %", str(r["lap1"]),
+                      str(r["lapping"]), str(r["others_damage"]), str(r["races_led"]))
+    return table
+
+
+def _scenario_table(races):
+    from rich.table import Table
+
+    from boxbox.report.contacts import LOW_DAMAGE, scenario_rows
+
+    table = Table(title="the damage left without some causes")
+    for col in ("scenario", "damage", f"races under {LOW_DAMAGE}", "what"):
+        table.add_column(col, justify="left" if col in ("scenario", "what") else "right")
+    for r in scenario_rows(races):
+        table.add_row(r["scenario"], str(r["damage"]), f"{r['under_low']}/{r['races']}", r["what"])
+    return table
