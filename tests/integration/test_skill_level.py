@@ -56,3 +56,20 @@ def test_boxbox_at_pro_keeps_its_tyres_at_the_peak(tmp_path, overlay):
         assert result.error is None, result.error
         [car] = result.drivers
         assert car.laps == 3 and car.damage < 100, (track, car.damage, car.lap_times)
+
+
+def test_boxbox_at_pro_puts_its_power_down_out_of_slow_dirt_turns(tmp_path, overlay):
+    """dirt-2 at pro: the throttle beside a turn took the engine's torque as linear in the throttle
+    (simuv2 subtracts an engine brake) and the rear axle's static load (not what the force moves onto
+    it): 264.256 s, behind inferno:3 at pro (258.200); with both, 252.572 (issue #49)."""
+    times = {}
+    for name, robots, opponents in (("boxbox", None, []), ("inferno", [], [("inferno", 3)])):
+        kwargs = {} if robots is None else {"robots": robots}
+        cfg = launch.RaceConfig(track="dirt-2", category="dirt", laps=3, telemetry=False, learning="fresh",
+                                opponents=opponents, run_dir=tmp_path / name, skill_level=SkillLevel.PRO, **kwargs)
+        result = launch.run_race(cfg, overlay)
+        assert result.error is None, result.error
+        [car] = result.drivers
+        assert car.laps == 3, (name, car.lap_times)
+        times[name] = car.time
+    assert times["boxbox"] < times["inferno"], times
