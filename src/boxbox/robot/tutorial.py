@@ -516,6 +516,7 @@ class TutorialRobot(Robot):
         if cars:  # behind a slower car: coast before the gap brake, not throttle and brake in turn
             accel = self.craft.lift(accel, v, cars, self._brakedist)
         accel = self._guard_throttle(s, v, steer, accel)
+        accel = self._release_engine_brake(s, v, brake, accel)
         gear = self.gears.select(int(s.gear), v)
         return Controls(steer=steer, accel=accel, brake=brake, clutch=self._clutch(gear, v, accel), gear=gear,
                         pit_request=self.pits.wanted)
@@ -830,8 +831,7 @@ class TutorialRobot(Robot):
             # the rear axle's own lateral slip, measured: the body's side speed plus the yaw's at the
             # axle (car1-ow1 out of e-track-2's 37 m/s right-hander at 13 deg body slip spun with 27 %
             # wheelspin, which the turn's share alone allowed)
-            rear_slip = (s.speed_y_mps - self._cg_to_rear_m * s.yaw_rate_rps) / v
-            room = min(room, combined_slip_room(self._peak_slip, rear_slip))
+            room = min(room, combined_slip_room(self._peak_slip, self._rear_side_slip(s, v)))
         return 0.0, tcl_from_slip(accel, v, slip_mps, self.slip, room)
 
     def _drive_room(self, s: State, v: float, accel: float) -> float:
@@ -853,6 +853,23 @@ class TutorialRobot(Robot):
             return accel
         brake = engine_brake_share(s.rpm, car.engine_tickover_radps, car.engine_revs_max_radps, car.engine_brake_coeff)
         return min(accel, throttle_for_torque(room_n / full_n, brake))
+
+    def _rear_side_slip(self, s: State, v: float) -> float:
+        """The rear axle's lateral slip: the body's side speed plus the yaw's at the axle, over the speed."""
+        return (s.speed_y_mps - self._cg_to_rear_m * s.yaw_rate_rps) / v
+
+    def _release_engine_brake(self, s: State, v: float, brake: float, accel: float) -> float:
+        """Coasting where the level's tyre loses force past its peak (pro), with the driven rear sliding
+        sideways at or past it (combined_slip_room 0: no grip left along the tyre): the throttle at which
+        the engine drives nothing, rather than its brake dragging the sliding rear round (mixed-1 at
+        pro: off the throttle in a first-gear S-bend at 22 m/s, the rear slid out, 347 damage)."""
+        if (not self._holds_peak or accel > 0.0 or brake > 0.0 or self.car.drivetrain != RWD or s.gear < 1
+                or v < self.slip.tcl_min_speed_mps
+                or combined_slip_room(self._peak_slip, self._rear_side_slip(s, v)) > 0.0):
+            return accel
+        car = self.car
+        return throttle_for_torque(0.0, engine_brake_share(s.rpm, car.engine_tickover_radps,
+                                                           car.engine_revs_max_radps, car.engine_brake_coeff))
 
     def _guard_throttle(self, s: State, v: float, steer: float, accel: float) -> float:
         """Less throttle when the tyres have no grip to spare: at the steering lock (lock guard) and
