@@ -22,6 +22,7 @@ import math
 
 import numpy as np
 
+from boxbox.control.traction import engine_brake_share
 from boxbox.model.constants import FUEL_L_PER_J, G_MPS2
 
 
@@ -36,8 +37,7 @@ def engine_brake_power_w(torque_curve_radps: tuple[float, ...], torque_curve_nm:
         raise ValueError("need 0 <= tickover < revs max and 0 <= brake_coeff < 10")
     best = int(np.argmax(rpm * torque))
     w = float(rpm[best])
-    share = brake_coeff * max(0.0, w - tickover_radps) / (revs_max_radps - tickover_radps)
-    return share * float(torque[best]) * w
+    return engine_brake_share(w, tickover_radps, revs_max_radps, brake_coeff) * float(torque[best]) * w
 
 
 def lap_fuel_l(step_m: np.ndarray, speeds_mps: np.ndarray, mass_kg: float, cw_n_per_mps2: float,

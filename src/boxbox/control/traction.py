@@ -10,7 +10,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from boxbox.model.car import AWD, FWD, RWD
+from boxbox.control.carmodel import axle_downforce_coefficients
+from boxbox.model.car import AWD, FWD, RWD, Car
+from boxbox.model.constants import G_MPS2
 
 Wheels = tuple[float, float, float, float]
 
@@ -125,3 +127,77 @@ def combined_slip_room(peak_slip: float, lateral_slip: float) -> float:
         return math.inf
     # the larger root of (1 - p^2) r^2 - 2 p^2 r + sy^2 - p^2 = 0
     return (p2 + math.sqrt(p2 * p2 - (1.0 - p2) * (sy2 - p2))) / (1.0 - p2)
+
+
+def engine_brake_share(rpm_radps: float, tickover_radps: float, revs_max_radps: float, brake_coeff: float) -> float:
+    """The engine brake as a share of the full torque at engine speed `rpm_radps`: simuv2 gives the
+    torque full x (throttle x (1 + share) - share), so no throttle brakes and part throttle gives less
+    than its share of the full torque."""
+    if revs_max_radps <= tickover_radps:
+        return 0.0
+    return brake_coeff * max(0.0, rpm_radps - tickover_radps) / (revs_max_radps - tickover_radps)
+
+
+def throttle_for_torque(torque_share: float, brake_share: float) -> float:
+    """The throttle (0..1) whose torque is `torque_share` of the full torque, given the engine brake's
+    share (engine_brake_share): at 0.4 of the full torque with a share of 0.25 it is 0.52, not 0.4."""
+    return min(1.0, max(0.0, (torque_share + brake_share) / (1.0 + brake_share)))
+
+
+@dataclass(frozen=True)
+class Axle:
+    """One axle as the drive force sees it: its static load, its downforce, its share of the drive
+    force, and the load it gains per newton of drive force (the force at the road pitches the car:
+    gc height / wheelbase, + on the rear axle, - on the front)."""
+
+    weight_n: float
+    downforce_ca: float  # N per (m/s)^2
+    force_share: float  # 0 for an axle that is not driven
+    load_per_force: float
+
+
+def axle_force_room_n(mu: float, load_n: float, lateral_n: float, force_share: float, load_per_force: float) -> float:
+    """The most drive force F (N) one axle allows: its tyres hold the turn's lateral_n beside their
+    share of F within the friction circle of their load, (share F)^2 + lateral^2 <= (mu (load + d F))^2
+    with d = load_per_force.  inf where the axle sets no limit; 0 where it cannot hold the turn even
+    without drive force.  An axle that is not driven limits F only by the load F takes off it (a
+    rear-driven car's front, which must still steer)."""
+    mu2 = mu * mu
+    a = force_share * force_share - mu2 * load_per_force * load_per_force
+    b = -2.0 * mu2 * load_n * load_per_force
+    c = lateral_n * lateral_n - mu2 * load_n * load_n
+    if c > 0.0:
+        return 0.0
+    if a > 0.0:  # beyond the larger root the circle is exceeded
+        return (-b + math.sqrt(b * b - 4.0 * a * c)) / (2.0 * a)
+    if a == 0.0:
+        return -c / b if b > 0.0 else math.inf
+    # a < 0: the load grows with F faster than the force's share needs, or F only takes load off
+    disc = b * b - 4.0 * a * c
+    return (-b + math.sqrt(disc)) / (2.0 * a) if b > 0.0 and disc > 0.0 else math.inf
+
+
+def drive_force_room_n(axles: tuple[Axle, ...], mu: float, speed_mps: float, curvature_1pm: float) -> float:
+    """The most drive force (N) the car can put down at this speed in a turn of this curvature: each
+    axle carries the turn's lateral force in proportion to its static load, and holds it beside its
+    share of the drive force on its load with the downforce and what the drive force moves onto it."""
+    v2 = speed_mps * speed_mps
+    room = math.inf
+    for axle in axles:
+        lateral_n = axle.weight_n * v2 * abs(curvature_1pm) / G_MPS2
+        load_n = axle.weight_n + axle.downforce_ca * v2
+        room = min(room, axle_force_room_n(mu, load_n, lateral_n, axle.force_share, axle.load_per_force))
+    return room
+
+
+def drive_axles(car: Car) -> tuple[Axle, Axle]:
+    """The car's (front, rear) axles for drive_force_room_n: the static load by the front weight share
+    (of the car without fuel), each axle's downforce, the drive force split by the drivetrain (half
+    each for all-wheel drive) and the load it moves rearwards, gc height / wheelbase per newton."""
+    front_ca, rear_ca = axle_downforce_coefficients(car)
+    front_w = car.front_weight_share * car.mass_kg * G_MPS2
+    rear_w = car.mass_kg * G_MPS2 - front_w
+    wheelbase_m = car.front_axle_x_m - car.rear_axle_x_m
+    shift = car.gc_height_m / wheelbase_m if wheelbase_m > 0.0 else 0.0
+    front_share = {RWD: 0.0, FWD: 1.0, AWD: 0.5}[car.drivetrain]
+    return (Axle(front_w, front_ca, front_share, -shift), Axle(rear_w, rear_ca, 1.0 - front_share, shift))

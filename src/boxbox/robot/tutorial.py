@@ -35,9 +35,13 @@ from boxbox.control.traction import (
     SlipParams,
     abs_filter,
     combined_slip_room,
+    drive_axles,
+    drive_force_room_n,
     driven_wheel_speed_mps,
+    engine_brake_share,
     spare_slip_ratio,
     tcl_from_slip,
+    throttle_for_torque,
 )
 from boxbox.model import Car, CarSetup, Controls, PitOrder, State, Track
 from boxbox.model.car import FWD, RWD
@@ -255,12 +259,8 @@ class TutorialRobot(Robot):
         self._holds_peak = holds and len(car.torque_curve_nm) >= 2
         # the weight on the front axle is the CG's share of the wheelbase behind it
         self._cg_to_rear_m = car.front_weight_share * 0.6 * car.length_m
-        front_ca, rear_ca = carmodel.axle_downforce_coefficients(car)
-        front_w = car.front_weight_share * car.mass_kg * G_MPS2
-        rear_w = car.mass_kg * G_MPS2 - front_w
-        self._drive_weight_n, self._drive_ca, self._drive_radius_m = {
-            RWD: (rear_w, rear_ca, car.wheel_radius_rr_m), FWD: (front_w, front_ca, car.wheel_radius_fr_m)}.get(
-            car.drivetrain, (rear_w + front_w, rear_ca + front_ca, car.wheel_radius_rr_m))
+        self._axles = drive_axles(car)
+        self._drive_radius_m = car.wheel_radius_fr_m if car.drivetrain == FWD else car.wheel_radius_rr_m
         self.slip = SlipParams(abs_slip_mps=p.abs_slip_mps, abs_range_mps=p.abs_range_mps,
                                tcl_slip_mps=p.tcl_slip_mps, tcl_slip_ratio=p.tcl_slip_ratio,
                                tcl_range_mps=p.tcl_range_mps, tcl_range_ratio=peak if holds else math.inf,
@@ -516,6 +516,7 @@ class TutorialRobot(Robot):
         if cars:  # behind a slower car: coast before the gap brake, not throttle and brake in turn
             accel = self.craft.lift(accel, v, cars, self._brakedist)
         accel = self._guard_throttle(s, v, steer, accel)
+        accel = self._release_engine_brake(s, v, brake, accel)
         gear = self.gears.select(int(s.gear), v)
         return Controls(steer=steer, accel=accel, brake=brake, clutch=self._clutch(gear, v, accel), gear=gear,
                         pit_request=self.pits.wanted)
@@ -830,26 +831,45 @@ class TutorialRobot(Robot):
             # the rear axle's own lateral slip, measured: the body's side speed plus the yaw's at the
             # axle (car1-ow1 out of e-track-2's 37 m/s right-hander at 13 deg body slip spun with 27 %
             # wheelspin, which the turn's share alone allowed)
-            rear_slip = (s.speed_y_mps - self._cg_to_rear_m * s.yaw_rate_rps) / v
-            room = min(room, combined_slip_room(self._peak_slip, rear_slip))
+            room = min(room, combined_slip_room(self._peak_slip, self._rear_side_slip(s, v)))
         return 0.0, tcl_from_slip(accel, v, slip_mps, self.slip, room)
 
     def _drive_room(self, s: State, v: float, accel: float) -> float:
-        """Where the level's tyre loses force past its peak (pro): no more throttle than the grip
-        the turn leaves the driven wheels (the friction circle at the peak): g-track-1's long turn at
-        pro, full throttle at 44 m/s, spun."""
+        """Where the level's tyre loses force past its peak (pro): no more throttle than the drive force
+        the axles can hold beside the turn (control/traction.py: drive_force_room_n, with the load the
+        force moves rearwards off the steering front), through the engine's torque at part throttle,
+        which the engine brake lowers (g-track-1's long turn at pro, full throttle at 44 m/s, spun;
+        with the rear axle's static load alone and the torque taken as linear in the throttle, dirt-2
+        at pro came out of its slow turns on 0.4 throttle at 3 % wheelspin)."""
         gear = int(s.gear)
         if not self._holds_peak or accel == 0.0 or gear < 1 or v < self.slip.tcl_min_speed_mps:
             return accel
         i = int(s.dist_from_start_m / self.step_m) % self.n
-        v2 = v * v
-        share = v2 * self._k_per_mu[i] / (G_MPS2 + v2 * self._ca_per_kg)
-        spare = 1.0 - share * share
-        grip_n = self._corner_mu[i] * (self._drive_weight_n + self._drive_ca * v2) * math.sqrt(spare) \
-            if spare > 0.0 else 0.0
-        torque_nm = float(np.interp(s.rpm, self.car.torque_curve_radps, self.car.torque_curve_nm))
-        full_n = torque_nm * self.car.gear_ratio(gear) / self._drive_radius_m
-        return accel if full_n <= grip_n else min(accel, max(0.0, grip_n / full_n))
+        room_n = drive_force_room_n(self._axles, self._corner_mu[i], v, self._curv[i])
+        car = self.car
+        torque_nm = float(np.interp(s.rpm, car.torque_curve_radps, car.torque_curve_nm))
+        full_n = torque_nm * car.gear_ratio(gear) / self._drive_radius_m
+        if full_n <= room_n:
+            return accel
+        brake = engine_brake_share(s.rpm, car.engine_tickover_radps, car.engine_revs_max_radps, car.engine_brake_coeff)
+        return min(accel, throttle_for_torque(room_n / full_n, brake))
+
+    def _rear_side_slip(self, s: State, v: float) -> float:
+        """The rear axle's lateral slip: the body's side speed plus the yaw's at the axle, over the speed."""
+        return (s.speed_y_mps - self._cg_to_rear_m * s.yaw_rate_rps) / v
+
+    def _release_engine_brake(self, s: State, v: float, brake: float, accel: float) -> float:
+        """Coasting where the level's tyre loses force past its peak (pro), with the driven rear sliding
+        sideways at or past it (combined_slip_room 0: no grip left along the tyre): the throttle at which
+        the engine drives nothing, rather than its brake dragging the sliding rear round (mixed-1 at
+        pro: off the throttle in a first-gear S-bend at 22 m/s, the rear slid out, 347 damage)."""
+        if (not self._holds_peak or accel > 0.0 or brake > 0.0 or self.car.drivetrain != RWD or s.gear < 1
+                or v < self.slip.tcl_min_speed_mps
+                or combined_slip_room(self._peak_slip, self._rear_side_slip(s, v)) > 0.0):
+            return accel
+        car = self.car
+        return throttle_for_torque(0.0, engine_brake_share(s.rpm, car.engine_tickover_radps,
+                                                           car.engine_revs_max_radps, car.engine_brake_coeff))
 
     def _guard_throttle(self, s: State, v: float, steer: float, accel: float) -> float:
         """Less throttle when the tyres have no grip to spare: at the steering lock (lock guard) and

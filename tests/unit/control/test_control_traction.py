@@ -1,16 +1,23 @@
 import dataclasses
+import math
 
 import pytest
 
 from boxbox.control.traction import (
     SlipParams,
     abs_filter,
+    axle_force_room_n,
     combined_slip_room,
+    drive_axles,
+    drive_force_room_n,
     driven_wheel_speed_mps,
+    engine_brake_share,
     spare_slip_ratio,
     tcl_filter,
+    throttle_for_torque,
 )
-from boxbox.model.car import AWD, FWD, RWD
+from boxbox.model.car import AWD, FWD, RWD, Car
+from boxbox.model.constants import G_MPS2
 
 R = (0.33, 0.33, 0.3, 0.3)  # fr, fl, rr, rl
 
@@ -154,3 +161,71 @@ def test_combined_slip_room_cuts_the_throttle_of_a_car_sliding_out_of_a_turn():
     assert tcl_filter(1.0, 36.7, wheels, R, RWD, ratio, room) == pytest.approx(1.0 - (9.9 - 2.0) / 10.0)
     # gripping (side slip 0.05): the turn's share still sets the room, nothing changes
     assert combined_slip_room(0.214, 0.05) > spare_slip_ratio(0.214, 0.5) > 0.15
+
+
+def test_engine_brake_share_grows_from_tickover_to_the_coefficient_at_most_revs():
+    assert engine_brake_share(100.0, 100.0, 1000.0, 0.33) == 0.0
+    assert engine_brake_share(50.0, 100.0, 1000.0, 0.33) == 0.0  # below tickover: no brake
+    assert engine_brake_share(550.0, 100.0, 1000.0, 0.33) == pytest.approx(0.165)
+    assert engine_brake_share(1000.0, 100.0, 1000.0, 0.33) == pytest.approx(0.33)
+
+
+def test_throttle_for_torque_adds_what_the_engine_brake_takes():
+    # simuv2: torque = full x (throttle x (1 + b) - b); 40 % of the full torque at b = 0.25 needs 52 %
+    assert throttle_for_torque(0.4, 0.25) == pytest.approx(0.52)
+    assert (0.52 * 1.25 - 0.25) == pytest.approx(0.4)
+    assert throttle_for_torque(0.4, 0.0) == pytest.approx(0.4)
+    assert throttle_for_torque(0.0, 0.3) == pytest.approx(0.3 / 1.3)  # no torque: not no throttle
+    assert throttle_for_torque(1.0, 0.3) == 1.0 and throttle_for_torque(1.5, 0.3) == 1.0
+    assert throttle_for_torque(-1.0, 0.3) == 0.0
+
+
+def test_axle_force_room_is_the_friction_circle_on_the_load_the_force_leaves():
+    mu, load, lateral = 1.2, 5000.0, 3000.0
+    circle = math.sqrt((mu * load) ** 2 - lateral**2)
+    assert axle_force_room_n(mu, load, lateral, 1.0, 0.0) == pytest.approx(circle)
+    # the rear gains load as the force pitches the car: more room, met exactly at the room
+    rear = axle_force_room_n(mu, load, lateral, 1.0, 0.12)
+    assert rear > circle and rear**2 + lateral**2 == pytest.approx((mu * (load + 0.12 * rear)) ** 2)
+    # a driven front loses it: less
+    front = axle_force_room_n(mu, load, lateral, 1.0, -0.12)
+    assert front < circle and front**2 + lateral**2 == pytest.approx((mu * (load - 0.12 * front)) ** 2)
+    # half the force on the axle (four-wheel drive): twice the force for the same circle, without shift
+    assert axle_force_room_n(mu, load, lateral, 0.5, 0.0) == pytest.approx(2.0 * circle)
+    # a turn beyond the axle's grip: no drive force at all
+    assert axle_force_room_n(mu, load, 6100.0, 1.0, 0.12) == 0.0
+    # not driven: no limit unless the force takes its load, then as long as it still holds the turn
+    assert axle_force_room_n(mu, load, lateral, 0.0, 0.0) == math.inf
+    assert axle_force_room_n(mu, load, lateral, 0.0, 0.12) == math.inf
+    assert axle_force_room_n(mu, load, lateral, 0.0, -0.12) == pytest.approx((mu * load - lateral) / (mu * 0.12))
+
+
+def _rwd_car(**kw) -> Car:
+    base = dict(mass_kg=1000.0, front_weight_share=0.5, gc_height_m=0.3, front_axle_x_m=1.3, rear_axle_x_m=-1.3,
+                drivetrain=RWD)
+    base.update(kw)
+    return Car(**base)
+
+
+def test_drive_axles_split_the_force_by_drivetrain_and_move_load_rearwards():
+    front, rear = drive_axles(_rwd_car())
+    assert (front.force_share, rear.force_share) == (0.0, 1.0)
+    assert rear.load_per_force == pytest.approx(0.3 / 2.6) and front.load_per_force == -rear.load_per_force
+    assert front.weight_n == pytest.approx(500 * G_MPS2) and rear.weight_n == pytest.approx(500 * G_MPS2)
+    assert [a.force_share for a in drive_axles(_rwd_car(drivetrain=FWD))] == [1.0, 0.0]
+    assert [a.force_share for a in drive_axles(_rwd_car(drivetrain=AWD))] == [0.5, 0.5]
+
+
+def test_near_its_limit_a_rear_driven_car_is_held_by_the_front_it_unloads():
+    """g-track-1's long turn at pro: full throttle unloaded the steering front and the car spun off;
+    the rear axle's own circle alone would allow more force than the front can take off its load."""
+    axles = drive_axles(_rwd_car())
+    mu, t, half_w = 1.2, 0.3 / 2.6, 500 * G_MPS2
+    # straight: the rear's grip, grown by the load its own force moves onto it
+    assert drive_force_room_n(axles, mu, 30.0, 0.0) == pytest.approx(mu * half_w / (1.0 - mu * t))
+    # a turn taking 95 % of the grip: the front limits, below the rear's circle
+    k = 0.95 * mu * G_MPS2 / 30.0**2
+    lateral = 0.95 * mu * half_w
+    room = drive_force_room_n(axles, mu, 30.0, k)
+    assert room == pytest.approx((mu * half_w - lateral) / (mu * t))
+    assert room < axle_force_room_n(mu, half_w, lateral, 1.0, t)
