@@ -4,6 +4,7 @@ States are built from the robot's own racing line (position, heading, offset at 
 """
 
 import copy
+import json
 import math
 import time
 
@@ -815,3 +816,18 @@ def test_a_car_we_lap_is_braked_for_where_our_line_meets_it_only_with_lapped_pat
     assert brakes[False, 1.0] == 0.0
     assert brakes[True, 1.0] == 1.0
     assert brakes[True, 2.0] == 0.0  # a car on our lap: where it is, as before
+
+
+def test_the_learning_file_is_written_at_the_race_end_not_in_a_drive_step(tmp_path):
+    """A file write inside a drive step took over 200 ms on a busy disk (past the step budget): the
+    laps' lessons are kept in memory and written once, by on_race_end, which the host always calls."""
+    track, car = load("g-track-1")
+    car.name = "car1-trb1"
+    robot = TutorialRobot(RaceOptions(learning_dir=str(tmp_path)))
+    robot.on_track(track, car)
+    for lap in (1, 2, 3):  # two lap ends: the learner's lessons, no file
+        robot.drive(line_state(robot, 100.0, 20.0, laps=float(lap)))
+    assert robot.laps_seen == 3 and not list(tmp_path.iterdir())
+    robot.on_race_end(line_state(robot, 100.0, 20.0, laps=3.0))
+    [saved] = tmp_path.iterdir()
+    assert saved.name == "g-track-1--car1-trb1.json" and json.loads(saved.read_text())["turns"]

@@ -956,21 +956,25 @@ class TutorialRobot(Robot):
         self._build_profile()
 
     def _end_lap_learning(self, s: State) -> None:
-        """The lap's lessons per turn (robot/learning.py), kept in the learning file when a factor
-        changed (a file write inside a drive step took over 200 ms on a busy disk: not every lap)."""
+        """The lap's lessons per turn (robot/learning.py), for the next laps; the learning file is
+        written once, at the race's end (a write inside a drive step took over 200 ms on a busy
+        disk, past the step budget: 23 of about 400 field races on a loaded machine)."""
         if not self.params.learning:
             return
         self.learner.close(s.sim_time_s, spoiled=self.pits.busy)
         self.learner.end_lap()
-        state = [(t.factor, t.ceiling, t.settled) for t in self.learner.turns]
-        if state != self._learning_saved and self.learning_file is not None:
-            self.learner.save(self.learning_file, self.track.name, self.car.name)
-            self._learning_saved = state
 
     def on_race_end(self, state: State) -> None:
-        """The last lap teaches too: nothing after the finish line calls drive() again."""
+        """The last lap teaches too (nothing after the finish line calls drive() again); then the
+        lessons go to the learning file, if any changed.  The host calls this in every ending."""
         if self.laps_seen >= 1 and self.learner.turns:
             self._end_lap_learning(state)
+        if not self.params.learning or self.learning_file is None:
+            return
+        learned = [(t.factor, t.ceiling, t.settled) for t in self.learner.turns]
+        if learned != self._learning_saved:
+            self.learner.save(self.learning_file, self.track.name, self.car.name)
+            self._learning_saved = learned
 
     def pit_stop(self, state: State) -> PitOrder:
         return self.pits.pit_stop(state)
