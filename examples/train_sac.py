@@ -63,8 +63,7 @@ class Driver(gymnasium.Wrapper):
 
 
 def make_env() -> gymnasium.Env:
-    env = gymnasium.make("boxbox/TORCS-v0", track="g-track-1", laps=1, action_repeat=ACTION_REPEAT,
-                         off_track_s=0.5,
+    env = gymnasium.make("boxbox/TORCS-v0", track="g-track-1", laps=1, action_repeat=ACTION_REPEAT, off_track_s=0.5,
                          max_episode_steps=int(EPISODE_S / (0.02 * ACTION_REPEAT)))
     return Driver(env)
 
