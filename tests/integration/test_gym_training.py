@@ -1,0 +1,80 @@
+"""examples/train_sac.py (Stable-Baselines3's SAC, the rl extra) at a tiny scale: `./boxbox install-rl`
+installs the extra when .venv lacks it, the example trains for a few hundred steps, and what it saves
+is whole: the learning curve has a row per episode, the plot is a PNG, and the saved model, loaded
+again, drives the env exactly as the policy did at the end of training (the summary's rollout)."""
+
+from __future__ import annotations
+
+import csv
+import json
+import subprocess
+import sys
+import tomllib
+from pathlib import Path
+
+import pytest
+
+from helpers import ROOT
+
+STEPS = 300
+# the deterministic rollout of the saved model, in a fresh interpreter: the example's own rollout()
+CHECK = """
+import importlib.util, json, sys
+spec = importlib.util.spec_from_file_location("train_sac", sys.argv[1])
+example = importlib.util.module_from_spec(spec)
+spec.loader.exec_module(example)
+model = example.SAC.load(sys.argv[2])
+env = example.make_env()
+print(json.dumps(example.rollout(model, env)))
+env.close()
+"""
+
+
+def torch_wheel() -> Path:
+    """The PyTorch CPU wheel pyproject.toml's rl extra installs from."""
+    sources = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["uv"]["sources"]
+    return Path(sources["torch"]["path"])
+
+
+@pytest.fixture(scope="module")
+def rl_python() -> str:
+    """This interpreter, with the rl extra: found, or installed by `./boxbox install-rl` into .venv."""
+    has_extra = [sys.executable, "-c", "import stable_baselines3, torch"]
+    if subprocess.run(has_extra, capture_output=True).returncode == 0:
+        return sys.executable
+    if Path(sys.prefix).resolve() != (ROOT / ".venv").resolve():
+        pytest.skip(f"the rl extra is not installed in {sys.prefix}, and ./boxbox install-rl installs into .venv")
+    if not torch_wheel().is_file():
+        pytest.skip(f"{torch_wheel()} (PyTorch's CPU build, which the rl extra installs) is not on this machine")
+    proc = subprocess.run([str(ROOT / "boxbox"), "install-rl"], capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    assert "stable-baselines3 2.9.2, torch 2.13.0+cpu" in proc.stderr
+    assert subprocess.run(has_extra, capture_output=True).returncode == 0
+    return sys.executable
+
+
+def test_sac_example_trains_saves_and_reloads(tmp_path, overlay, rl_python):
+    example = ROOT / "examples" / "train_sac.py"
+    proc = subprocess.run([rl_python, str(example), "--out", str(tmp_path), "--steps", str(STEPS),
+                           "--eval-every", "200"], capture_output=True, text=True, timeout=300, cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    # SAC trains on whole episodes here (gSDE's noise drawn once an episode): the last one may run past STEPS
+    assert STEPS <= summary["steps"] < STEPS + 1200 and summary["wall_s"] > 0
+    assert "deterministic rollout" in proc.stdout and "lap completed:" in proc.stdout
+
+    with (tmp_path / "curve.csv").open() as f:
+        rows = list(csv.DictReader(f))
+    assert {r["kind"] for r in rows} == {"train", "eval"}, rows  # episodes ended, and a rollout at step 200
+    steps, wall_s = [int(r["steps"]) for r in rows], [float(r["wall_s"]) for r in rows]
+    assert steps == sorted(steps) and wall_s == sorted(wall_s) and 0 < steps[-1] <= summary["steps"]
+    assert all(r["lap_completed"] in ("0", "1") and r["termination"] for r in rows)
+    assert (tmp_path / "curve.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+    check = subprocess.run([rl_python, "-c", CHECK, str(example), str(tmp_path / "model.zip")],
+                           capture_output=True, text=True, timeout=120, cwd=tmp_path)
+    assert check.returncode == 0, check.stderr
+    reloaded = json.loads(check.stdout.strip().splitlines()[-1])
+    # TORCS is deterministic: the reloaded policy drives the same metres, to the same end
+    assert reloaded == {k: summary[k] for k in reloaded}, (reloaded, summary)
+    assert reloaded["progress_m"] != 0.0  # it drove (a policy that never moves would be stuck at 0 m)
