@@ -9,10 +9,11 @@ drive step at 0 s (`Race.prepare`: spawn, HELLO, NEW_TRACK, NEW_RACE, the start 
 when the reset asks for it or ahead of it, as a spare (gym/spare.py), which the reset then takes
 over in microseconds.
 
-TORCS is pinned to one core, and the thread that drives it runs there while it drives (a step, a
-reset: `Session.pin`), as they strictly alternate: the round trip costs ~3 us instead of ~50 us
-across cores (docs/architecture.md); between steps the thread has its own cores back, so threads it
-starts (a learner's) are not pinned.  TORCS dies with the thread that started it
+TORCS is pinned to one core, the core the thread that drives it is on (`Session.pin`, at each step
+and reset, moves TORCS when the thread has moved): they strictly alternate, so a round trip on one
+core costs ~11 us instead of ~50 us across cores.  The thread itself is never pinned (moving a
+thread costs ~30 us, twice a step), so the threads it starts (a learner's) keep its cores.  With
+`cpu=` both TORCS and the thread run on that core while it drives.  TORCS dies with the thread that started it
 (PR_SET_PDEATHSIG, set by util-linux's setpriv before it execs TORCS; in practice with the
 env's process) and is killed by process group when its race is done and on
 close.  The session's folder (a folder per race: TORCS's local folder, the race file, the socket,
@@ -24,6 +25,7 @@ from __future__ import annotations
 
 import contextlib
 import copy
+import ctypes
 import math
 import os
 import shutil
@@ -134,6 +136,45 @@ class CorePin:
             saved, self.saved = self.saved, None
             with contextlib.suppress(OSError):
                 os.sched_setaffinity(0, saved)
+
+
+class CoreFollow:
+    """`with follow:` puts the session's TORCS on the core the calling thread is on now, if it is not
+    there already: the thread stays where the scheduler put it (one cheap call a step), and TORCS
+    follows it only when it has moved (rarely: a thread woken by a task on its core stays there)."""
+
+    def __init__(self, session: Session) -> None:
+        self.session = session
+
+    def __enter__(self) -> None:
+        core = current_cpu()
+        if core is None or core == self.session.cpu:
+            return
+        self.session.cpu = core  # the races started from now on start there
+        race = self.session.race
+        if race is not None:
+            race.move_to(core)
+
+    def __exit__(self, *exc: object) -> None:
+        return None
+
+
+def _libc_getcpu() -> Callable[[], int] | None:
+    try:
+        return ctypes.CDLL(None, use_errno=True).sched_getcpu
+    except (OSError, AttributeError):
+        return None
+
+
+_GETCPU = _libc_getcpu()
+
+
+def current_cpu() -> int | None:
+    """The core the calling thread runs on now (glibc's sched_getcpu, ~0.2 us), None if unknown."""
+    if _GETCPU is None:
+        return None
+    core = _GETCPU()
+    return core if core >= 0 else None
 
 
 def usable_cpus() -> set[int]:
@@ -461,11 +502,13 @@ class Session:
         self.dir = Path(tempfile.mkdtemp(prefix=f"{FOLDER_PREFIX}{os.getpid()}-"))  # short: a socket path has 108 bytes
         self.shared = Shared(self.dir)
         self._finalizer = weakref.finalize(self, _clean_up, self.shared)
-        self.pin = CorePin(self.cpu)  # `with session.pin:` around a step or a reset
+        # `with session.pin:` around a step or a reset: the cpu the user chose, or the caller's own
+        self.pin: CorePin | CoreFollow = CorePin(self.cpu) if cpu is not None else CoreFollow(self)
         self.race: Race | None = None
         self._count = 0  # races made: their folders' names
         self.pool = SparePool(spares, self._new_race) if spares else None
-        self.pool_cpu = self.cpu if spare_cpu is None else spare_cpu
+        self.spare_cpu = spare_cpu
+        self.cores = usable_cpus()  # at the start: where the spares may load (the thread moves later)
 
     def start(self, order: RaceOrder, upcoming: Sequence[RaceOrder] = ()) -> Started:
         """The race `order` asks for, at its first drive step (the last race killed first): a spare
@@ -531,4 +574,12 @@ class Session:
     def _new_race(self, order: RaceOrder, spare: bool = False) -> Race:
         self._count += 1
         return Race(order, self.overlay, self.shared, self.dir / f"r{self._count}",
-                    self.pool_cpu if spare else self.cpu)
+                    self.pool_cpu() if spare else self.cpu)
+
+    def pool_cpu(self) -> int:
+        """Where a spare loads: the chosen core, else another core than the race's, so that TORCS's
+        loading (~15 ms of CPU an episode) runs beside the episode, not on its core."""
+        if self.spare_cpu is not None:
+            return self.spare_cpu
+        others = sorted(self.cores - {self.cpu})
+        return others[0] if others else self.cpu
