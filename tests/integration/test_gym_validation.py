@@ -1,5 +1,5 @@
-"""The env on real TORCS: the calling thread's cores are its own between steps (only TORCS stays
-pinned), step() outside an episode is refused as Gymnasium's envs refuse it, and reset options and
+"""The env on real TORCS: the calling thread's cores are its own (only TORCS is pinned, to the
+thread's core), step() outside an episode is refused as Gymnasium's envs refuse it, and reset options and
 actions it cannot take are refused, not ignored."""
 
 from __future__ import annotations
@@ -44,6 +44,37 @@ def test_only_torcs_is_pinned_the_callers_threads_keep_their_cores(overlay):
     assert os.sched_getaffinity(0) == original and affinity_of_a_new_thread() == original
     env.close()
     assert os.sched_getaffinity(0) == original
+
+
+def test_torcs_follows_the_calling_thread_to_its_core(overlay):
+    """The thread is never moved (30 us a move, twice a step, halved the steps a second): TORCS is
+    moved to the thread's core when the thread has moved."""
+    original = os.sched_getaffinity(0)
+    if len(original) < 2:
+        pytest.skip("one core: nowhere to follow to")
+    env = TorcsEnv(track="g-track-1", spares=1)
+    env.reset()
+    try:
+        for core in sorted(original)[:2]:
+            os.sched_setaffinity(0, {core})  # the learner's thread moves (the test moves it)
+            for _ in range(5):
+                env.step(BRAKE)
+            assert set(psutil.Process(env.torcs_pid).cpu_affinity()) == {core}
+    finally:
+        os.sched_setaffinity(0, original)
+        env.close()
+
+
+def test_a_chosen_cpu_pins_torcs_and_the_thread_while_it_drives(overlay):
+    original = os.sched_getaffinity(0)
+    core = max(original)
+    env = TorcsEnv(track="g-track-1", cpu=core)
+    env.reset()
+    for _ in range(5):
+        env.step(BRAKE)
+    assert set(psutil.Process(env.torcs_pid).cpu_affinity()) == {core}
+    assert os.sched_getaffinity(0) == original  # the thread's own cores back after each step
+    env.close()
 
 
 def test_step_outside_an_episode_needs_a_reset(overlay):

@@ -1,7 +1,7 @@
 """`boxbox bench-gym`: the env's speed, resets and resource use, with gym_torcs's figures beside.
 
 Measured (`run_bench`):
-- env steps a second, one env on one core (the env pins itself and its TORCS to one core), random
+- env steps a second, one env on one core (TORCS runs on the core of the thread that steps it), random
   actions on g-track-1, episodes of `episode_steps` steps; the figure without the resets and
   with them;
 - a random policy (Gaussian actions) with the env's own limits (the car leaves the track within a

@@ -9,10 +9,11 @@ drive step at 0 s (`Race.prepare`: spawn, HELLO, NEW_TRACK, NEW_RACE, the start 
 when the reset asks for it or ahead of it, as a spare (gym/spare.py), which the reset then takes
 over in microseconds.
 
-TORCS is pinned to one core, and the thread that drives it runs there while it drives (a step, a
-reset: `Session.pin`), as they strictly alternate: the round trip costs ~3 us instead of ~50 us
-across cores (docs/architecture.md); between steps the thread has its own cores back, so threads it
-starts (a learner's) are not pinned.  TORCS dies with the thread that started it
+TORCS is pinned to one core, the core the thread that drives it is on (`Session.pin`, at each step
+and reset, moves TORCS when the thread has moved): they strictly alternate, so a round trip on one
+core costs ~11 us instead of ~50 us across cores.  The thread itself is never pinned (moving a
+thread costs ~30 us, twice a step), so the threads it starts (a learner's) keep its cores.  With
+`cpu=` both TORCS and the thread run on that core while it drives.  TORCS dies with the thread that started it
 (PR_SET_PDEATHSIG, set by util-linux's setpriv before it execs TORCS; in practice with the
 env's process) and is killed by process group when its race is done and on
 close.  The session's folder (a folder per race: TORCS's local folder, the race file, the socket,
@@ -24,6 +25,7 @@ from __future__ import annotations
 
 import contextlib
 import copy
+import ctypes
 import math
 import os
 import shutil
@@ -37,6 +39,8 @@ import weakref
 from collections.abc import Callable, Hashable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+
+import psutil
 
 from boxbox.errors import RaceError
 from boxbox.model import Car, Opponent, PitOrder, State, Track
@@ -134,6 +138,69 @@ class CorePin:
             saved, self.saved = self.saved, None
             with contextlib.suppress(OSError):
                 os.sched_setaffinity(0, saved)
+
+
+class CoreFollow:
+    """`with follow:` puts the session's TORCS on the core the calling thread is on now, if it is not
+    there already: the thread stays where the scheduler put it (one cheap call a step), and TORCS
+    follows it only when it has moved (rarely: a thread woken by a task on its core stays there)."""
+
+    def __init__(self, session: Session) -> None:
+        self.session = session
+
+    def __enter__(self) -> None:
+        core = current_cpu()
+        if core is None or core == self.session.cpu:
+            return
+        self.session.cpu = core  # the races started from now on start there
+        race = self.session.race
+        if race is not None:
+            race.move_to(core)
+
+    def __exit__(self, *exc: object) -> None:
+        return None
+
+
+def _libc_getcpu() -> Callable[[], int] | None:
+    try:
+        return ctypes.CDLL(None, use_errno=True).sched_getcpu
+    except (OSError, AttributeError):
+        return None
+
+
+_GETCPU = _libc_getcpu()
+
+
+def current_cpu() -> int | None:
+    """The core the calling thread runs on now (glibc's sched_getcpu, ~0.2 us), None if unknown."""
+    if _GETCPU is None:
+        return None
+    core = _GETCPU()
+    return core if core >= 0 else None
+
+
+class IdleShares:
+    """Each core's idle share of the time since the last call (psutil's per-core times)."""
+
+    def __init__(self) -> None:
+        self.before = self._idle()
+
+    @staticmethod
+    def _idle() -> tuple[float, list[float]]:
+        return time.monotonic(), [t.idle for t in psutil.cpu_times(percpu=True)]
+
+    def shares(self) -> dict[int, float]:
+        (t0, idle0), (t1, idle1) = self.before, self._idle()
+        self.before = (t1, idle1)
+        span_s = max(t1 - t0, 1e-3)
+        return {core: (b - a) / span_s for core, (a, b) in enumerate(zip(idle0, idle1, strict=False))}
+
+
+def spare_core(race_core: int, cores: set[int], idle_share: dict[int, float]) -> int:
+    """The idlest of `cores` other than `race_core` if it was idle at least half the time, else
+    `race_core` (`idle_share`: each core's idle share, 0 to 1, of the last episode or so)."""
+    others = sorted(cores - {race_core}, key=lambda core: (-idle_share.get(core, 0.0), core))
+    return others[0] if others and idle_share.get(others[0], 0.0) >= 0.5 else race_core
 
 
 def usable_cpus() -> set[int]:
@@ -461,11 +528,14 @@ class Session:
         self.dir = Path(tempfile.mkdtemp(prefix=f"{FOLDER_PREFIX}{os.getpid()}-"))  # short: a socket path has 108 bytes
         self.shared = Shared(self.dir)
         self._finalizer = weakref.finalize(self, _clean_up, self.shared)
-        self.pin = CorePin(self.cpu)  # `with session.pin:` around a step or a reset
+        # `with session.pin:` around a step or a reset: the cpu the user chose, or the caller's own
+        self.pin: CorePin | CoreFollow = CorePin(self.cpu) if cpu is not None else CoreFollow(self)
         self.race: Race | None = None
         self._count = 0  # races made: their folders' names
         self.pool = SparePool(spares, self._new_race) if spares else None
-        self.pool_cpu = self.cpu if spare_cpu is None else spare_cpu
+        self.spare_cpu = spare_cpu
+        self.cores = usable_cpus()  # at the start: where the spares may load (the thread moves later)
+        self.idle = IdleShares()
 
     def start(self, order: RaceOrder, upcoming: Sequence[RaceOrder] = ()) -> Started:
         """The race `order` asks for, at its first drive step (the last race killed first): a spare
@@ -531,4 +601,13 @@ class Session:
     def _new_race(self, order: RaceOrder, spare: bool = False) -> Race:
         self._count += 1
         return Race(order, self.overlay, self.shared, self.dir / f"r{self._count}",
-                    self.pool_cpu if spare else self.cpu)
+                    self.pool_cpu() if spare else self.cpu)
+
+    def pool_cpu(self) -> int:
+        """Where a spare loads: the chosen core, else the idlest other core if it was idle at least
+        half the time since the last spare (TORCS's loading, ~15 ms of CPU an episode, then runs
+        beside the episode: 5,700 -> 9,400 steps/s on an idle 2-core machine), else the race's own
+        (on a busy machine a spare on another core was late: reset p95 30-80 ms against 2-3 ms)."""
+        if self.spare_cpu is not None:
+            return self.spare_cpu
+        return spare_core(self.cpu, self.cores, self.idle.shares())

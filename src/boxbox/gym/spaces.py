@@ -110,7 +110,8 @@ class Observer:
                                s.spin_fr_rps, s.spin_fl_rps, s.spin_rr_rps, s.spin_rl_rps)
         out[self.edges] = edges
         out[self.opponents] = opponents
-        return np.clip(out, self.low, self.high, out=out)
+        np.minimum(out, self.high, out=out)  # np.clip's wrapper costs 3 us more a step than the two ufuncs
+        return np.maximum(out, self.low, out=out)
 
     def observation(self, vector: np.ndarray) -> np.ndarray | dict[str, np.ndarray]:
         if self.flat:
