@@ -69,9 +69,8 @@ def race(track: str = "e-track-2", *, laps: int = 3, robots: str | type[Robot] |
     this race, so the same call gives the same race), 'on' (the shared store, kept across races)
     or 'off'. pit_laps: '3,7' or [3, 7]. settings: robot parameters, a dict {'mu_scale': 0.9} or
     'KEY=VALUE' strings as --set; setup: a TOML setup file of them, as --setup (settings win over
-    it). report: True writes RUN_DIR/report.html, a folder writes it there (a report that fails
-    is a warning, and the result is returned).
-    step_budget_ms, setup_budget_s: as --step-budget-ms and --setup-budget-s.
+    it). report: True writes RUN_DIR/report.html, a folder writes it there (one that fails is a
+    warning). step_budget_ms, setup_budget_s: as --step-budget-ms and --setup-budget-s.
 
     Every argument is checked first, with the command line's checks (boxbox/validate.py): a bad
     one raises boxbox.UsageError (also a ValueError) with one line, before TORCS starts.
