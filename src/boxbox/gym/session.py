@@ -118,7 +118,7 @@ def _clean_up(shared: Shared) -> None:
 class CorePin:
     """`with pin:` runs the calling thread on TORCS's core for the block (a step, a reset) and gives
     it its own cores back after.  TORCS and the thread that drives it strictly alternate: on one core
-    a round trip costs ~3 us instead of ~50 us across cores.  Only for the block: a thread started
+    a round trip costs ~11 us instead of ~50 us across cores.  Only for the block: a thread started
     outside it (a learner's, PyTorch's pool) inherits the caller's own cores, not TORCS's one."""
 
     def __init__(self, cpu: int) -> None:
@@ -126,10 +126,13 @@ class CorePin:
         self.saved: set[int] | None = None  # the thread's cores, while pinned
 
     def __enter__(self) -> None:
+        self._hold(self.core)
+
+    def _hold(self, core: set[int]) -> None:
         own = os.sched_getaffinity(0)
-        if own != self.core:
+        if own != core:
             try:
-                os.sched_setaffinity(0, self.core)
+                os.sched_setaffinity(0, core)
                 self.saved = own
             except OSError:  # the core was taken away (a cgroup changed): drive from where we are
                 self.saved = None
@@ -141,7 +144,7 @@ class CorePin:
                 os.sched_setaffinity(0, saved)
 
 
-class CoreFollow:
+class CoreFollow(CorePin):
     """`with follow:` puts the session's TORCS on the core the calling thread is on now, if it is not
     there already.  Without spare races it also holds the thread on that core for the block (a step,
     a reset), so that the scheduler does not wake it on the idle core while it waits for TORCS:
@@ -151,8 +154,8 @@ class CoreFollow:
     After the block the thread has its own cores back."""
 
     def __init__(self, session: Session) -> None:
+        super().__init__(session.cpu)
         self.session = session
-        self.saved: set[int] | None = None
 
     def __enter__(self) -> None:
         core = current_cpu()
@@ -163,21 +166,8 @@ class CoreFollow:
             race = self.session.race
             if race is not None:
                 race.move_to(core)
-        if self.session.pool is not None:
-            return  # spares load beside: a thread free to wait anywhere ran 11,700 steps/s, held 8,300
-        own = os.sched_getaffinity(0)
-        if own != {core}:
-            try:
-                os.sched_setaffinity(0, {core})
-                self.saved = own
-            except OSError:  # the core was taken away (a cgroup changed): drive from where we are
-                self.saved = None
-
-    def __exit__(self, *exc: object) -> None:
-        if self.saved is not None:
-            saved, self.saved = self.saved, None
-            with contextlib.suppress(OSError):
-                os.sched_setaffinity(0, saved)
+        if self.session.pool is None:
+            self._hold({core})
 
 
 def _libc_getcpu() -> Callable[[], int] | None:
