@@ -4,12 +4,14 @@ close, after the env is dropped, or after the env's process is killed outright."
 
 from __future__ import annotations
 
+import contextlib
 import gc
 import os
 import signal
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import gymnasium
 import numpy as np
@@ -86,8 +88,15 @@ def test_explicit_reset_options_discard_a_spare_made_for_another_race(overlay):
     env.close()
 
 
-def torcs_children() -> list[psutil.Process]:
-    return [p for p in psutil.Process().children(recursive=True) if "torcs" in " ".join(p.cmdline())]
+def torcs_children(folder: Path) -> list[psutil.Process]:
+    """The TORCS processes of the session in `folder` (not those of another test's env that the
+    garbage collector has not collected yet)."""
+    found = []
+    for p in psutil.Process().children(recursive=True):
+        with contextlib.suppress(psutil.Error):  # one that has just ended
+            if "torcs" in (line := " ".join(p.cmdline())) and str(folder) in line:
+                found.append(p)
+    return found
 
 
 def test_close_and_drop_leave_no_spare_behind(overlay):
@@ -95,15 +104,16 @@ def test_close_and_drop_leave_no_spare_behind(overlay):
     env = TorcsEnv(track="g-track-1")
     env.reset()
     env.session.settle()
-    pids = [p.pid for p in torcs_children()]
-    assert len(pids) == 2  # the race and its spare
     folder = env.session.dir
+    pids = [p.pid for p in torcs_children(folder)]
+    assert len(pids) == 2  # the race and its spare
     env.close()
     assert not folder.exists() and not any(psutil.pid_exists(p) for p in pids)
     env = TorcsEnv(track="g-track-1")
     env.reset()
     env.step(np.zeros(3, np.float32))  # the spare spawned, still loading
-    folder, pids = env.session.dir, [p.pid for p in torcs_children()]
+    folder = env.session.dir
+    pids = [p.pid for p in torcs_children(folder)]
     assert len(pids) == 2
     del env
     gc.collect()
