@@ -181,3 +181,18 @@ def test_sigterm_stops_a_parallel_bench_its_workers_and_their_races(tmp_path, ov
     assert len(lines) == 1 and "the bench was stopped" in lines[0], err
     assert "Traceback" not in err
     assert not [p for p in seen.values() if p.is_running() and p.status() != psutil.STATUS_ZOMBIE]
+
+
+@pytest.mark.parametrize("command", ["bench", "sweep"])
+def test_a_slow_robot_gets_the_step_budget_its_error_names(tmp_path, overlay, command):
+    """The error of a late robot says 'give more time with --step-budget-ms': the benches take it."""
+    robot = f"{ROBOTS / 'faulty.py'}:SleepsOnce"  # one drive step of 1 s
+    args = {"bench": ["bench", "--robots", robot, "--tracks", "g-track-1", "--no-limit"],
+            "sweep": ["sweep", "--robot", robot, "--tracks", "g-track-1", "--cars", "car1-trb1"]}[command]
+    run_boxbox(*args, "--laps", "1", "--no-cache", "--json", str(tmp_path / "late.json"), timeout=300)
+    for row in read_json(tmp_path / "late.json")["rows"]:
+        assert "did not answer within its step budget of 200 ms" in row["error"], row["error"]
+    given = run_boxbox(*args, "--laps", "1", "--no-cache", "--step-budget-ms", "3000", "--json",
+                       str(tmp_path / "given.json"), timeout=300)
+    assert given.returncode in (0, 1), given.stderr  # (sweep: 1 when a race misses a target: 1 s blind costs damage)
+    assert all(r["error"] is None for r in read_json(tmp_path / "given.json")["rows"])  # every race ran to its end

@@ -67,6 +67,7 @@ class BenchSpec:
     # each TORCS robot module by its index that drives the car of the race (robots_in_car; `boxbox
     # bench`); False: the indices as given, each in its own car (bench-field's mixed field)
     match_cars: bool = False
+    step_budget_ms: int = 200  # wall time a Python robot may take per drive step (--step-budget-ms)
 
 
 def expand_all(names: list[str], all_names: list[str]) -> list[str]:
@@ -116,6 +117,7 @@ class RaceJob:
     grid_position: int | None = None
     fuel_offset_l: float = 0.0
     run_dir: str = ""  # where to race (made afresh; "": a new automatic run dir, pruned with the oldest)
+    step_budget_ms: int = 200  # not in the key: a race it stops is not cached
 
     @property
     def label(self) -> str:
@@ -158,7 +160,7 @@ def _run_job(job: RaceJob, overlay: Overlay) -> dict:
                                 opponents=list(job.opponents), options=job.options, cpu=_worker.get("cpu"),
                                 learning=job.learning,
                                 run_dir=run_dir, skill_level=job.skill_level, grid_position=job.grid_position,
-                                fuel_offset_l=job.fuel_offset_l)
+                                fuel_offset_l=job.fuel_offset_l, step_budget_ms=job.step_budget_ms)
 
         def progress(lap: int, sim: float) -> None:
             if q is not None:
@@ -390,7 +392,7 @@ def plan(spec: BenchSpec) -> tuple[list[tuple[str, str, _Robot, RaceJob]], list[
                                         python_names=[f"{r.name} {i + 1}" for i, r in enumerate(py)],
                                         opponents=[(r.module, r.idx) for r in tc], options=options,
                                         learning=spec.learning, inputs=inputs, skill_level=spec.skill_level,
-                                        grid_position=grid, fuel_offset_l=offset)
+                                        grid_position=grid, fuel_offset_l=offset, step_budget_ms=spec.step_budget_ms)
                 for r in group:
                     rows.append((track, car, r, jobs[key]))
     return rows, robots

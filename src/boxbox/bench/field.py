@@ -52,6 +52,7 @@ class FieldSpec:
     settings: dict | None = None
     skill_level: SkillLevel = DEFAULT_SKILL_LEVEL
     fuel_offset_l: float = 0.0  # added to the robot's start fuel (bench-field --repeats)
+    step_budget_ms: int = 200
 
     @property
     def start_slot(self) -> int:
@@ -216,7 +217,7 @@ def _specs(spec: FieldSpec) -> tuple[BenchSpec, BenchSpec]:
     common: dict[str, Any] = {
         "tracks": spec.tracks, "cars": [CAR], "laps": spec.laps, "together": True, "jobs": spec.jobs,
         "use_cache": spec.use_cache, "learning": spec.learning, "settings": spec.settings,
-        "skill_level": spec.skill_level, "fuel_offset_l": spec.fuel_offset_l}
+        "skill_level": spec.skill_level, "fuel_offset_l": spec.fuel_offset_l, "step_budget_ms": spec.step_budget_ms}
     if spec.robot in FIELD or spec.robot == ANCHOR:
         raise UsageError(f"--robot {spec.robot} is already in the field; give a Python robot (boxbox, file.py:Class)")
     robot = BenchSpec(robots=[spec.robot, *FIELD], grid_position=spec.start_slot, **common)

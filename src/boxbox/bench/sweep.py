@@ -43,6 +43,7 @@ class SweepSpec:
     tracks: list[str] | None = None  # None: every installed track
     cars: list[str] | None = None  # None: every installed car
     skill_level: SkillLevel = DEFAULT_SKILL_LEVEL
+    step_budget_ms: int = 200
 
 
 @dataclass
@@ -145,7 +146,8 @@ def sweep_specs(spec: SweepSpec) -> list[tuple[str, BenchSpec]]:
     cars = spec.cars if spec.cars is not None else catalog.cars()
     def part(tracks: list[str], cars: list[str]) -> BenchSpec:
         return BenchSpec(tracks=tracks, cars=cars, robots=[spec.robot], laps=spec.laps, jobs=spec.jobs,
-                         use_cache=spec.use_cache, learning=spec.learning, skill_level=spec.skill_level)
+                         use_cache=spec.use_cache, learning=spec.learning, skill_level=spec.skill_level,
+                         step_budget_ms=spec.step_budget_ms)
 
     return [("every track", part(tracks, [spec.car])), ("every car", part([spec.cars_track], cars))]
 

@@ -17,6 +17,7 @@ from boxbox.cli.types import (
     WholeNumber,
     bench_race_options,
     skill_level_option,
+    step_budget_option,
 )
 
 DEFAULT_TRACKS = "e-track-2,e-track-4,mixed-2,g-track-1,aalborg,michigan"
@@ -43,8 +44,9 @@ JOBS = WholeNumber(1, 64)
               help="With --together: the Python robots' grid slot, 1 (pole, the default) .. or 'last'.")
 @click.option("--no-limit", is_flag=True, help="Skip the limit lap per track (`boxbox limit`) and the gaps to it.")
 @skill_level_option
+@step_budget_option
 def bench(tracks, cars, robots, laps, together, jobs, no_cache, learning, settings, json_file, csv_file,
-          grid_position, no_limit, skill_level) -> None:
+          grid_position, no_limit, skill_level, step_budget_ms) -> None:
     """Race robots on tracks (each alone by default) and compare times; results are cached.
 
     \b
@@ -62,7 +64,7 @@ def bench(tracks, cars, robots, laps, together, jobs, no_cache, learning, settin
                      robots=robots, laps=laps, together=together, jobs=jobs or os.cpu_count() or 1,
                      use_cache=not no_cache, learning=learning, settings=parse_set(settings) if settings else None,
                      skill_level=skill_level, grid_position=_grid_slot(grid_position, robots, together),
-                     limit=not no_limit, match_cars=True)
+                     limit=not no_limit, match_cars=True, step_budget_ms=int(step_budget_ms))
     plan(spec)  # every name checked before anything races
     result = run_bench(spec, overlay, err)
     out.print(result.table())
@@ -205,8 +207,9 @@ def bench_telemetry(track, laps, runs, robot, json_file, skill_level) -> None:
               help="An earlier run's --json file with the same tracks, laps and repeats: the robot's races "
                    "set against it race by race, with how much of the difference chance alone makes.")
 @skill_level_option
+@step_budget_option
 def bench_field(tracks, robot, laps, jobs, repeats, no_cache, learning, settings, json_file, against,
-                skill_level) -> None:
+                skill_level, step_budget_ms) -> None:
     """The robot from last of ten behind nine TORCS robots, and inferno:3 from the same slot.
 
     \b
@@ -228,7 +231,7 @@ def bench_field(tracks, robot, laps, jobs, repeats, no_cache, learning, settings
     overlay = ready()
     spec = FieldSpec(tracks=expand_all(tracks, list(catalog.tracks())), robot=robot, laps=laps[0], jobs=jobs,
                      use_cache=not no_cache, learning=learning, settings=parse_set(settings) if settings else None,
-                     skill_level=skill_level)
+                     skill_level=skill_level, step_budget_ms=int(step_budget_ms))
     if against is not None:
         _check_against(against, spec.tracks, laps, repeats)
     if len(laps) > 1 or repeats > 1:

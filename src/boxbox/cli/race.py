@@ -14,7 +14,6 @@ from boxbox.cli.types import (
     LEARNING,
     PIT_MODE,
     SETUP_BUDGET_S,
-    STEP_BUDGET_MS,
     CommaList,
     FiniteFloatRange,
     GridPosition,
@@ -22,6 +21,7 @@ from boxbox.cli.types import (
     OutputDir,
     OutputFile,
     skill_level_option,
+    step_budget_option,
 )
 from boxbox.errors import UsageError
 
@@ -44,8 +44,7 @@ SET_HELP = ("Set a parameter of the robots that declare it (see `boxbox params -
 @click.option("--pit-mode", type=PIT_MODE, default="constant-decel", show_default=True,
               help="How the robot brakes into its pit box.")
 @click.option("--json", "json_file", type=OutputFile(), help="Write the results as JSON, e.g. --json r.json.")
-@click.option("--step-budget-ms", type=STEP_BUDGET_MS, default=200, show_default=True,
-              help="Wall time a robot may take per drive step before the race is stopped.")
+@step_budget_option
 @click.option("--setup-budget-s", type=SETUP_BUDGET_S, default=120, show_default=True,
               help="Wall time a robot may take in initial_fuel_l, on_track, pit_stop or on_race_end.")
 @click.option("--set", "settings", multiple=True, metavar="KEY=VALUE", help=SET_HELP)

@@ -7,7 +7,7 @@ import os
 import click
 
 from boxbox.cli.common import err, out, ready
-from boxbox.cli.types import LAPS, CommaList, OutputFile, WholeNumber, skill_level_option
+from boxbox.cli.types import LAPS, CommaList, OutputFile, WholeNumber, skill_level_option, step_budget_option
 from boxbox.errors import BoxboxError
 
 RACES = WholeNumber(0, 100_000)
@@ -34,7 +34,9 @@ class SweepFailed(BoxboxError):
 @click.option("--markdown", "markdown_file", type=OutputFile(),
               help="Write the table as Markdown, with the command that made it, e.g. docs/sweep.md.")
 @skill_level_option
-def sweep(robot, car, cars_track, tracks, cars, laps, jobs, no_cache, json_file, markdown_file, skill_level) -> None:
+@step_budget_option
+def sweep(robot, car, cars_track, tracks, cars, laps, jobs, no_cache, json_file, markdown_file, skill_level,
+          step_budget_ms) -> None:
     """Race a robot alone on every track, and on one track with every car; check each race.
 
     Targets per race: finished, damage under 1000, no stuck spell (below 1 m/s outside the pit)
@@ -50,7 +52,8 @@ def sweep(robot, car, cars_track, tracks, cars, laps, jobs, no_cache, json_file,
     overlay = ready()  # first: 'all' and every name are read from the installed TORCS
     spec = SweepSpec(robot=robot, car=car, cars_track=cars_track, laps=laps, jobs=jobs or os.cpu_count() or 1,
                      use_cache=not no_cache, tracks=expand_all(tracks, list(catalog.tracks())),
-                     cars=expand_all(cars, catalog.cars()), skill_level=skill_level)
+                     cars=expand_all(cars, catalog.cars()), skill_level=skill_level,
+                     step_budget_ms=int(step_budget_ms))
     check(spec)  # every name checked before anything races
     result = run_sweep(spec, overlay, err)
     result.command = command_line()

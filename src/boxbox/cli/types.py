@@ -89,6 +89,13 @@ def skill_level_option(command: Any) -> Any:
                              "docs/rules.md); semi-pro is what TORCS gives its own robots.")(command)
 
 
+def step_budget_option(command: Any) -> Any:
+    """--step-budget-ms for every command that races Python robots (the error of a late robot names it)."""
+    return click.option("--step-budget-ms", type=STEP_BUDGET_MS, default=200, show_default=True,
+                        help="Wall time a robot may take per drive step before the race is stopped "
+                             "(more on a loaded machine).")(command)
+
+
 def bench_race_options(command: Any) -> Any:
     """--no-cache, --learning and --set, as every bench of Python robots takes them."""
     for option in (
