@@ -207,7 +207,6 @@ class TutorialRobot(Robot):
         if p.learning and self.options.learning_dir:
             self.learning_file = Path(self.options.learning_dir) / f"{track.name}--{car.name}.json"
             self.learner.load(self.learning_file)
-        self._learning_saved: list[tuple[float, float, bool]] | None = None  # what the file holds
         self.fuel_l = car.initial_fuel_l
         self._packer_caps: list[float] | None = None
         self._build_profile()
@@ -966,15 +965,11 @@ class TutorialRobot(Robot):
 
     def on_race_end(self, state: State) -> None:
         """The last lap teaches too (nothing after the finish line calls drive() again); then the
-        lessons go to the learning file, if any changed.  The host calls this in every ending."""
+        lessons go to the learning file, once (the host calls this once, in every ending)."""
         if self.laps_seen >= 1 and self.learner.turns:
             self._end_lap_learning(state)
-        if not self.params.learning or self.learning_file is None:
-            return
-        learned = [(t.factor, t.ceiling, t.settled) for t in self.learner.turns]
-        if learned != self._learning_saved:
+        if self.params.learning and self.learning_file is not None:
             self.learner.save(self.learning_file, self.track.name, self.car.name)
-            self._learning_saved = learned
 
     def pit_stop(self, state: State) -> PitOrder:
         return self.pits.pit_stop(state)
