@@ -527,7 +527,7 @@ class Session:
     """The env's races, one at a time, with spares made ready ahead (`spares` of them, 0: none)."""
 
     def __init__(self, overlay: Overlay, cpu: int | None = None, on_pit: PitHandler | None = None,
-                 spares: int = 0, spare_cpu: int | None = None) -> None:
+                 spares: int = 0) -> None:
         from boxbox.gym.spare import SparePool  # (spare.py builds on this module)
 
         self.overlay = overlay
@@ -542,7 +542,6 @@ class Session:
         self.race: Race | None = None
         self._count = 0  # races made: their folders' names
         self.pool = SparePool(spares, self._new_race) if spares else None
-        self.spare_cpu = spare_cpu
         self.cores = usable_cpus()  # at the start: where the spares may load (the thread moves later)
         self.idle = IdleShares()
 
@@ -613,10 +612,8 @@ class Session:
                     self.pool_cpu() if spare else self.cpu)
 
     def pool_cpu(self) -> int:
-        """Where a spare loads: the chosen core, else the idlest other core if it was idle at least
+        """Where a spare loads: the idlest other core if it was idle at least
         half the time since the last spare (TORCS's loading, ~15 ms of CPU an episode, then runs
         beside the episode: 5,700 -> 9,400 steps/s on an idle 2-core machine), else the race's own
         (on a busy machine a spare on another core was late: reset p95 30-80 ms against 2-3 ms)."""
-        if self.spare_cpu is not None:
-            return self.spare_cpu
         return spare_core(self.cpu, self.cores, self.idle.shares())
