@@ -81,6 +81,12 @@ class TutorialParams:
     # traction control and ABS (slip in m/s)
     abs_slip_mps: float = 2.0
     abs_range_mps: float = 5.0
+    # the ABS's bang (full, released, full: half the braking) held off this far over the target
+    # speed, four brake bands (car1-stock1 into street-1's hairpin: up to 13; at 6 car1-trb1 was held
+    # on spring): the release after a full step keeps abs_hold_share of it (traction.abs_hold;
+    # 100: never)
+    abs_hold_over_mps: float = 8.0
+    abs_hold_share: float = 0.5
     tcl_slip_mps: float = 2.0
     tcl_slip_ratio: float = 0.15  # ... or this share of the speed, where more (the tyre peaks at a slip ratio)
     tcl_range_mps: float = 10.0
@@ -162,7 +168,7 @@ BOUNDS = {
     "brake_band_mps": Bound(0.1, 10.0, log=True), "full_accel_margin_mps": Bound(0.1, 10.0, log=True),
     "clutch_start": Bound(0.0, 1.0), "shift": Bound(0.5, 0.999), "shift_margin_mps": Bound(0.0, 20.0),
     "abs_slip_mps": Bound(0.1, 20.0, log=True), "tcl_slip_mps": Bound(0.1, 20.0, log=True),
-    "tcl_slip_ratio": Bound(0.0, 0.5),
+    "tcl_slip_ratio": Bound(0.0, 0.5), "abs_hold_over_mps": Bound(0.0, 100.0), "abs_hold_share": Bound(0.0, 1.0),
     "counter_lock_accel": Bound(0.0, 1.0), "lock_accel": Bound(0.0, 1.0),
     "pit_brake_mu_scale": Bound(0.1, 1.5), "pit_stop_grip_share": Bound(0.1, 1.0), "pit_mu": Bound(0.05, 2.0),
     "soft_gap_m": Bound(0.0, 10.0), "hazard_slip_deg": Bound(0.0, 90.0),

@@ -34,6 +34,7 @@ from boxbox.control.trackwidth import CUT_LIMIT_CAR_WIDTHS
 from boxbox.control.traction import (
     SlipParams,
     abs_filter,
+    abs_hold,
     combined_slip_room,
     drive_axles,
     drive_force_room_n,
@@ -263,7 +264,9 @@ class TutorialRobot(Robot):
         self.slip = SlipParams(abs_slip_mps=p.abs_slip_mps, abs_range_mps=p.abs_range_mps,
                                tcl_slip_mps=p.tcl_slip_mps, tcl_slip_ratio=p.tcl_slip_ratio,
                                tcl_range_mps=p.tcl_range_mps, tcl_range_ratio=peak if holds else math.inf,
-                               abs_min_speed_mps=p.slip_min_speed_mps, tcl_min_speed_mps=p.slip_min_speed_mps)
+                               abs_min_speed_mps=p.slip_min_speed_mps, tcl_min_speed_mps=p.slip_min_speed_mps,
+                               abs_hold_over_mps=p.abs_hold_over_mps, abs_hold_share=p.abs_hold_share)
+        self._abs_brake, self._abs_at_s = 0.0, -math.inf  # the brake the last drive step gave, and when
 
     def _init_race_state(self) -> None:
         """What the drive steps keep between them: the race starts with none of it."""
@@ -810,10 +813,15 @@ class TutorialRobot(Robot):
         return self._moved_line(j, self.line.offset_at(at)) if self.offset_m else self.line.offset_at(at)
 
     def _traction(self, s: State, v: float, brake: float, accel: float, traffic: bool) -> tuple[float, float]:
-        """ABS on the brake, or traction control on the throttle (never both)."""
+        """ABS on the brake (its bang held off far over the target: abs_hold), or traction control on
+        the throttle (never both)."""
         spins = (s.spin_fr_rps, s.spin_fl_rps, s.spin_rr_rps, s.spin_rl_rps)
+        last = self._abs_brake if s.sim_time_s - self._abs_at_s < 1.5 * DRIVE_STEP_S else 0.0
+        self._abs_at_s, self._abs_brake = s.sim_time_s, 0.0
         if brake > 0.0:
-            return abs_filter(brake, v, spins, self.radii, self.slip), 0.0
+            filtered = abs_filter(brake, v, spins, self.radii, self.slip)
+            self._abs_brake = abs_hold(brake, filtered, last, v - self.target_mps, self.slip)
+            return self._abs_brake, 0.0
         if accel == 0.0 or v < self.slip.tcl_min_speed_mps:
             return 0.0, accel
         slip_mps = driven_wheel_speed_mps(spins, self.radii, self.car.drivetrain) - v

@@ -6,6 +6,7 @@ import pytest
 from boxbox.control.traction import (
     SlipParams,
     abs_filter,
+    abs_hold,
     axle_force_room_n,
     combined_slip_room,
     drive_axles,
@@ -31,6 +32,7 @@ def test_defaults():
     p = SlipParams()
     assert (p.abs_slip_mps, p.abs_range_mps, p.abs_min_speed_mps) == (2.0, 5.0, 3.0)
     assert (p.tcl_slip_mps, p.tcl_range_mps, p.tcl_min_speed_mps) == (2.0, 10.0, 3.0)
+    assert (p.abs_hold_over_mps, p.abs_hold_share) == (math.inf, 0.5)  # the plain ABS unless asked
     with pytest.raises(dataclasses.FrozenInstanceError):
         p.abs_slip_mps = 1.0  # type: ignore[misc]
 
@@ -61,6 +63,35 @@ def test_abs_locked_wheels_release_fully():
 def test_abs_custom_params():
     p = SlipParams(abs_slip_mps=1.0, abs_range_mps=2.0)
     assert abs_filter(1.0, 30.0, spins(28, 28, 28, 28), R, p) == pytest.approx(0.5, abs=1e-12)
+
+
+HOLD = SlipParams(abs_hold_over_mps=6.0)
+
+
+def test_abs_hold_keeps_half_of_a_full_step_far_over_the_target():
+    # full pressure last step, the fronts locked, the ABS releases fully: 8 m/s over the target
+    assert abs_hold(1.0, 0.0, 1.0, 8.0, HOLD) == 0.5
+    assert abs_hold(1.0, 0.2, 0.9, 8.0, HOLD) == pytest.approx(0.45, abs=1e-12)
+
+
+def test_abs_hold_never_above_the_brake_asked():
+    assert abs_hold(0.3, 0.0, 1.0, 8.0, HOLD) == 0.3
+
+
+def test_abs_hold_leaves_the_abs_alone_within_the_plan():
+    assert abs_hold(1.0, 0.0, 1.0, 6.0, HOLD) == 0.0  # not more than 6 m/s over
+    assert abs_hold(1.0, 0.0, 1.0, 50.0) == 0.0  # off by default (abs_hold_over_mps inf)
+
+
+def test_abs_hold_only_right_after_full_pressure():
+    assert abs_hold(1.0, 0.0, 0.85, 8.0, HOLD) == 0.0  # the last step was a part pressure
+    assert abs_hold(1.0, 0.7, 1.0, 8.0, HOLD) == 0.7  # the ABS releases less than the hold
+    assert abs_hold(1.0, 1.0, 1.0, 8.0, HOLD) == 1.0
+
+
+def test_abs_hold_share():
+    assert abs_hold(1.0, 0.0, 1.0, 8.0, SlipParams(abs_hold_over_mps=6.0, abs_hold_share=0.3)) == 0.3
+    assert abs_hold(1.0, 0.0, 1.0, 8.0, SlipParams(abs_hold_over_mps=6.0, abs_hold_share=0.0)) == 0.0
 
 
 # --- TCL ---
