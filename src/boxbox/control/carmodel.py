@@ -71,6 +71,24 @@ def wing_drag_coefficient(car: Car) -> float:
                           + car.rear_wing_area_m2 * math.sin(car.rear_wing_angle_rad))
 
 
+def brake_force_n(car: Car) -> float:
+    """The most braking force (N) the brakes give at full pressure, all four wheels (simuv2
+    brake.cpp: a wheel's torque is disk diameter / 2 x piston area x pad mu x its pressure, the
+    pressure's front_rear share on each front wheel, the rest on each rear wheel), at the wheels'
+    radii; inf where the car file gives no pressure.  Whether the tyres could take more is the
+    braking model's question (control/braking.py): the buggy's brakes stop it at 4 m/s^2, the
+    155-DTM's at 20, car1-trb1's at 43 (its tyres limit first)."""
+    if car.brake_pressure_max <= 0.0:
+        return math.inf
+    total = 0.0
+    for w in ("fr", "fl", "rr", "rl"):
+        share = car.brake_front_rear if w[0] == "f" else 1.0 - car.brake_front_rear
+        torque = (0.5 * getattr(car, f"brake_disk_diameter_{w}_m") * getattr(car, f"brake_piston_area_{w}_m2")
+                  * getattr(car, f"brake_mu_{w}") * car.brake_pressure_max * share)
+        total += torque / max(getattr(car, f"wheel_radius_{w}_m"), 0.01)
+    return total if total > 0.0 else math.inf
+
+
 def tyre_mu(car: Car) -> float:
     """The weakest tyre limits the car, so use the smallest of the four, each with what the car's
     skill level adds at the slip of its peak (control/tyre.py; nothing at pro)."""
@@ -87,7 +105,8 @@ class CarModel:
 
     `empty_mass_kg` is the mass without fuel (defaults to `mass_kg`), so `with_fuel` can re-derive
     the mass as the fuel burns.  `ca_corner`: the downforce that counts in a turn, the weaker
-    axle's (cornering_downforce_coefficient; defaults to `ca`).
+    axle's (cornering_downforce_coefficient; defaults to `ca`).  `brake_force_n`: the most the
+    brakes give (brake_force_n(car); inf: the tyres always limit).
     """
 
     mass_kg: float
@@ -96,6 +115,7 @@ class CarModel:
     mu: float
     empty_mass_kg: float = field(default=-1.0, compare=False)
     ca_corner: float = -1.0
+    brake_force_n: float = math.inf
 
     def __post_init__(self) -> None:
         if self.empty_mass_kg < 0.0:
@@ -112,6 +132,7 @@ class CarModel:
             mu=tyre_mu(car),
             empty_mass_kg=car.mass_kg,
             ca_corner=cornering_downforce_coefficient(car) if include_front_wing else downforce_coefficient(car, False),
+            brake_force_n=brake_force_n(car),
         )
 
     def with_fuel(self, fuel_l: float) -> CarModel:

@@ -6,6 +6,7 @@ import pytest
 from boxbox.control.carmodel import (
     CarModel,
     axle_downforce_coefficients,
+    brake_force_n,
     cornering_downforce_coefficient,
     downforce_coefficient,
     drag_coefficient,
@@ -108,3 +109,17 @@ def test_car_model_corners_on_the_weaker_axle():
     model = CarModel.from_car(car)
     assert model.ca_corner == pytest.approx(cornering_downforce_coefficient(car))
     assert CarModel(mass_kg=1000.0, ca=2.0, cw=0.4, mu=1.0).ca_corner == 2.0  # default: all of it
+
+
+def test_brake_force_from_the_cars_brakes():
+    # per wheel: disk diameter / 2 x piston area x pad mu x its share of the pressure / wheel radius
+    car = _car(brake_pressure_max=20e6, brake_front_rear=0.6, wheel_radius_fr_m=0.3, wheel_radius_fl_m=0.3,
+               wheel_radius_rr_m=0.32, wheel_radius_rl_m=0.32,
+               **{f"brake_disk_diameter_{w}_m": 0.36 for w in ("fr", "fl", "rr", "rl")},
+               **{f"brake_piston_area_{w}_m2": 0.005 for w in ("fr", "fl", "rr", "rl")},
+               **{f"brake_mu_{w}": 0.4 for w in ("fr", "fl", "rr", "rl")})
+    front = 0.18 * 0.005 * 0.4 * 20e6 * 0.6 / 0.3
+    rear = 0.18 * 0.005 * 0.4 * 20e6 * 0.4 / 0.32
+    assert brake_force_n(car) == pytest.approx(2 * front + 2 * rear, rel=1e-12)
+    assert CarModel.from_car(car).brake_force_n == pytest.approx(2 * front + 2 * rear, rel=1e-12)
+    assert brake_force_n(_car(brake_pressure_max=0.0)) == math.inf  # no pressure given: no limit known
