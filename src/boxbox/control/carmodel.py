@@ -89,6 +89,21 @@ def brake_force_n(car: Car) -> float:
     return total if total > 0.0 else math.inf
 
 
+def engine_brake_power_w(car: Car) -> float:
+    """The power (W) the engine brakes with at zero throttle at its speed of most power: simuv2
+    brakes with brake_coeff x (w - tickover) / (revs max - tickover) of the full torque at w (as
+    control/fuel.py counts it), from the torque curve up to the rev limit only: TORCS pads some
+    cars' curves past it (the 155-DTM's reads 750 N m at 1150 rad/s, which would make 780 kW of
+    it); 0 without a curve.  What it adds to the brakes: P / v, 1.5 m/s^2 for the 155-DTM (114 kW)
+    at 68 m/s (measured at full brake on street-1: 1.3 beyond the brakes and drag)."""
+    tick, top = car.engine_tickover_radps, car.engine_revs_max_radps
+    points = [(w, t) for w, t in zip(car.torque_curve_radps, car.torque_curve_nm, strict=False) if w <= top]
+    if len(points) < 2 or not 0.0 <= tick < top:
+        return 0.0
+    w, torque_nm = max(points, key=lambda p: p[0] * p[1])
+    return max(0.0, car.engine_brake_coeff * max(0.0, w - tick) / (top - tick) * torque_nm * w)
+
+
 def tyre_mu(car: Car) -> float:
     """The weakest tyre limits the car, so use the smallest of the four, each with what the car's
     skill level adds at the slip of its peak (control/tyre.py; nothing at pro)."""
@@ -106,7 +121,8 @@ class CarModel:
     `empty_mass_kg` is the mass without fuel (defaults to `mass_kg`), so `with_fuel` can re-derive
     the mass as the fuel burns.  `ca_corner`: the downforce that counts in a turn, the weaker
     axle's (cornering_downforce_coefficient; defaults to `ca`).  `brake_force_n`: the most the
-    brakes give (brake_force_n(car); inf: the tyres always limit).
+    brakes give (brake_force_n(car); inf: the tyres always limit); `engine_brake_w`: the engine's
+    braking power at zero throttle (engine_brake_power_w(car)), which adds P / v where the brakes limit.
     """
 
     mass_kg: float
@@ -116,6 +132,7 @@ class CarModel:
     empty_mass_kg: float = field(default=-1.0, compare=False)
     ca_corner: float = -1.0
     brake_force_n: float = math.inf
+    engine_brake_w: float = 0.0
 
     def __post_init__(self) -> None:
         if self.empty_mass_kg < 0.0:
@@ -133,8 +150,10 @@ class CarModel:
             empty_mass_kg=car.mass_kg,
             ca_corner=cornering_downforce_coefficient(car) if include_front_wing else downforce_coefficient(car, False),
             brake_force_n=brake_force_n(car),
+            engine_brake_w=engine_brake_power_w(car),
         )
 
     def with_fuel(self, fuel_l: float) -> CarModel:
         """The same car carrying `fuel_l` litres (1 kg per litre, as TORCS counts it)."""
         return replace(self, mass_kg=self.empty_mass_kg + max(0.0, fuel_l) * FUEL_KG_PER_L)
+

@@ -181,3 +181,50 @@ def test_weak_brakes_from_the_155_dtms_braking_zone():
     mu = 0.7 * 1.68
     strong = dataclasses.replace(WEAK_BRAKES, brake_force_n=math.inf)
     assert max_entry_speed(25.0, 100.0, mu, WEAK_BRAKES) < max_entry_speed(25.0, 100.0, mu, strong) - 2.0
+
+
+# the same car with its engine braking at zero throttle: 114 kW (the 155-DTM's at its most power)
+ENGINE_BRAKED = dataclasses.replace(WEAK_BRAKES, engine_brake_w=114_000.0)
+
+
+def _integrated_engine(v1: float, v2: float, mu: float, model: CarModel, step_m: float = 0.01) -> float:
+    """Euler in distance with the brakes' force B + P / v (computed here independently of braking.py)."""
+    s, v = 0.0, v1
+    while v > v2:
+        tyres = mu * (G + model.ca * v * v / model.mass_kg)
+        brakes = (model.brake_force_n + model.engine_brake_w / max(v, 5.0)) / model.mass_kg
+        v_next = v - step_m * (min(tyres, brakes) + model.cw * v * v / model.mass_kg) / v
+        if v_next <= v2:
+            return s + step_m * (v - v2) / (v - v_next)
+        s, v = s + step_m, v_next
+    return s
+
+
+def test_brake_limited_speed_counts_the_engines_brake():
+    mu = 1.2
+    v = brake_limited_speed(mu, ENGINE_BRAKED)
+    m = ENGINE_BRAKED.mass_kg
+    assert mu * (G + ENGINE_BRAKED.ca * v * v / m) == pytest.approx((21_000.0 + 114_000.0 / v) / m, rel=1e-9)
+    assert v > brake_limited_speed(mu, WEAK_BRAKES)  # the engine's brake lets the tyres limit further up
+    # no downforce: the tyres' grip is constant, so the engine's P / v meets it at one speed
+    flat = dataclasses.replace(ENGINE_BRAKED, ca=0.0)
+    v_flat = brake_limited_speed(2.0, flat)
+    assert 2.0 * G == pytest.approx((21_000.0 + 114_000.0 / v_flat) / m, rel=1e-12)
+
+
+@pytest.mark.parametrize(("v1", "v2", "mu"), [(70.0, 20.0, 1.2), (70.0, 50.0, 1.2), (60.0, 0.0, 2.0),
+                                              (30.0, 3.0, 2.0)])
+def test_engine_braking_as_integrated(v1, v2, mu):
+    exact = brake_distance_exact(v1, v2, mu, ENGINE_BRAKED)
+    assert exact == pytest.approx(_integrated_engine(v1, v2, mu, ENGINE_BRAKED), rel=0.003)
+    assert exact < brake_distance_exact(v1, v2, mu, WEAK_BRAKES)
+    assert max_entry_speed(v2, exact, mu, ENGINE_BRAKED) == pytest.approx(v1, rel=1e-6)
+
+
+def test_strong_brakes_leave_the_tyres_formulas_to_the_bit():
+    # car1-trb1-like: brakes and engine out-give the tyres at every speed it brakes from, so the
+    # profile is the tyres' closed form exactly (its solo times unchanged to the ms)
+    strong = dataclasses.replace(RACE_CAR, brake_force_n=48_000.0, engine_brake_w=104_000.0)
+    for v2, dist in ((20.0, 2.0), (50.0, 2.0), (60.0, 30.0)):
+        assert max_entry_speed(v2, dist, 1.2, strong) == max_entry_speed(v2, dist, 1.2, RACE_CAR)
+        assert brake_distance_exact(v2 + 30.0, v2, 1.2, strong) == brake_distance_exact(v2 + 30.0, v2, 1.2, RACE_CAR)
