@@ -54,8 +54,8 @@ def test_each_wheels_brake_reaches_the_robot(tmp_path, overlay, car):
 def test_weak_brakes_are_braked_for(tmp_path, overlay):
     """The 155-DTM's brakes stop it at about 20 m/s^2, less than its tyres grip at speed: braking
     from 68 m/s into street-1's hairpin on its tyres' grip, it came in 9 m/s too fast and went
-    straight on into the wall (313 damage on the first lap) before the speed profile braked within
-    what the brakes give (control/braking.py)."""
+    straight on into the wall (313 damage on the first lap) before the speed profile took the
+    brakes' ceiling (TutorialRobot._brake_ceiling, control/braking.py)."""
     cfg = launch.RaceConfig(track="street-1", category="road", car="155-DTM", laps=1, telemetry=False,
                             learning="fresh", run_dir=tmp_path / "run")
     result = launch.run_race(cfg, overlay)

@@ -141,16 +141,21 @@ class CarModel:
             object.__setattr__(self, "ca_corner", self.ca)
 
     @classmethod
-    def from_car(cls, car: Car, fuel_l: float = 0.0, include_front_wing: bool = True) -> CarModel:
+    def from_car(cls, car: Car, fuel_l: float = 0.0, include_front_wing: bool = True,
+                 brakes: bool = False) -> CarModel:
+        """The car's model.  With `brakes`, the brakes' and the engine's braking limit too, and the
+        wings' drag in `cw` (simuv2 applies it; the tyres' plan leaves it out, a margin): a model of
+        what slows the car at full pressure.  Without, the tyres alone limit its braking
+        (brake_force_n inf)."""
         return cls(
             mass_kg=car.mass_kg + fuel_l * FUEL_KG_PER_L,
             ca=downforce_coefficient(car, include_front_wing),
-            cw=drag_coefficient(car),
+            cw=drag_coefficient(car) + (wing_drag_coefficient(car) if brakes else 0.0),
             mu=tyre_mu(car),
             empty_mass_kg=car.mass_kg,
             ca_corner=cornering_downforce_coefficient(car) if include_front_wing else downforce_coefficient(car, False),
-            brake_force_n=brake_force_n(car),
-            engine_brake_w=engine_brake_power_w(car),
+            brake_force_n=brake_force_n(car) if brakes else math.inf,
+            engine_brake_w=engine_brake_power_w(car) if brakes else 0.0,
         )
 
     def with_fuel(self, fuel_l: float) -> CarModel:

@@ -11,6 +11,7 @@ from boxbox.control.carmodel import (
     downforce_coefficient,
     drag_coefficient,
     engine_brake_power_w,
+    wing_drag_coefficient,
 )
 from boxbox.model.car import Car
 from boxbox.model.constants import G_MPS2 as G
@@ -122,7 +123,7 @@ def test_brake_force_from_the_cars_brakes():
     front = 0.18 * 0.005 * 0.4 * 20e6 * 0.6 / 0.3
     rear = 0.18 * 0.005 * 0.4 * 20e6 * 0.4 / 0.32
     assert brake_force_n(car) == pytest.approx(2 * front + 2 * rear, rel=1e-12)
-    assert CarModel.from_car(car).brake_force_n == pytest.approx(2 * front + 2 * rear, rel=1e-12)
+    assert CarModel.from_car(car, brakes=True).brake_force_n == pytest.approx(2 * front + 2 * rear, rel=1e-12)
     assert brake_force_n(_car(brake_pressure_max=0.0)) == math.inf  # no pressure given: no limit known
 
 
@@ -136,5 +137,16 @@ def test_engine_brake_power_reads_the_curve_up_to_the_rev_limit():
     # brake_coeff there, 0.33 x 330 N m x 1047 rad/s
     expected = 0.33 * (1047.0 - 105.0) / (1047.0 - 105.0) * 330.0 * 1047.0
     assert engine_brake_power_w(car) == pytest.approx(expected, rel=1e-12)
-    assert CarModel.from_car(car).engine_brake_w == pytest.approx(expected, rel=1e-12)
+    assert CarModel.from_car(car, brakes=True).engine_brake_w == pytest.approx(expected, rel=1e-12)
     assert engine_brake_power_w(_car()) == 0.0  # no curve: no engine brake counted
+
+
+def test_the_brakes_model_counts_the_wings_drag_and_the_tyres_model_no_brakes():
+    """from_car(brakes=True) is what slows the car at full pressure: brakes, engine and all the drag
+    (the wings' too, as simuv2 applies it); without, the tyres alone limit (the plan's model)."""
+    _, car = load("g-track-1")
+    tyres, brakes = CarModel.from_car(car), CarModel.from_car(car, brakes=True)
+    assert tyres.brake_force_n == math.inf and tyres.engine_brake_w == 0.0
+    assert tyres.cw == pytest.approx(drag_coefficient(car))
+    assert wing_drag_coefficient(car) > 0.0
+    assert brakes.cw == pytest.approx(drag_coefficient(car) + wing_drag_coefficient(car))
