@@ -71,6 +71,39 @@ def wing_drag_coefficient(car: Car) -> float:
                           + car.rear_wing_area_m2 * math.sin(car.rear_wing_angle_rad))
 
 
+def brake_force_n(car: Car) -> float:
+    """The most braking force (N) the brakes give at full pressure, all four wheels (simuv2
+    brake.cpp: a wheel's torque is disk diameter / 2 x piston area x pad mu x its pressure, the
+    pressure's front_rear share on each front wheel, the rest on each rear wheel), at the wheels'
+    radii; inf where the car file gives no pressure.  Whether the tyres could take more is the
+    braking model's question (control/braking.py): the buggy's brakes stop it at 4 m/s^2, the
+    155-DTM's at 20, car1-trb1's at 43 (its tyres limit first)."""
+    if car.brake_pressure_max <= 0.0:
+        return math.inf
+    total = 0.0
+    for w in ("fr", "fl", "rr", "rl"):
+        share = car.brake_front_rear if w[0] == "f" else 1.0 - car.brake_front_rear
+        torque = (0.5 * getattr(car, f"brake_disk_diameter_{w}_m") * getattr(car, f"brake_piston_area_{w}_m2")
+                  * getattr(car, f"brake_mu_{w}") * car.brake_pressure_max * share)
+        total += torque / max(getattr(car, f"wheel_radius_{w}_m"), 0.01)
+    return total if total > 0.0 else math.inf
+
+
+def engine_brake_power_w(car: Car) -> float:
+    """The power (W) the engine brakes with at zero throttle at its speed of most power: simuv2
+    brakes with brake_coeff x (w - tickover) / (revs max - tickover) of the full torque at w (as
+    control/fuel.py counts it), from the torque curve up to the rev limit only: TORCS pads some
+    cars' curves past it (the 155-DTM's reads 750 N m at 1150 rad/s, which would make 780 kW of
+    it); 0 without a curve.  What it adds to the brakes: P / v, 1.5 m/s^2 for the 155-DTM (114 kW)
+    at 68 m/s (measured at full brake on street-1: 1.3 beyond the brakes and drag)."""
+    tick, top = car.engine_tickover_radps, car.engine_revs_max_radps
+    points = [(w, t) for w, t in zip(car.torque_curve_radps, car.torque_curve_nm, strict=False) if w <= top]
+    if len(points) < 2 or not 0.0 <= tick < top:
+        return 0.0
+    w, torque_nm = max(points, key=lambda p: p[0] * p[1])
+    return max(0.0, car.engine_brake_coeff * max(0.0, w - tick) / (top - tick) * torque_nm * w)
+
+
 def tyre_mu(car: Car) -> float:
     """The weakest tyre limits the car, so use the smallest of the four, each with what the car's
     skill level adds at the slip of its peak (control/tyre.py; nothing at pro)."""
@@ -87,7 +120,9 @@ class CarModel:
 
     `empty_mass_kg` is the mass without fuel (defaults to `mass_kg`), so `with_fuel` can re-derive
     the mass as the fuel burns.  `ca_corner`: the downforce that counts in a turn, the weaker
-    axle's (cornering_downforce_coefficient; defaults to `ca`).
+    axle's (cornering_downforce_coefficient; defaults to `ca`).  `brake_force_n`: the most the
+    brakes give (brake_force_n(car); inf: the tyres always limit); `engine_brake_w`: the engine's
+    braking power at zero throttle (engine_brake_power_w(car)), which adds P / v where the brakes limit.
     """
 
     mass_kg: float
@@ -96,6 +131,8 @@ class CarModel:
     mu: float
     empty_mass_kg: float = field(default=-1.0, compare=False)
     ca_corner: float = -1.0
+    brake_force_n: float = math.inf
+    engine_brake_w: float = 0.0
 
     def __post_init__(self) -> None:
         if self.empty_mass_kg < 0.0:
@@ -104,16 +141,24 @@ class CarModel:
             object.__setattr__(self, "ca_corner", self.ca)
 
     @classmethod
-    def from_car(cls, car: Car, fuel_l: float = 0.0, include_front_wing: bool = True) -> CarModel:
+    def from_car(cls, car: Car, fuel_l: float = 0.0, include_front_wing: bool = True,
+                 brakes: bool = False) -> CarModel:
+        """The car's model.  With `brakes`, the brakes' and the engine's braking limit too, and the
+        wings' drag in `cw` (simuv2 applies it; the tyres' plan leaves it out, a margin): a model of
+        what slows the car at full pressure.  Without, the tyres alone limit its braking
+        (brake_force_n inf)."""
         return cls(
             mass_kg=car.mass_kg + fuel_l * FUEL_KG_PER_L,
             ca=downforce_coefficient(car, include_front_wing),
-            cw=drag_coefficient(car),
+            cw=drag_coefficient(car) + (wing_drag_coefficient(car) if brakes else 0.0),
             mu=tyre_mu(car),
             empty_mass_kg=car.mass_kg,
             ca_corner=cornering_downforce_coefficient(car) if include_front_wing else downforce_coefficient(car, False),
+            brake_force_n=brake_force_n(car) if brakes else math.inf,
+            engine_brake_w=engine_brake_power_w(car) if brakes else 0.0,
         )
 
     def with_fuel(self, fuel_l: float) -> CarModel:
         """The same car carrying `fuel_l` litres (1 kg per litre, as TORCS counts it)."""
         return replace(self, mass_kg=self.empty_mass_kg + max(0.0, fuel_l) * FUEL_KG_PER_L)
+

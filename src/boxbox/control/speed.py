@@ -231,6 +231,15 @@ class SpeedProfile:
                 break
         return speeds
 
+    def cap(self, ceiling_mps: np.ndarray) -> None:
+        """Lower each sample to at most `ceiling_mps` (m/s, one per sample): a ceiling from another
+        model of the car, itself reachable by braking, keeps the profile reachable."""
+        if len(ceiling_mps) != self.n_samples:
+            raise ValueError(f"the ceiling needs {self.n_samples} samples, not {len(ceiling_mps)}")
+        capped = np.minimum(self.target_speeds, ceiling_mps)
+        self.target_speeds = capped
+        self._speeds = capped.tolist() + [float(capped[0])]
+
     @property
     def distances_m(self) -> np.ndarray:
         return np.arange(self.n_samples) * self.step_m

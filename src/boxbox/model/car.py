@@ -42,8 +42,22 @@ class Car:
     engine_tickover_radps: float = 150.0
     engine_revs_max_radps: float = 1000.0
     engine_brake_coeff: float = 0.33
-    brake_pressure_max: float = 0.0
+    brake_pressure_max: float = 0.0  # brake system's highest pressure, Pa (TORCS converts the file's kPa)
     brake_front_rear: float = 0.5
+    # each wheel's brake (simuv2 brake.cpp, its defaults): torque = disk diameter / 2 x piston area x
+    # pad mu x the wheel's pressure (the pressure's front_rear share on the front wheels)
+    brake_disk_diameter_fr_m: float = 0.2
+    brake_disk_diameter_fl_m: float = 0.2
+    brake_disk_diameter_rr_m: float = 0.2
+    brake_disk_diameter_rl_m: float = 0.2
+    brake_piston_area_fr_m2: float = 0.002
+    brake_piston_area_fl_m2: float = 0.002
+    brake_piston_area_rr_m2: float = 0.002
+    brake_piston_area_rl_m2: float = 0.002
+    brake_mu_fr: float = 0.3
+    brake_mu_fl: float = 0.3
+    brake_mu_rr: float = 0.3
+    brake_mu_rl: float = 0.3
     front_weight_share: float = 0.5  # share of the car's weight on the front axle
     # tyres (the car file's "stiffness", "dynamic friction", "elasticity factor" per wheel; TORCS's
     # defaults where it is silent): the shape of the magic formula, see control/tyre.py

@@ -23,7 +23,7 @@ import numpy as np
 
 from boxbox.cache import cached_array
 from boxbox.control import carmodel, fuel, lapsim, speed, suspension, tyre
-from boxbox.control.braking import brake_distance
+from boxbox.control.braking import brake_distance, brake_limited_speed
 from boxbox.control.carmodel import CarModel
 from boxbox.control.gears import GearBox
 from boxbox.control.offset_room import offset_room_ahead
@@ -210,10 +210,14 @@ class TutorialRobot(Robot):
             self.learner.load(self.learning_file)
         self.fuel_l = car.initial_fuel_l
         self._packer_caps: list[float] | None = None
+        self._brake_caps: np.ndarray | None = None
         self._build_profile()
         if p.elevation and p.packer_impact_mps < NO_PACKER_LIMIT_MPS:
             self._packer_caps = self._packer_speed_caps(car)
             self._build_profile()
+        self._brake_caps = self._brake_ceiling(car)
+        if self._brake_caps is not None:
+            self.profile.cap(self._brake_caps)
         # how fast the car goes alone on its line (lap simulation): a car ahead slower than that holds us
         # up (only the slipstream pass asks: an empty list with it off)
         self._alone_mps = self._simulated_lap(car, self.tyre_model, p, "alone-laps")[3].tolist() \
@@ -469,27 +473,55 @@ class TutorialRobot(Robot):
         return cached_array("packer-caps", key, compute).tolist()
 
     def _build_profile(self) -> None:
-        """The speed profile for the current fuel load and learned turn factors."""
+        """The speed profile for the current fuel load and learned turn factors, under the brakes'
+        ceiling where there is one (_brake_ceiling)."""
         p = self.params
         model = self.tyre_model.with_fuel(self.fuel_l)
         factors = self.learner.factors_per_sample()
-        limits = self._limits(factors, model)
-        if self._packer_caps is not None:
-            limits = [min(v, cap) for v, cap in zip(limits, self._packer_caps, strict=True)]
-        brake_mu = [model.mu * f * p.brake_mu_scale for f in self._friction]
         corner_mu = [model.mu * f * p.mu_scale * g for f, g in zip(self._friction, factors, strict=False)]
         # per sample, for traction control: the line's curvature over the corner grip (a turn's share
         # of the grip at speed v is v^2 k / (mu (g + CA v^2 / m)))
         self._k_per_mu = [k / mu for k, mu in zip(self._curv, corner_mu, strict=False)]
         self._ca_per_kg = model.ca_corner / model.mass_kg
         self._corner_mu = corner_mu
-        self.profile = SpeedProfile(limits, brake_mu, model, self.step_m, max_speed_mps=p.max_speed_mps,
-                                    curvature_1pm=self._curv if p.friction_circle else None, corner_mu=corner_mu,
-                                    brake_method=p.brake_method,
-                                    vertical_curvature_1pm=self._vcurv if p.elevation else None)
+        self.profile = self._speed_profile(model, factors, corner_mu)
+        if self._brake_caps is not None:
+            self.profile.cap(self._brake_caps)
         self.model = model
         method = p.brake_method
         self._brakedist = lambda v1, v2, mu=model.mu: brake_distance(v1, v2, mu, model, method)
+
+    def _speed_profile(self, model: CarModel, factors: list[float], corner_mu: list[float]) -> SpeedProfile:
+        p = self.params
+        limits = self._limits(factors, model)
+        if self._packer_caps is not None:
+            limits = [min(v, cap) for v, cap in zip(limits, self._packer_caps, strict=True)]
+        brake_mu = [model.mu * f * p.brake_mu_scale for f in self._friction]
+        return SpeedProfile(limits, brake_mu, model, self.step_m, max_speed_mps=p.max_speed_mps,
+                            curvature_1pm=self._curv if p.friction_circle else None, corner_mu=corner_mu,
+                            brake_method=p.brake_method, vertical_curvature_1pm=self._vcurv if p.elevation else None)
+
+    def _brake_ceiling(self, car: Car) -> np.ndarray | None:
+        """A ceiling on the speed profile where the brakes, not the tyres, limit: the speeds the
+        brakes, the engine's brake and all the drag can slow the car for (control/braking.py with
+        CarModel.from_car(brakes=True)), one brake band over, at the samples where they are below the
+        tyres' plan (the 155-DTM's brakes give 19 m/s^2: on its tyres' plan it came into street-1's
+        hairpin 9 m/s fast and hit the wall, 330 damage).  The band is the speed controller's own;
+        a learned faster turn elsewhere stays the learner's.  None where the brakes never bind below
+        the top speed, or cannot lock the wheels even at rest (buggy, baja-bug: 3-5 m/s^2, a regime of
+        its own: on the brakes' plan the buggy hit the road tracks' walls less but was slower on its
+        own dirt track, mixed-2 +3.1 s)."""
+        p = self.params
+        model = CarModel.from_car(car, fuel_l=self.fuel_l, brakes=True)
+        top_mu = model.mu * max(self._friction) * p.brake_mu_scale
+        if model.brake_force_n < model.mu * p.brake_mu_scale * G_MPS2 * model.mass_kg \
+                or brake_limited_speed(top_mu, model) >= p.max_speed_mps:
+            return None
+        factors = self.learner.factors_per_sample()
+        corner_mu = [model.mu * f * p.mu_scale * g for f, g in zip(self._friction, factors, strict=False)]
+        brakes_mps = self._speed_profile(model, factors, corner_mu).target_speeds
+        # only where the brakes lower the plan: elsewhere a learned faster turn stays the learner's
+        return np.where(brakes_mps < self.profile.target_speeds, brakes_mps + p.brake_band_mps, math.inf)
 
     # --- per step: the filter chain ---------------------------------------------------------------
     def drive(self, s: State) -> Controls:

@@ -79,6 +79,11 @@ HANDLE_FIELDS = [
     "mu_fr", "mu_fl", "mu_rr", "mu_rl",
     "drivetrain",  # 0 RWD, 1 FWD, 2 4WD
     "fuel_cons_factor", "brake_pressure_max", "brake_front_rear",
+    # each wheel's brake (simuv2 brake.cpp): disk diameter (m), piston area (m^2), pad friction; its
+    # torque is disk / 2 x area x mu x the wheel's pressure
+    "brake_disk_diameter_fr_m", "brake_disk_diameter_fl_m", "brake_disk_diameter_rr_m", "brake_disk_diameter_rl_m",
+    "brake_piston_area_fr_m2", "brake_piston_area_fl_m2", "brake_piston_area_rr_m2", "brake_piston_area_rl_m2",
+    "brake_mu_fr", "brake_mu_fl", "brake_mu_rr", "brake_mu_rl",
     # the engine's tickover, revs maxi (rad/s) and engine brake coefficient: its braking torque and
     # the fuel it burns with the throttle closed (simuv2 engine.cpp)
     "engine_tickover_radps", "engine_revs_max_radps", "engine_brake_coeff",

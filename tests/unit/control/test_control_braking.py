@@ -1,3 +1,4 @@
+import dataclasses
 import math
 
 import pytest
@@ -7,6 +8,7 @@ from boxbox.control.braking import (
     brake_distance,
     brake_distance_approx,
     brake_distance_exact,
+    brake_limited_speed,
     max_entry_speed,
 )
 from boxbox.control.carmodel import CarModel
@@ -133,3 +135,96 @@ def test_approx_entry_speed_inverts_the_approx_distance_and_is_lower_than_exact(
         assert brake_distance_approx(v1, v2, 1.6, model) == pytest.approx(dist, rel=1e-9)
         # the approximation brakes on the lowest deceleration: it allows less entry speed
         assert v1 < max_entry_speed(v2, dist, 1.6, model)
+
+
+# a car whose brakes give less than its tyres at speed (155-DTM-like: 1150 kg, 21 kN of brakes)
+WEAK_BRAKES = CarModel(mass_kg=1150.0, ca=3.13, cw=0.37, mu=1.68, brake_force_n=21_000.0)
+
+
+def _integrated_capped(v1: float, v2: float, mu: float, model: CarModel, step_m: float = 0.01) -> float:
+    """Euler in distance of dv/ds = -(min(mu (g + CA v^2 / m), F / m) + CW v^2 / m) / v (computed here
+    independently of braking.py)."""
+    s, v = 0.0, v1
+    while v > v2:
+        tyres = mu * (G + model.ca * v * v / model.mass_kg)
+        decel = min(tyres, model.brake_force_n / model.mass_kg) + model.cw * v * v / model.mass_kg
+        v_next = v - step_m * decel / v
+        if v_next <= v2:
+            return s + step_m * (v - v2) / (v - v_next)
+        s, v = s + step_m, v_next
+    return s
+
+
+def test_brake_limited_speed_where_the_tyres_grip_as_much_as_the_brakes_give():
+    mu = 1.2
+    v = brake_limited_speed(mu, WEAK_BRAKES)
+    assert mu * (G + WEAK_BRAKES.ca * v * v / WEAK_BRAKES.mass_kg) == pytest.approx(21_000.0 / 1150.0, rel=1e-12)
+    assert brake_limited_speed(mu, RACE_CAR) == math.inf  # no brake limit given: the tyres always limit
+    assert brake_limited_speed(2.0, WEAK_BRAKES) == 0.0  # the tyres alone out-grip the brakes at rest
+
+
+@pytest.mark.parametrize(("v1", "v2", "mu"), [(70.0, 20.0, 1.2), (70.0, 50.0, 1.2), (40.0, 10.0, 1.2),
+                                              (60.0, 0.0, 2.0)])
+def test_weak_brakes_lengthen_the_distance_as_integrated(v1, v2, mu):
+    exact = brake_distance_exact(v1, v2, mu, WEAK_BRAKES)
+    assert exact == pytest.approx(_integrated_capped(v1, v2, mu, WEAK_BRAKES), rel=0.003)
+    grip_only = brake_distance_exact(v1, v2, mu, dataclasses.replace(WEAK_BRAKES, brake_force_n=math.inf))
+    assert exact >= grip_only
+    v_entry = max_entry_speed(v2, exact, mu, WEAK_BRAKES)
+    assert v_entry == pytest.approx(v1, rel=1e-9)
+    assert brake_distance_approx(v1, v2, mu, WEAK_BRAKES) >= exact  # still the lowest deceleration
+
+
+def test_weak_brakes_from_the_155_dtms_braking_zone():
+    # street-1: from 68 m/s the 155-DTM decelerated at 21 m/s^2 at full brake, not the 26 its tyres
+    # (braking at 0.7 of their grip) promise; the profile had it 9 m/s too fast into the hairpin
+    mu = 0.7 * 1.68
+    strong = dataclasses.replace(WEAK_BRAKES, brake_force_n=math.inf)
+    assert max_entry_speed(25.0, 100.0, mu, WEAK_BRAKES) < max_entry_speed(25.0, 100.0, mu, strong) - 2.0
+
+
+# the same car with its engine braking at zero throttle: 114 kW (the 155-DTM's at its most power)
+ENGINE_BRAKED = dataclasses.replace(WEAK_BRAKES, engine_brake_w=114_000.0)
+
+
+def _integrated_engine(v1: float, v2: float, mu: float, model: CarModel, step_m: float = 0.01) -> float:
+    """Euler in distance with the brakes' force B + P / v (computed here independently of braking.py)."""
+    s, v = 0.0, v1
+    while v > v2:
+        tyres = mu * (G + model.ca * v * v / model.mass_kg)
+        brakes = (model.brake_force_n + model.engine_brake_w / max(v, 5.0)) / model.mass_kg
+        v_next = v - step_m * (min(tyres, brakes) + model.cw * v * v / model.mass_kg) / v
+        if v_next <= v2:
+            return s + step_m * (v - v2) / (v - v_next)
+        s, v = s + step_m, v_next
+    return s
+
+
+def test_brake_limited_speed_counts_the_engines_brake():
+    mu = 1.2
+    v = brake_limited_speed(mu, ENGINE_BRAKED)
+    m = ENGINE_BRAKED.mass_kg
+    assert mu * (G + ENGINE_BRAKED.ca * v * v / m) == pytest.approx((21_000.0 + 114_000.0 / v) / m, rel=1e-9)
+    assert v > brake_limited_speed(mu, WEAK_BRAKES)  # the engine's brake lets the tyres limit further up
+    # no downforce: the tyres' grip is constant, so the engine's P / v meets it at one speed
+    flat = dataclasses.replace(ENGINE_BRAKED, ca=0.0)
+    v_flat = brake_limited_speed(2.0, flat)
+    assert 2.0 * G == pytest.approx((21_000.0 + 114_000.0 / v_flat) / m, rel=1e-12)
+
+
+@pytest.mark.parametrize(("v1", "v2", "mu"), [(70.0, 20.0, 1.2), (70.0, 50.0, 1.2), (60.0, 0.0, 2.0),
+                                              (30.0, 3.0, 2.0)])
+def test_engine_braking_as_integrated(v1, v2, mu):
+    exact = brake_distance_exact(v1, v2, mu, ENGINE_BRAKED)
+    assert exact == pytest.approx(_integrated_engine(v1, v2, mu, ENGINE_BRAKED), rel=0.003)
+    assert exact < brake_distance_exact(v1, v2, mu, WEAK_BRAKES)
+    assert max_entry_speed(v2, exact, mu, ENGINE_BRAKED) == pytest.approx(v1, rel=1e-6)
+
+
+def test_strong_brakes_leave_the_tyres_formulas_to_the_bit():
+    # car1-trb1-like: brakes and engine out-give the tyres at every speed it brakes from, so the
+    # profile is the tyres' closed form exactly (its solo times unchanged to the ms)
+    strong = dataclasses.replace(RACE_CAR, brake_force_n=48_000.0, engine_brake_w=104_000.0)
+    for v2, dist in ((20.0, 2.0), (50.0, 2.0), (60.0, 30.0)):
+        assert max_entry_speed(v2, dist, 1.2, strong) == max_entry_speed(v2, dist, 1.2, RACE_CAR)
+        assert brake_distance_exact(v2 + 30.0, v2, 1.2, strong) == brake_distance_exact(v2 + 30.0, v2, 1.2, RACE_CAR)

@@ -6,9 +6,12 @@ import pytest
 from boxbox.control.carmodel import (
     CarModel,
     axle_downforce_coefficients,
+    brake_force_n,
     cornering_downforce_coefficient,
     downforce_coefficient,
     drag_coefficient,
+    engine_brake_power_w,
+    wing_drag_coefficient,
 )
 from boxbox.model.car import Car
 from boxbox.model.constants import G_MPS2 as G
@@ -108,3 +111,42 @@ def test_car_model_corners_on_the_weaker_axle():
     model = CarModel.from_car(car)
     assert model.ca_corner == pytest.approx(cornering_downforce_coefficient(car))
     assert CarModel(mass_kg=1000.0, ca=2.0, cw=0.4, mu=1.0).ca_corner == 2.0  # default: all of it
+
+
+def test_brake_force_from_the_cars_brakes():
+    # per wheel: disk diameter / 2 x piston area x pad mu x its share of the pressure / wheel radius
+    car = _car(brake_pressure_max=20e6, brake_front_rear=0.6, wheel_radius_fr_m=0.3, wheel_radius_fl_m=0.3,
+               wheel_radius_rr_m=0.32, wheel_radius_rl_m=0.32,
+               **{f"brake_disk_diameter_{w}_m": 0.36 for w in ("fr", "fl", "rr", "rl")},
+               **{f"brake_piston_area_{w}_m2": 0.005 for w in ("fr", "fl", "rr", "rl")},
+               **{f"brake_mu_{w}": 0.4 for w in ("fr", "fl", "rr", "rl")})
+    front = 0.18 * 0.005 * 0.4 * 20e6 * 0.6 / 0.3
+    rear = 0.18 * 0.005 * 0.4 * 20e6 * 0.4 / 0.32
+    assert brake_force_n(car) == pytest.approx(2 * front + 2 * rear, rel=1e-12)
+    assert CarModel.from_car(car, brakes=True).brake_force_n == pytest.approx(2 * front + 2 * rear, rel=1e-12)
+    assert brake_force_n(_car(brake_pressure_max=0.0)) == math.inf  # no pressure given: no limit known
+
+
+def test_engine_brake_power_reads_the_curve_up_to_the_rev_limit():
+    # the 155-DTM's curve as the bridge sends it: padded with 750 N m past its 1047 rad/s limit
+    rpm = (0.0, 105.0, 419.0, 628.0, 838.0, 1047.0, 1152.0, 1466.0)
+    torque = (750.0, 364.0, 463.0, 471.0, 401.0, 330.0, 750.0, 750.0)
+    car = _car(torque_curve_radps=rpm, torque_curve_nm=torque, engine_tickover_radps=105.0,
+               engine_revs_max_radps=1047.0, engine_brake_coeff=0.33)
+    # most power inside the limit at 1047 rad/s (346 kW; 838 rad/s gives 336): the whole
+    # brake_coeff there, 0.33 x 330 N m x 1047 rad/s
+    expected = 0.33 * (1047.0 - 105.0) / (1047.0 - 105.0) * 330.0 * 1047.0
+    assert engine_brake_power_w(car) == pytest.approx(expected, rel=1e-12)
+    assert CarModel.from_car(car, brakes=True).engine_brake_w == pytest.approx(expected, rel=1e-12)
+    assert engine_brake_power_w(_car()) == 0.0  # no curve: no engine brake counted
+
+
+def test_the_brakes_model_counts_the_wings_drag_and_the_tyres_model_no_brakes():
+    """from_car(brakes=True) is what slows the car at full pressure: brakes, engine and all the drag
+    (the wings' too, as simuv2 applies it); without, the tyres alone limit (the plan's model)."""
+    _, car = load("g-track-1")
+    tyres, brakes = CarModel.from_car(car), CarModel.from_car(car, brakes=True)
+    assert tyres.brake_force_n == math.inf and tyres.engine_brake_w == 0.0
+    assert tyres.cw == pytest.approx(drag_coefficient(car))
+    assert wing_drag_coefficient(car) > 0.0
+    assert brakes.cw == pytest.approx(drag_coefficient(car) + wing_drag_coefficient(car))

@@ -371,3 +371,14 @@ def test_banking_into_the_turn_is_faster_and_away_from_it_slower() -> None:
     flat = allowed_speed(100.0, 1.1, model, math.inf)
     assert allowed_speed(100.0, 1.1, model, math.inf, bank_rad=math.radians(6.6)) > 1.04 * flat
     assert allowed_speed(100.0, 1.1, model, math.inf, bank_rad=math.radians(-3.0)) < flat
+
+
+def test_cap_lowers_the_profile_to_a_ceiling_and_nothing_else():
+    profile = SpeedProfile([30.0, 20.0, 40.0, 50.0], 1.0, NO_AERO, step_m=10.0)
+    before = profile.target_speeds.copy()
+    ceiling = np.array([math.inf, math.inf, 25.0, math.inf])
+    profile.cap(ceiling)
+    assert profile.target_speeds.tolist() == [before[0], before[1], 25.0, before[3]]
+    assert profile.speed_at(20.0) == 25.0 and profile.speed_at(25.0) == pytest.approx(0.5 * (25.0 + before[3]))
+    with pytest.raises(ValueError, match="4 samples"):
+        profile.cap(np.array([1.0, 2.0]))

@@ -273,6 +273,13 @@ static void fill_handle(bb_handle *r, void *h) {
     r->engine_brake_coeff = GfParmGetNum(h, SECT_ENGINE, PRM_ENGBRKCOEFF, NULL, 0.33);
     r->brake_pressure_max = GfParmGetNum(h, SECT_BRKSYST, PRM_BRKPRESS, NULL, 0.0);
     r->brake_front_rear = GfParmGetNum(h, SECT_BRKSYST, PRM_BRKREP, NULL, 0.5);
+    const char *brakes[4] = {SECT_FRNTRGTBRAKE, SECT_FRNTLFTBRAKE, SECT_REARRGTBRAKE, SECT_REARLFTBRAKE};
+    double *disk = &r->brake_disk_diameter_fr_m, *piston = &r->brake_piston_area_fr_m2, *pad = &r->brake_mu_fr;
+    for (int i = 0; i < 4; i++) {  // simuv2's defaults (brake.cpp): its torque is disk / 2 x area x mu x pressure
+        disk[i] = GfParmGetNum(h, brakes[i], PRM_BRKDIAM, NULL, 0.2);
+        piston[i] = GfParmGetNum(h, brakes[i], PRM_BRKAREA, NULL, 0.002);
+        pad[i] = GfParmGetNum(h, brakes[i], PRM_MU, NULL, 0.30);
+    }
     r->front_weight_share = GfParmGetNum(h, SECT_CAR, PRM_FRWEIGHTREP, NULL, 0.5);
 }
 
