@@ -141,20 +141,6 @@ def test_approx_entry_speed_inverts_the_approx_distance_and_is_lower_than_exact(
 WEAK_BRAKES = CarModel(mass_kg=1150.0, ca=3.13, cw=0.37, mu=1.68, brake_force_n=21_000.0)
 
 
-def _integrated_capped(v1: float, v2: float, mu: float, model: CarModel, step_m: float = 0.01) -> float:
-    """Euler in distance of dv/ds = -(min(mu (g + CA v^2 / m), F / m) + CW v^2 / m) / v (computed here
-    independently of braking.py)."""
-    s, v = 0.0, v1
-    while v > v2:
-        tyres = mu * (G + model.ca * v * v / model.mass_kg)
-        decel = min(tyres, model.brake_force_n / model.mass_kg) + model.cw * v * v / model.mass_kg
-        v_next = v - step_m * decel / v
-        if v_next <= v2:
-            return s + step_m * (v - v2) / (v - v_next)
-        s, v = s + step_m, v_next
-    return s
-
-
 def test_brake_limited_speed_where_the_tyres_grip_as_much_as_the_brakes_give():
     mu = 1.2
     v = brake_limited_speed(mu, WEAK_BRAKES)
@@ -167,7 +153,7 @@ def test_brake_limited_speed_where_the_tyres_grip_as_much_as_the_brakes_give():
                                               (60.0, 0.0, 2.0)])
 def test_weak_brakes_lengthen_the_distance_as_integrated(v1, v2, mu):
     exact = brake_distance_exact(v1, v2, mu, WEAK_BRAKES)
-    assert exact == pytest.approx(_integrated_capped(v1, v2, mu, WEAK_BRAKES), rel=0.003)
+    assert exact == pytest.approx(_integrated_engine(v1, v2, mu, WEAK_BRAKES), rel=0.003)
     grip_only = brake_distance_exact(v1, v2, mu, dataclasses.replace(WEAK_BRAKES, brake_force_n=math.inf))
     assert exact >= grip_only
     v_entry = max_entry_speed(v2, exact, mu, WEAK_BRAKES)
