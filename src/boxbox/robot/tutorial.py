@@ -492,6 +492,7 @@ class TutorialRobot(Robot):
         self._brakedist = lambda v1, v2, mu=model.mu: brake_distance(v1, v2, mu, model, method)
 
     def _speed_profile(self, model: CarModel, factors: list[float], corner_mu: list[float]) -> SpeedProfile:
+        """The profile of `model` on this line (the tyres' plan, or the brakes' for their ceiling)."""
         p = self.params
         limits = self._limits(factors, model)
         if self._packer_caps is not None:
