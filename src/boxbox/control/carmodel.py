@@ -76,8 +76,8 @@ def brake_force_n(car: Car) -> float:
     brake.cpp: a wheel's torque is disk diameter / 2 x piston area x pad mu x its pressure, the
     pressure's front_rear share on each front wheel, the rest on each rear wheel), at the wheels'
     radii; inf where the car file gives no pressure.  Whether the tyres could take more is the
-    braking model's question (control/braking.py): the buggy's brakes stop it at 4 m/s^2, the
-    155-DTM's at 20, car1-trb1's at 43 (its tyres limit first)."""
+    braking model's question (control/braking.py): with a full tank the buggy's brakes stop it at
+    3.4 m/s^2, the 155-DTM's at 19, car1-trb1's at 40 (its tyres limit first)."""
     if car.brake_pressure_max <= 0.0:
         return math.inf
     total = 0.0
