@@ -478,7 +478,7 @@ class TutorialRobot(Robot):
         p = self.params
         model = self.tyre_model.with_fuel(self.fuel_l)
         factors = self.learner.factors_per_sample()
-        corner_mu = [model.mu * f * p.mu_scale * g for f, g in zip(self._friction, factors, strict=False)]
+        corner_mu = self._corner_grip(model, factors)
         # per sample, for traction control: the line's curvature over the corner grip (a turn's share
         # of the grip at speed v is v^2 k / (mu (g + CA v^2 / m)))
         self._k_per_mu = [k / mu for k, mu in zip(self._curv, corner_mu, strict=False)]
@@ -490,6 +490,11 @@ class TutorialRobot(Robot):
         self.model = model
         method = p.brake_method
         self._brakedist = lambda v1, v2, mu=model.mu: brake_distance(v1, v2, mu, model, method)
+
+    def _corner_grip(self, model: CarModel, factors: list[float]) -> list[float]:
+        """Per sample, the grip the profile corners on: tyre x surface x mu_scale x learned factor."""
+        scale = self.params.mu_scale
+        return [model.mu * f * scale * g for f, g in zip(self._friction, factors, strict=False)]
 
     def _speed_profile(self, model: CarModel, factors: list[float], corner_mu: list[float]) -> SpeedProfile:
         """The profile of `model` on this line (the tyres' plan, or the brakes' for their ceiling)."""
@@ -519,7 +524,7 @@ class TutorialRobot(Robot):
                 or brake_limited_speed(top_mu, model) >= p.max_speed_mps:
             return None
         factors = self.learner.factors_per_sample()
-        corner_mu = [model.mu * f * p.mu_scale * g for f, g in zip(self._friction, factors, strict=False)]
+        corner_mu = self._corner_grip(model, factors)
         brakes_mps = self._speed_profile(model, factors, corner_mu).target_speeds
         # only where the brakes lower the plan: elsewhere a learned faster turn stays the learner's
         return np.where(brakes_mps < self.profile.target_speeds, brakes_mps + p.brake_band_mps, math.inf)
