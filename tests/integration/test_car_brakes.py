@@ -1,4 +1,4 @@
-"""Each car's brakes as its description gives them, and the robot braking within them (issue #49)."""
+"""Each car's brakes as its description gives them, and the robot braking as they really slow it (issue #49)."""
 
 from __future__ import annotations
 
@@ -51,12 +51,22 @@ def test_each_wheels_brake_reaches_the_robot(tmp_path, overlay, car):
         assert seen[f"brake_mu_{w}"] == pytest.approx(values["mu"], rel=1e-6)
 
 
-def test_weak_brakes_are_braked_for(tmp_path, overlay):
-    """The 155-DTM's brakes stop it at about 20 m/s^2, less than its tyres grip at speed: braking
-    from 68 m/s into street-1's hairpin on its tyres' grip, it came in 9 m/s too fast and went
-    straight on into the wall (313 damage on the first lap) before the speed profile took the
-    brakes' ceiling (TutorialRobot._brake_ceiling, control/braking.py)."""
-    cfg = launch.RaceConfig(track="street-1", category="road", car="155-DTM", laps=1, telemetry=False,
+@pytest.mark.parametrize("car", [
+    # The 155-DTM's brakes stop it at about 20 m/s^2, less than its tyres grip at speed: braking from
+    # 68 m/s into street-1's hairpin on its tyres' grip, it came in 9 m/s too fast and went straight on
+    # into the wall (313 damage on the first lap) before the speed profile took the brakes' ceiling
+    # (TutorialRobot._brake_ceiling, control/braking.py).
+    "155-DTM",
+    # car1-stock1's brakes lock its front wheels within one drive step at full pressure, and the
+    # tutorial's ABS then released fully: full, nothing, full ... from 81 m/s into the same hairpin,
+    # about half the braking; it came in 8-12 m/s too fast and slid into the wall (347 damage).  Held
+    # at half pressure after a full step while over 8 m/s too fast (traction.abs_hold): 52.
+    "car1-stock1",
+])
+def test_street1_hairpin_braked_for_in_time(tmp_path, overlay, car):
+    """One lap of street-1 alone, under 100 damage: the hairpin at 2800 m braked for as the car's
+    brakes and ABS really slow it (issue #49)."""
+    cfg = launch.RaceConfig(track="street-1", category="road", car=car, laps=1, telemetry=False,
                             learning="fresh", run_dir=tmp_path / "run")
     result = launch.run_race(cfg, overlay)
     assert result.error is None, result.error
