@@ -22,7 +22,7 @@ import math
 
 import numpy as np
 
-from boxbox.control.traction import engine_brake_share
+from boxbox.control.engine import engine_brake_share
 from boxbox.model.constants import FUEL_L_PER_J, G_MPS2
 
 

@@ -152,15 +152,6 @@ def combined_slip_room(peak_slip: float, lateral_slip: float) -> float:
     return (p2 + math.sqrt(p2 * p2 - (1.0 - p2) * (sy2 - p2))) / (1.0 - p2)
 
 
-def engine_brake_share(rpm_radps: float, tickover_radps: float, revs_max_radps: float, brake_coeff: float) -> float:
-    """The engine brake as a share of the full torque at engine speed `rpm_radps`: simuv2 gives the
-    torque full x (throttle x (1 + share) - share), so no throttle brakes and part throttle gives less
-    than its share of the full torque."""
-    if revs_max_radps <= tickover_radps:
-        return 0.0
-    return brake_coeff * max(0.0, rpm_radps - tickover_radps) / (revs_max_radps - tickover_radps)
-
-
 def throttle_for_torque(torque_share: float, brake_share: float) -> float:
     """The throttle (0..1) whose torque is `torque_share` of the full torque, given the engine brake's
     share (engine_brake_share): at 0.4 of the full torque with a share of 0.25 it is 0.52, not 0.4."""

@@ -25,6 +25,7 @@ from boxbox.cache import cached_array
 from boxbox.control import carmodel, fuel, lapsim, speed, suspension, tyre
 from boxbox.control.braking import brake_distance, brake_limited_speed
 from boxbox.control.carmodel import CarModel
+from boxbox.control.engine import engine_brake_share
 from boxbox.control.gears import GearBox
 from boxbox.control.offset_room import offset_room_ahead
 from boxbox.control.pit_brake import ENTRY, EXIT, FREE, GAVE_UP, HOLD, LANE, LIMIT, STOP
@@ -39,7 +40,6 @@ from boxbox.control.traction import (
     drive_axles,
     drive_force_room_n,
     driven_wheel_speed_mps,
-    engine_brake_share,
     spare_slip_ratio,
     tcl_from_slip,
     throttle_for_torque,
