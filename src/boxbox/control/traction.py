@@ -211,7 +211,6 @@ def drive_axles(car: Car) -> tuple[Axle, Axle]:
     front_ca, rear_ca = axle_downforce_coefficients(car)
     front_w = car.front_weight_share * car.mass_kg * G_MPS2
     rear_w = car.mass_kg * G_MPS2 - front_w
-    wheelbase_m = car.front_axle_x_m - car.rear_axle_x_m
-    shift = car.gc_height_m / wheelbase_m if wheelbase_m > 0.0 else 0.0
+    shift = car.gc_height_m / car.wheelbase_m if car.wheelbase_m > 0.0 else 0.0
     front_share = {RWD: 0.0, FWD: 1.0, AWD: 0.5}[car.drivetrain]
     return (Axle(front_w, front_ca, front_share, -shift), Axle(rear_w, rear_ca, 1.0 - front_share, shift))

@@ -33,7 +33,6 @@ APPROACH_MPS = 20.0  # speed held on the way to the entry when the filter asks f
 LOOKAHEAD_M = 4.0  # steering aims at the path this far ahead (the turn into the box is tight)
 THROTTLE_PER_MPS = 1.0  # throttle per m/s below the target speed (holding the limit needs ~0.2)
 STOP_GRIP_SHARE = 0.5  # the stop at the box uses half the pit lane's grip
-WHEELBASE_SHARE = 0.6  # wheelbase as a share of the car's length (TORCS's cars: about 0.6)
 
 
 class PitStop:
@@ -56,7 +55,7 @@ class PitStop:
         self.gearbox = GearBox(car)
         self.curvature = track.curvature().tolist()
         self.friction = track.seg["friction"].tolist()
-        self.wheelbase_m = WHEELBASE_SHARE * car.length_m
+        self.wheelbase_m = car.steering_wheelbase_m
         self.reset()
 
     @classmethod

@@ -45,7 +45,7 @@ from boxbox.control.traction import (
     throttle_for_torque,
 )
 from boxbox.model import Car, CarSetup, Controls, PitOrder, State, Track
-from boxbox.model.car import FWD, RWD
+from boxbox.model.car import FWD, RWD, STEERING_WHEELBASE_SHARE
 from boxbox.model.constants import DRIVE_STEP_S, G_MPS2
 from boxbox.model.skill import SkillLevel
 from boxbox.robot import bottoming, carsetup
@@ -236,7 +236,7 @@ class TutorialRobot(Robot):
         self._init_race_state()
         self._setup_pit(track, car, p)
         self._inv_lock = 1.0 / car.steer_lock_rad
-        self.wheelbase_m = 0.6 * car.length_m  # not in the car's constants; 0.6 x length fits TORCS's cars
+        self.wheelbase_m = car.steering_wheelbase_m
         self._stuck_angle = math.radians(p.stuck_angle_deg)
 
     def _road(self, car: Car) -> Road:
@@ -262,7 +262,8 @@ class TutorialRobot(Robot):
         holds = self._peak_slip > 0.0 and tyre.falls_past_peak(*shape, SkillLevel(car.skill_level).skid_factor)
         self._holds_peak = holds and len(car.torque_curve_nm) >= 2
         # the weight on the front axle is the CG's share of the wheelbase behind it
-        self._cg_to_rear_m = car.front_weight_share * 0.6 * car.length_m
+        # (in this order: the product rounds as the robot's measured figures had it)
+        self._cg_to_rear_m = car.front_weight_share * STEERING_WHEELBASE_SHARE * car.length_m
         self._axles = drive_axles(car)
         self._drive_radius_m = car.wheel_radius_fr_m if car.drivetrain == FWD else car.wheel_radius_rr_m
         self.slip = SlipParams(abs_slip_mps=p.abs_slip_mps, abs_range_mps=p.abs_range_mps,
