@@ -25,7 +25,7 @@ from boxbox.cache import cached_array
 from boxbox.control import carmodel, fuel, lapsim, speed, suspension, tyre
 from boxbox.control.braking import brake_distance, brake_limited_speed
 from boxbox.control.carmodel import CarModel
-from boxbox.control.engine import engine_brake_share
+from boxbox.control.engine import engine_brake_power_w, engine_brake_share
 from boxbox.control.gears import GearBox
 from boxbox.control.offset_room import offset_room_ahead
 from boxbox.control.pit_brake import ENTRY, EXIT, FREE, GAVE_UP, HOLD, LANE, LIMIT, STOP
@@ -135,10 +135,8 @@ class TutorialRobot(Robot):
         self._prepare_line(track, car, p)
         model = CarModel.from_car(car, fuel_l=0.5 * min(car.tank_l, race_l))
         step_m, _, _, speeds, point_mass = self._simulated_lap(car, model, p, "fuel-laps")
-        brake_w = fuel.engine_brake_power_w(car.torque_curve_radps, car.torque_curve_nm, car.engine_tickover_radps,
-                                            car.engine_revs_max_radps, car.engine_brake_coeff)
         return fuel.lap_fuel_l(step_m, speeds, point_mass.mass_kg, point_mass.cw_n_per_mps2, car.fuel_cons_factor,
-                               brake_w)
+                               engine_brake_power_w(car))
 
     def _simulated_lap(self, car: Car, model: CarModel, p: TutorialParams, kind: str
                        ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, lapsim.PointMassCar]:
