@@ -299,9 +299,12 @@ def _path(value: Any, name: str | None) -> Path:
     if not isinstance(value, str | os.PathLike) or (isinstance(value, str) and not value.strip()):
         fail(f"{value!r} is not a path.", name)
     try:
-        return Path(os.path.abspath(os.path.expanduser(value)))
-    except (ValueError, TypeError):  # a NUL byte, a PathLike of bytes
+        path = Path(os.path.abspath(os.path.expanduser(value)))
+    except (ValueError, TypeError):  # a PathLike of bytes
         fail(f"{value!r} is not a path.", name)
+    if "\0" in str(path):  # no file name holds a NUL byte (and the system calls refuse it)
+        fail(f"{value!r} is not a path.", name)
+    return path
 
 
 def probe_writable(folder: Path) -> str | None:
