@@ -185,3 +185,12 @@ def test_only_files_py_renames_over_a_path():
         if source.name != "files.py" and re.search(r"\bos\.replace\(", source.read_text()):
             offenders.append(source.relative_to(SRC))
     assert offenders == []
+
+
+def test_a_file_where_the_folder_should_be_is_said(tmp_path):
+    """--json FILE/x.json with FILE a file said the folder does not exist."""
+    (tmp_path / "FILE").write_text("")
+    for value in (tmp_path / "FILE" / "x.json", tmp_path / "FILE" / "sub" / "x.json"):
+        with pytest.raises(UsageError, match=f"^Invalid value for 'json': {tmp_path / 'FILE'} is a file, not a "
+                                             "folder; give a file in a folder.$"):
+            output_file(str(value), name="json")
