@@ -5,7 +5,6 @@ option of every command is checked with each kind of path, then written as boxbo
 
 from __future__ import annotations
 
-import contextlib
 import json
 import os
 import re
@@ -22,6 +21,7 @@ from boxbox.cli.types import OutputDir, OutputFile
 from boxbox.errors import UsageError
 from boxbox.files import atomic_path, write_json_atomic, write_text_atomic
 from boxbox.validate import output_file
+from helpers import kept_device
 
 SRC = Path(__file__).resolve().parents[2] / "src" / "boxbox"
 # the output options the command line has: the walk below must find at least these
@@ -64,23 +64,6 @@ class Fifo:
         self.thread.join(timeout=10)
         assert not self.thread.is_alive(), "the writer never closed the FIFO"
         return self.read
-
-
-@contextlib.contextmanager
-def kept_device(path: str) -> Iterator[str]:
-    """Yields the device's path; after the block, fails if it is no longer the same character
-    device, and first makes it again (as root: a regression here must not break the machine)."""
-    before = os.stat(path)
-    assert stat.S_ISCHR(before.st_mode)
-    try:
-        yield path
-    finally:
-        after = os.stat(path)
-        if not stat.S_ISCHR(after.st_mode):
-            os.remove(path)
-            os.mknod(path, stat.S_IFCHR | 0o666, before.st_rdev)
-            os.chmod(path, stat.S_IMODE(before.st_mode))
-        assert stat.S_ISCHR(after.st_mode), f"{path} is no longer a character device"
 
 
 @pytest.fixture
