@@ -92,3 +92,12 @@ def test_a_huge_exception_message_is_bounded_and_the_line_points_to_the_prints(t
     assert "ValueError: xxx" in line and "characters of the message cut here" in line
     assert f"its prints are in {run_dir / 'host.log'}" in line
     assert "the robot's last words" in (run_dir / "host.log").read_text()
+
+
+def test_a_robot_that_closes_the_bridges_socket_is_said_so(tmp_path, overlay):
+    """It was reported "killed by SIGKILL" (the launcher's kill of the host at the end)."""
+    proc, _, _ = race(tmp_path, f"{FAULTY}:ClosesItsDescriptors")
+    assert proc.returncode == 4, proc.stderr
+    line = error_line(proc)
+    assert "the robot process dropped its connection to TORCS during the race" in line, line
+    assert "closes file descriptors it did not open" in line and "SIGKILL" not in line

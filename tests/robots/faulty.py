@@ -29,6 +29,15 @@ class RaisesAHugeMessage(MiddleRobot):
         return super().drive(state)
 
 
+class ClosesItsDescriptors(MiddleRobot):
+    """Closes every file descriptor it did not open, the bridge's socket among them."""
+
+    def drive(self, state):
+        if state.sim_time_s > 1.0:
+            os.closerange(3, 4096)
+        return super().drive(state)
+
+
 class RaisesInOnTrack(MiddleRobot):
     def on_track(self, track, car):
         raise RuntimeError("deliberate failure in on_track")

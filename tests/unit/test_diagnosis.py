@@ -104,3 +104,17 @@ def test_a_run_dir_keeps_hang_traceback_txt_only_when_a_hang_wrote_in_it(tmp_pat
     run_dir.hang_traceback.write_text(STUCK)
     run_dir.remove_temporaries()
     assert run_dir.hang_traceback.read_text() == STUCK
+
+
+def test_a_host_that_dropped_the_bridge_while_running_is_not_said_killed(tmp_path):
+    """A robot that closed the bridge's socket: the host ran on until the launcher killed it at
+    the end, which read as "killed by SIGKILL"."""
+    run_dir = RunDir(tmp_path)
+    run_dir.torcs_err.write_text("BOXBOX-FAULT host-gone robot=0 step=99\n")
+    end = Ending(robots=["my_robot.py:R"], names=["r 1"], step_budget_ms=200.0, setup_budget_ms=120000.0,
+                 wall_limit_s=100.0, host_code=-9, host_stopped=True)
+    line = diagnose(run_dir, end) or ""
+    assert line.startswith("the robot process dropped its connection to TORCS during the race (step 99) while "
+                           "driving robot 'my_robot.py:R' (r 1), though it still ran")
+    end.host_stopped = False  # died of a SIGKILL from outside (the OOM killer's kind): said as such
+    assert (diagnose(run_dir, end) or "").startswith("the robot process was killed by SIGKILL during the race")

@@ -43,6 +43,7 @@ class Ending:
     fault: Fault | None = None
     torcs_code: int | None = None
     host_code: int | None = None
+    host_stopped: bool = False  # the host still ran when the race was over, and the launcher killed it
 
     def who(self, robot: int) -> str:
         if 0 <= robot < len(self.robots):
@@ -120,6 +121,10 @@ def _bridge_fault(run_dir: RunDir, end: Ending, marker: re.Match) -> str:
                 "was, its host was already finishing the race): a slow step or a loaded machine; give more time " \
                 "with --step-budget-ms, or race fewer jobs at once"
         return timeout_line(who, end, step, marker) + (f"\nwhere the robot was stuck:\n{hang_tb}" if hang_tb else "")
+    if kind == "host-gone" and end.host_stopped:  # its socket closed, the process alive: not a kill from outside
+        return f"the robot process dropped its connection to TORCS during the race (step {step}) while driving " \
+            f"{who}, though it still ran (stopped at the end): a robot that closes file descriptors it did not " \
+            "open (os.closerange) cuts the bridge"
     if kind in ("host-gone", "connect"):
         how = exit_text(end.host_code) if end.host_code is not None else "ended"
         log = run_dir.read_text(run_dir.host_log).strip()
