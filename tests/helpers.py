@@ -57,3 +57,21 @@ def kept_device(path: str) -> Iterator[str]:
             os.mknod(path, stat.S_IFCHR | 0o666, before.st_rdev)
             os.chmod(path, stat.S_IMODE(before.st_mode))
         assert stat.S_ISCHR(after.st_mode), f"{path} is no longer a character device"
+
+
+VIEWPORT = {"width": 1280, "height": 1000}  # the pages' tests' browser window (CSS pixels)
+
+
+def open_page(browser, page_file: Path, ready: str | None = "window.replay && window.replay.ready"):
+    """The page loaded (and its viewer ready, unless ready is None); the list it appends console
+    errors, page errors and any request off the page's own file to."""
+    page = browser.new_page(viewport=VIEWPORT)
+    errors: list[str] = []
+    page.on("console", lambda m: errors.append(f"console {m.type}: {m.text}") if m.type == "error" else None)
+    page.on("pageerror", lambda e: errors.append(f"page error: {e}"))
+    page.on("request", lambda r: errors.append(f"request: {r.url}") if not r.url.startswith(("file:", "data:"))
+            else None)
+    page.goto(page_file.as_uri())
+    if ready:
+        page.wait_for_function(ready, timeout=30_000)
+    return page, errors
