@@ -38,6 +38,14 @@ def test_the_command_line_loads_no_heavy_library_before_a_command_runs(args):
     assert _loaded_by(args)["loaded"] == []
 
 
+def test_the_help_loads_no_rich():
+    """click prints the help; rich (a third of its time) loads with the first console output."""
+    code = ("import sys; from click.testing import CliRunner; import boxbox.cli; "
+            "CliRunner().invoke(boxbox.cli.main_group, ['--help']); print('rich' in sys.modules)")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert done.stdout.split() == ["False"], done.stderr
+
+
 def test_a_command_loads_only_its_own_module():
     assert _loaded_by(["tracks"])["cli"] == ["boxbox.cli.common", "boxbox.cli.info"]
 
