@@ -1031,9 +1031,6 @@ class TutorialRobot(Robot):
             report["rear_wing_laps_s"] = self.wing_laps_s  # the simulated lap per angle tried
         return report
 
-    def signals(self) -> dict[str, float]:
-        return {"offset_m": self.offset_m}
-
     def telemetry_fields(self) -> tuple[str, ...]:
         return ("target_speed_mps", "pit_phase", "offset_m", "reversing")
 
