@@ -124,10 +124,6 @@ class TutorialParams:
     # docs/racecraft.md session 23
     lapped_path_lane: bool = False
     lapped_own_side: bool = False  # ... passed on our side of it (for a robot moving away from us; off)
-    # plan the way through traffic: each car near predicted over 3 s from what it was seen doing, our
-    # path among sampled candidates by progress against risk (robot/planning.py), in place of the
-    # tutorial's overtaking offset (off: docs/racecraft.md, issue #51)
-    planner: bool = False
     # pit
     pit_lookahead_m: float = 6.0
     pit_mu: float = 0.4  # the seed's constant (used with pit_mu_source = "constant")

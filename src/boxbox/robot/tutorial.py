@@ -67,7 +67,6 @@ from boxbox.robot.opponents import (
 )
 from boxbox.robot.params import BOUNDS, CHOICES, TutorialParams, load_params
 from boxbox.robot.pit import PitParams, PitStops
-from boxbox.robot.planning import Road, TrafficPlanner
 from boxbox.robot.racecraft import (
     TURN_CURVATURE_1PM,
     Racecraft,
@@ -231,22 +230,11 @@ class TutorialRobot(Robot):
                                   lapped_own_side=p.lapped_own_side)
         self.craft = Racecraft(RacecraftParams(), car.width_m, car.length_m, self.tyre_model.mu)
         self.opp_lines = OpponentLines(track.length_m, OPPONENT_LINE_STEP_M)
-        self.planning = TrafficPlanner(self._road(car), track.length_m, car.width_m, car.length_m) \
-            if p.planner else None
         self._init_race_state()
         self._setup_pit(track, car, p)
         self._inv_lock = 1.0 / car.steer_lock_rad
         self.wheelbase_m = 0.6 * car.length_m  # not in the car's constants; 0.6 x length fits TORCS's cars
         self._stuck_angle = math.radians(p.stuck_angle_deg)
-
-    def _road(self, car: Car) -> Road:
-        """What the traffic planner reads of the road per sample: our line and the lateral positions our
-        centre may take, RacecraftParams.edge_m inside the track's edges (or the line, where beyond)."""
-        line = np.asarray(self.line.offset_m[: self.n], dtype=float)
-        inside = 0.5 * car.width_m + self.craft.p.edge_m
-        left = np.maximum(np.asarray(self._half_left[: self.n]) - inside, line)
-        right = np.minimum(inside - np.asarray(self._half_right[: self.n]), line)
-        return Road(self.step_m, line, left, right)
 
     def _setup_slip(self, car: Car, p: TutorialParams) -> None:
         """ABS and traction control, and what the level's tyre lets the throttle use in a turn."""
@@ -290,7 +278,6 @@ class TutorialRobot(Robot):
         self.laps_seen = 0
         self.last_damage = 0.0
         self._following, self._following_since_s = -1, 0.0  # the car close ahead in our lane, and since when
-        self._speed_share = 1.0  # the share of the speed profile the traffic planner drives at (robot/planning.py)
 
     def _prepare_line(self, track: Track, car: Car, p: TutorialParams) -> None:
         """The racing line and what the speed limits need of it per sample (once: car_setup made it
@@ -646,14 +633,9 @@ class TutorialRobot(Robot):
             passing = [c for c in self._on_our_path(cars, v)
                        if c.laps_ahead > 0 or in_lane(c, self.car.width_m, self.opp)] \
                 if self.craft.p.path_pass else cars
-            base: float | None
-            if self.planning is not None:  # the planned path (robot/planning.py) for the tutorial's offset
-                base, self._speed_share = self.planning.step(s.sim_time_s, dist, v, s.to_middle_m, self.offset_m,
-                                                             cars, self.profile.target_speeds)
-            else:
-                base = None if self.craft.p.plan_passes else \
-                    overtake_offset(self.offset_m, v, s.to_middle_m, passing, 0.5 * self.track.width_m - 1.5,
-                                    self.car.length_m, self.opp, self._held_up(s, cars, j, straight))
+            base = None if self.craft.p.plan_passes else \
+                overtake_offset(self.offset_m, v, s.to_middle_m, passing, 0.5 * self.track.width_m - 1.5,
+                                self.car.length_m, self.opp, self._held_up(s, cars, j, straight))
             turn = max(abs(self.line.curvature_at(dist + x))
                        for x in range(0, int(max(0.0, v) * self.craft.p.turn_ahead_s) + 1, 10))
             self.offset_m = self.craft.offset(s.sim_time_s, v, s.to_middle_m, cars, self.offset_m,
@@ -662,9 +644,6 @@ class TutorialRobot(Robot):
                                               self.line.curvature_at(dist))
         else:
             self._following = -1  # nobody near: a car met again is followed afresh (_held_up)
-            if self.planning is not None:
-                self.planning.reset()
-                self._speed_share = 1.0
         if not cars and self.offset_m:
             self.offset_m = max(0.0, self.offset_m - p.overtake_step_m) if self.offset_m > 0 \
                 else min(0.0, self.offset_m + p.overtake_step_m)
@@ -796,8 +775,6 @@ class TutorialRobot(Robot):
                                       self.offset_m)
         if self.wreck is not None:
             target = min(target, self.craft.p.wreck_speed_mps)
-        if self._speed_share < 1.0:  # the traffic planner waits behind (robot/planning.py)
-            target *= self._speed_share
         self.target_mps = target  # for telemetry
         if v > target:
             return min(1.0, (v - target) / p.brake_band_mps), 0.0
@@ -860,8 +837,8 @@ class TutorialRobot(Robot):
         self._abs_at_s, self._abs_brake = s.sim_time_s, 0.0
         if brake > 0.0:
             filtered = abs_filter(brake, v, spins, self.radii, self.slip)
-            # over the profile's own speed, not a target traffic lowered at once (the traffic planner's
-            # share: g-track-1 from the back, held 19 m/s over a car ahead, 118 damage against 37)
+            # over the profile's own speed, not a target traffic lowered at once (a target lowered by
+            # a share for a car ahead: g-track-1 from the back, held 19 m/s over it, 118 damage against 37)
             self._abs_brake = abs_hold(brake, filtered, last, v - self._profile_mps, self.slip)
             return self._abs_brake, 0.0
         if accel == 0.0 or v < self.slip.tcl_min_speed_mps:
