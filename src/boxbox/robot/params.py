@@ -118,11 +118,6 @@ class TutorialParams:
     # brake for a car out of control ahead (sliding more than this many degrees off its heading, or
     # crossing the road) where its slide takes it by the time we reach it (0: off; session 22)
     hazard_slip_deg: float = 0.0
-    # a car we are lapping is braked for where our line meets it, not where it is now (its rear corner
-    # was where a late pass swung out into it: a fifth of our damage).  190 field races: 6.6 % less
-    # damage, places within chance, but lapping is slower (michigan's standard race 5.9 s); off,
-    # docs/racecraft.md session 23
-    lapped_path_lane: bool = False
     lapped_own_side: bool = False  # ... passed on our side of it (for a robot moving away from us; off)
     # pit
     pit_lookahead_m: float = 6.0

@@ -54,7 +54,6 @@ from boxbox.robot.bottoming import NO_PACKER_LIMIT_MPS, packer_speed_caps
 from boxbox.robot.carsetup import best_rear_wing_rad
 from boxbox.robot.drivable import centre_room
 from boxbox.robot.learning import TurnLearner
-from boxbox.robot.opponent_lines import OpponentLines
 from boxbox.robot.opponents import (
     Nearby,
     OpponentParams,
@@ -67,14 +66,7 @@ from boxbox.robot.opponents import (
 )
 from boxbox.robot.params import BOUNDS, CHOICES, TutorialParams, load_params
 from boxbox.robot.pit import PitParams, PitStops
-from boxbox.robot.racecraft import (
-    TURN_CURVATURE_1PM,
-    Racecraft,
-    RacecraftParams,
-    conflict_time_s,
-    inside_speed_mps,
-    on_our_path,
-)
+from boxbox.robot.racecraft import TURN_CURVATURE_1PM, Racecraft, RacecraftParams, inside_speed_mps
 from boxbox.robot.racingline import RacingLine, middle_line, washboard
 from boxbox.robot.start_fuel import MODEL_MARGIN, start_fuel_l
 from boxbox.robot.strategy import OUT_DAMAGE
@@ -93,7 +85,6 @@ REVERSE_CLEAR_S = 3.0  # no backing while a car coming from behind would reach u
 FOLLOW_LENGTHS = 3.0  # a car this many of our lengths ahead (centre to centre) in our lane: we follow it
 LOCK_SHARE = 0.95  # |steer| from which the steering counts as at its lock
 LOCK_MIN_SPEED_MPS = 10.0  # below this (leaving the grid onto the line) full lock is no sign of a slide
-OPPONENT_LINE_STEP_M = 5.0  # the step other cars' lines are remembered at (a car length)
 # an overtaking offset keeps inside the room over this much road ahead (20-50 m measured: docs/racecraft.md;
 # 40 m won more field races but failed the integration race from third on g-track-1)
 OFFSET_ROOM_AHEAD_M = 30.0
@@ -229,7 +220,6 @@ class TutorialRobot(Robot):
                                   draft_mps=p.draft_mps, soft_gap_m=p.soft_gap_m, hazard_slip_deg=p.hazard_slip_deg,
                                   lapped_own_side=p.lapped_own_side)
         self.craft = Racecraft(RacecraftParams(), car.width_m, car.length_m, self.tyre_model.mu)
-        self.opp_lines = OpponentLines(track.length_m, OPPONENT_LINE_STEP_M)
         self._init_race_state()
         self._setup_pit(track, car, p)
         self._inv_lock = 1.0 / car.steer_lock_rad
@@ -541,8 +531,6 @@ class TutorialRobot(Robot):
         # not (with one behind boxbox spun out of g-track-1's turn at 1100 m, 1139 damage)
         brake, accel = self._traction(s, v, brake, accel, bool(cars) and self.offset_m != 0.0)
         accel = self._drive_room(s, v, accel)
-        if cars:  # behind a slower car: coast before the gap brake, not throttle and brake in turn
-            accel = self.craft.lift(accel, v, cars, self._brakedist)
         accel = self._guard_throttle(s, v, steer, accel)
         accel = self._release_engine_brake(s, v, brake, accel)
         gear = self.gears.select(int(s.gear), v)
@@ -616,32 +604,22 @@ class TutorialRobot(Robot):
             if s.opponents and not math.isnan(s.dist_from_start_m) else []
         self.wreck = None
         if cars:
-            if self.craft.p.learn_lines or self.craft.p.conflict_s:
-                self.opp_lines.observe(s.dist_from_start_m, cars)
             cars = self.craft.predict(s.sim_time_s, cars)
             self._back_from_wreck(s, v, cars)
             self.wreck = self._wreck_ahead(s, cars)
             dist = s.dist_from_start_m
-            self._now_s, self._dist_m, self._my_mid_m = s.sim_time_s, dist, s.to_middle_m
+            self._now_s, self._my_mid_m = s.sim_time_s, s.to_middle_m
             j = int(dist / self.step_m) % self.n
-            k = self.line.curvature_at(dist + self.craft.p.horizon_s * v) if not self.craft.p.next_turn_s \
-                else next((c for c in (self.line.curvature_at(dist + x) for x in
-                                       range(0, int(max(0.0, v) * self.craft.p.next_turn_s) + 1, 10))
-                           if abs(c) >= TURN_CURVATURE_1PM), 0.0)  # the turn we are heading for
+            k = self.line.curvature_at(dist + self.craft.p.horizon_s * v)  # the turn we are heading for
             inside = 0.0 if abs(k) < TURN_CURVATURE_1PM else math.copysign(1.0, k)
             straight = next((x for x in range(0, 400, 10) if self.profile.speed_at(dist + x) < 0.95 * v), 400)
-            passing = [c for c in self._on_our_path(cars, v)
-                       if c.laps_ahead > 0 or in_lane(c, self.car.width_m, self.opp)] \
-                if self.craft.p.path_pass else cars
-            base = None if self.craft.p.plan_passes else \
-                overtake_offset(self.offset_m, v, s.to_middle_m, passing, 0.5 * self.track.width_m - 1.5,
-                                self.car.length_m, self.opp, self._held_up(s, cars, j, straight))
+            base = overtake_offset(self.offset_m, v, s.to_middle_m, cars, 0.5 * self.track.width_m - 1.5,
+                                   self.car.length_m, self.opp, self._held_up(s, cars, j, straight))
             turn = max(abs(self.line.curvature_at(dist + x))
                        for x in range(0, int(max(0.0, v) * self.craft.p.turn_ahead_s) + 1, 10))
             self.offset_m = self.craft.offset(s.sim_time_s, v, s.to_middle_m, cars, self.offset_m,
                                               self.line.offset_at(dist), (self._half_left[j], -self._half_right[j]),
-                                              inside, straight, p.overtake_step_m, base, turn,
-                                              self.line.curvature_at(dist))
+                                              inside, p.overtake_step_m, base, turn)
         else:
             self._following = -1  # nobody near: a car met again is followed afresh (_held_up)
         if not cars and self.offset_m:
@@ -702,16 +680,6 @@ class TutorialRobot(Robot):
         off = target - self.line.offset_at(at)
         nx, ny = self._normals[j]
         return steer_to_point(s.x_m, s.y_m, s.yaw_rad, tx + off * nx, ty + off * ny, self.car.steer_lock_rad)
-
-    def _other_target(self, c: Nearby) -> float:
-        """The speed a car ahead is predicted to slow to within the horizon: our profile's lowest
-        speed over the road it covers, scaled by how much slower than the profile it drives now
-        (no less than 0.8: a car far below the profile is starting or in trouble, and held at its speed)."""
-        pos = self._dist_m + c.dist_m
-        here = max(1.0, self.profile.speed_at(pos))
-        reach = c.speed_mps * self.craft.p.horizon_s
-        lowest = min(self.profile.speed_at(pos + x) for x in range(0, int(reach) + 1, 10))
-        return min(c.speed_mps, max(0.8, min(1.0, c.speed_mps / here)) * lowest)
 
     def _steer(self, s: State, v: float) -> float:
         if self.wreck is not None:
@@ -782,52 +750,15 @@ class TutorialRobot(Robot):
         return 0.0, (1.0 if margin >= p.full_accel_margin_mps else 0.4 + 0.6 * margin / p.full_accel_margin_mps)
 
     def _avoid_collision(self, brake: float, v: float, cars: list[Nearby]) -> float:
-        """Brake for a car ahead: time-to-collision braking from the prediction (robot/racecraft.py),
-        and/or the tutorial's fixed-gap filter (RacecraftParams.brake_mode)."""
+        """Brake for a car ahead: racecraft's touch of brake for a car touching ahead
+        (robot/racecraft.py), the tutorial's fixed-gap filter and the hazard brake (robot/opponents.py)."""
         if not cars:
             return brake
-        mode = self.craft.p.brake_mode
         if self.wreck is not None:  # driven round at walking pace
             cars = [c for c in cars if c.index != self.wreck.index]
-        if self.craft.p.path_lane or self.params.lapped_path_lane:
-            cars = self._on_our_path(cars, v, lapped_only=not self.craft.p.path_lane)
-        brake = self.craft.brake(self._now_s, brake, v, cars, self._other_target, predict=mode != "gap")
-        if mode != "ttc":
-            brake = collision_brake(brake, v, cars, self.car.width_m, self.opp, self._brakedist)
-        brake = hazard_brake(brake, v, self._my_mid_m, cars, self.car.width_m, self.opp, self._brakedist)
-        if self.craft.p.conflict_s > 0.0:
-            brake = self._conflict_brake(brake, v, cars)
-        return brake
-
-    def _conflict_brake(self, brake: float, v: float, cars: list[Nearby]) -> float:
-        """Full brake for a car up to three lengths ahead, beside our lane now, whose line crosses
-        ours while we overlap (robot/racecraft.py conflict_time_s): it turns in and does not see us."""
-        length, width = self.car.length_m, self.car.width_m
-        for c in cars:
-            if 0.0 < c.dist_m < 3.0 * length and not in_lane(c, width, self.opp) and c.laps_ahead <= 0:
-                clear = 0.5 * (width + (c.width_m or width)) + 0.5
-                if conflict_time_s(c, v, length, clear, self.craft.p.conflict_s, self._line_mid_ahead,
-                                   self._their_mid_ahead) < math.inf:
-                    self.craft.mark_spoiled(self._now_s)
-                    return 1.0
-        return brake
-
-    def _on_our_path(self, cars: list[Nearby], v: float, lapped_only: bool = False) -> list[Nearby]:
-        """The cars ahead (or only those we are lapping) judged where we reach them (robot/racecraft.py
-        on_our_path)."""
-        their = self._their_mid_ahead if self.craft.p.learn_lines else None
-        return on_our_path(cars, v, self.craft.p.path_lane_s, self._line_mid_ahead, their, lapped_only)
-
-    def _their_mid_ahead(self, c: Nearby, ahead_m: float) -> tuple[float, bool]:
-        """Car c's to_middle ahead_m further along, from where it was seen there before."""
-        mid = self.opp_lines.mid_at(c.index, self._dist_m + c.dist_m + ahead_m, math.nan)
-        return (c.mid_m, False) if mid != mid else (mid, True)
-
-    def _line_mid_ahead(self, ahead_m: float) -> float:
-        """Our line's to_middle ahead_m ahead of the car, with the offset of now (inside the usable width)."""
-        at = self._dist_m + ahead_m
-        j = int(at / self.step_m) % self.n
-        return self._moved_line(j, self.line.offset_at(at)) if self.offset_m else self.line.offset_at(at)
+        brake = self.craft.brake(self._now_s, brake, v, cars)
+        brake = collision_brake(brake, v, cars, self.car.width_m, self.opp, self._brakedist)
+        return hazard_brake(brake, v, self._my_mid_m, cars, self.car.width_m, self.opp, self._brakedist)
 
     def _traction(self, s: State, v: float, brake: float, accel: float, traffic: bool) -> tuple[float, float]:
         """ABS on the brake (its bang held off far over the target: abs_hold), or traction control on
