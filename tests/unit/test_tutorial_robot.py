@@ -791,3 +791,10 @@ def test_the_learning_file_is_written_at_the_race_end_not_in_a_drive_step(tmp_pa
     robot.on_race_end(line_state(robot, 100.0, 20.0, laps=3.0))
     [saved] = tmp_path.iterdir()
     assert saved.name == "g-track-1--car1-trb1.json" and json.loads(saved.read_text())["turns"]
+
+
+def test_racecraft_parameters_are_set_like_every_other():
+    """RacecraftParams' fields are TutorialParams': --set (and setup files, tune) reach racecraft."""
+    robot, _ = build("g-track-1", robot_args={"set": {"side_gap_m": 2.0, "keep_inside": False}})
+    assert robot.craft.p.side_gap_m == 2.0 and not robot.craft.p.keep_inside
+    assert robot_for("g-track-1").craft.p.side_gap_m == 1.5  # the default

@@ -17,6 +17,7 @@ from dataclasses import dataclass, fields
 from pathlib import Path
 
 from boxbox.errors import UsageError
+from boxbox.robot.racecraft import RacecraftParams
 
 SETUPS = Path(__file__).parent / "setups"
 
@@ -28,7 +29,9 @@ def setups_dir() -> Path:
 
 
 @dataclass(frozen=True)
-class TutorialParams:
+class TutorialParams(RacecraftParams):
+    # racecraft's parameters (braking and yielding behind and beside a car, passing, wrecks) come
+    # first, from RacecraftParams (robot/racecraft.py): set like every other one
     # steering: "lookahead" = the tutorial's target point (17 m + 0.33 s x speed ahead);
     # "line" = follow the racing line (curvature feed-forward + heading and distance corrections)
     steering: str = "line"
@@ -163,6 +166,7 @@ BOUNDS = {
     "counter_lock_accel": Bound(0.0, 1.0), "lock_accel": Bound(0.0, 1.0),
     "pit_brake_mu_scale": Bound(0.1, 1.5), "pit_stop_grip_share": Bound(0.1, 1.0), "pit_mu": Bound(0.05, 2.0),
     "soft_gap_m": Bound(0.0, 10.0), "hazard_slip_deg": Bound(0.0, 90.0),
+    "margin_m": Bound(0.1, 20.0), "close_brake": Bound(0.0, 1.0), "hold_line_grip_share": Bound(0.05, 2.0),
     "learn_gain": Bound(0.0, 1.0), "learn_margin_m": Bound(0.0, 3.0), "learn_steady_error_m": Bound(0.1, 5.0),
 }
 

@@ -31,7 +31,7 @@ from boxbox.robot.bottoming import NO_PACKER_LIMIT_MPS
 from boxbox.robot.learning import TurnLearner
 from boxbox.robot.opponents import Nearby, OpponentParams
 from boxbox.robot.params import BOUNDS, CHOICES, TutorialParams, load_params
-from boxbox.robot.racecraft import Racecraft, RacecraftParams, inside_speed_mps
+from boxbox.robot.racecraft import Racecraft, inside_speed_mps
 from boxbox.robot.tutorial.plan import TrackPlan
 from boxbox.robot.tutorial.slip import WheelSlip
 from boxbox.robot.tutorial.traffic import OFFSET_ROOM_AHEAD_M, PIT_PHASE_CODES, Traffic
@@ -101,7 +101,7 @@ class TutorialRobot(TrackPlan, Traffic, Unstuck, WheelSlip, Robot):
                                   overtake_step_m=p.overtake_step_m, keep_side_s=p.keep_side_s,
                                   draft_mps=p.draft_mps, soft_gap_m=p.soft_gap_m, hazard_slip_deg=p.hazard_slip_deg,
                                   lapped_own_side=p.lapped_own_side)
-        self.craft = Racecraft(RacecraftParams(), car.width_m, car.length_m, self.tyre_model.mu)
+        self.craft = Racecraft(p, car.width_m, car.length_m, self.tyre_model.mu)
         self._init_race_state()
         self._setup_pit(track, car, p)
         self._inv_lock = 1.0 / car.steer_lock_rad
