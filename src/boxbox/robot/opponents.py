@@ -109,10 +109,14 @@ def nearby(state: State, length_m: float, track_length_m: float, back_range_m: f
     return out
 
 
-def in_lane(c: Nearby, width_m: float, p: OpponentParams) -> bool:
-    """Whether car c is in our lane: its centre within our width plus the side margin of ours (the
-    tutorial's lane, for braking for it and for following it)."""
-    return abs(c.lateral_m) < width_m + p.side_margin_m
+def in_lane(c: Nearby, width_m: float, margin_m: float, half_widths: bool = False) -> bool:
+    """Whether car c is in our lane, the one test every filter asks: its centre within our width plus
+    margin_m of ours (the tutorial's lane, with OpponentParams.side_margin_m: the fixed-gap brake,
+    following), or with half_widths, its side within margin_m of ours (half of both widths apart
+    plus margin_m, its width ours when unknown: racecraft's touch of brake and wrecks,
+    RacecraftParams.lane_m)."""
+    reach_m = 0.5 * (width_m + (c.width_m or width_m)) if half_widths else width_m
+    return abs(c.lateral_m) < reach_m + margin_m
 
 
 def gap_too_short(need_m: float, gap_m: float, p: OpponentParams) -> bool:
@@ -127,7 +131,7 @@ def collision_brake(brake: float, speed_mps: float, cars: list[Nearby], width_m:
     p.soft_gap_m: the share of a full brake that slows us to its speed within the gap beyond that)."""
     want = 0.0
     for c in cars:
-        if c.dist_m > 0 and c.speed_mps < speed_mps and in_lane(c, width_m, p):
+        if c.dist_m > 0 and c.speed_mps < speed_mps and in_lane(c, width_m, p.side_margin_m):
             need = brakedist(speed_mps, c.speed_mps)
             if gap_too_short(need, c.gap_m, p):
                 if p.soft_gap_m <= 0.0:

@@ -33,7 +33,7 @@ from dataclasses import dataclass, replace
 
 from boxbox.control.traffic import pass_side, room
 from boxbox.model.constants import G_MPS2
-from boxbox.robot.opponents import Nearby
+from boxbox.robot.opponents import Nearby, in_lane
 
 TURN_CURVATURE_1PM = 1.0 / 300.0  # the line curves more than this: a turn whose inside counts
 
@@ -223,7 +223,7 @@ class Racecraft:
         p = self.p
         near = [c for c in cars if -self.length_m < c.dist_m < reach_lengths * self.length_m
                 and c.speed_mps < p.stopped_mps
-                and abs(c.lateral_m) < 0.5 * (self.width_m + (c.width_m or self.width_m)) + p.lane_m]
+                and in_lane(c, self.width_m, p.lane_m, half_widths=True)]
         return min(near, key=lambda c: c.dist_m, default=None)
 
     def blocking(self, v: float, cars: list[Nearby]) -> Nearby | None:
@@ -250,7 +250,7 @@ class Racecraft:
         p = self.p
         want = 0.0
         for c in cars:
-            if c.dist_m <= 0.0 or abs(c.lateral_m) >= 0.5 * (self.width_m + (c.width_m or self.width_m)) + p.lane_m:
+            if c.dist_m <= 0.0 or not in_lane(c, self.width_m, p.lane_m, half_widths=True):
                 continue
             if c.gap_m < p.margin_m and c.speed_mps <= v + p.close_opening_mps:
                 want = max(want, p.close_brake * (1.0 - max(0.0, c.gap_m) / p.margin_m))

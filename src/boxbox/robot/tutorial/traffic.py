@@ -105,7 +105,7 @@ class Traffic(Robot):
         if not self._alone_mps or (self.params.draft_last_lap and s.laps < s.total_laps):
             return 0.0
         reach_m = FOLLOW_LENGTHS * self.car.length_m
-        ahead = [c for c in cars if 0.0 < c.dist_m < reach_m and in_lane(c, self.car.width_m, self.opp)]
+        ahead = [c for c in cars if 0.0 < c.dist_m < reach_m and in_lane(c, self.car.width_m, self.opp.side_margin_m)]
         index = min(ahead, key=lambda c: c.dist_m).index if ahead else -1
         if index != self._following:
             self._following, self._following_since_s = index, s.sim_time_s
