@@ -1,4 +1,5 @@
-"""Opponent filters (boxbox.robot.opponents) on hand-built States: plain numbers and braking physics."""
+"""Opponent filters (boxbox.robot.opponents) and the brakes behind a car (boxbox.robot.behind) on
+hand-built States: plain numbers and braking physics."""
 
 import math
 from dataclasses import replace
@@ -7,14 +8,12 @@ import pytest
 
 from boxbox.model import Opponent, State
 from boxbox.model.state import CAR_STATE_DNF, CAR_STATE_FINISH, CAR_STATE_PIT
+from boxbox.robot.behind import collision_brake, hazard_brake, out_of_control
 from boxbox.robot.opponents import (
     Nearby,
     OpponentParams,
-    collision_brake,
-    hazard_brake,
     in_lane,
     nearby,
-    out_of_control,
     overtake_offset,
     side_steer,
     track_velocity_mps,

@@ -17,8 +17,8 @@ exactly as without it.  Per step:
   way on the inside of the coming turn (a car within commit_lengths ahead, moved aside towards the
   inside) is not called back to the line (keep_inside), and drives at the speed of the inside's
   tighter radius (inside_speed): without it a faster car never got by a slower one in a turn.
-- `brake`: a touch of brake for a car touching ahead in our lane, unless it pulls away (the
-  tutorial's fixed-gap filter, robot/opponents.py `collision_brake`, does the rest).
+- `brake`: a touch of brake for a car touching ahead in our lane, unless it pulls away
+  (robot/behind.py `touch_brake`, beside the tutorial's fixed-gap filter).
 - `blocking` / `wreck_target`: stopped behind a stopped car in our lane (a wreck) for blocked_s,
   the robot backs away blocked_back_lengths car lengths and then drives round it (and any other
   stopped car in its way for wreck_s) at wreck_speed_mps, up to the track's edge, not braking for it.
@@ -33,6 +33,7 @@ from dataclasses import dataclass, replace
 
 from boxbox.control.traffic import pass_side, room
 from boxbox.model.constants import G_MPS2
+from boxbox.robot.behind import touch_brake
 from boxbox.robot.opponents import Nearby, in_lane
 
 TURN_CURVATURE_1PM = 1.0 / 300.0  # the line curves more than this: a turn whose inside counts
@@ -245,15 +246,9 @@ class Racecraft:
 
     # --- braking for the car ahead --------------------------------------------------------------
     def brake(self, now_s: float, brake: float, v: float, cars: list[Nearby]) -> float:
-        """brake, raised for a car ahead in our lane closer than the margin: a lift or a touch of
-        brake, unless it is faster than us by close_opening_mps."""
-        p = self.p
-        want = 0.0
-        for c in cars:
-            if c.dist_m <= 0.0 or not in_lane(c, self.width_m, p.lane_m, half_widths=True):
-                continue
-            if c.gap_m < p.margin_m and c.speed_mps <= v + p.close_opening_mps:
-                want = max(want, p.close_brake * (1.0 - max(0.0, c.gap_m) / p.margin_m))
+        """brake, raised by robot/behind.py's touch_brake for a car touching ahead (the step is then
+        shaped by traffic: spoiled for the learner)."""
+        want = touch_brake(v, cars, self.width_m, self.p)
         if want <= 0.0:
             return brake
         self.mark_spoiled(now_s)

@@ -13,16 +13,8 @@ from boxbox.control.steering import steer_to_point
 from boxbox.model import State
 from boxbox.model.constants import DRIVE_STEP_S
 from boxbox.robot.base import Robot
-from boxbox.robot.opponents import (
-    Nearby,
-    OpponentParams,
-    collision_brake,
-    hazard_brake,
-    in_lane,
-    nearby,
-    overtake_offset,
-    side_steer,
-)
+from boxbox.robot.behind import collision_brake, hazard_brake
+from boxbox.robot.opponents import Nearby, OpponentParams, in_lane, nearby, overtake_offset, side_steer
 from boxbox.robot.params import TutorialParams
 from boxbox.robot.pit import PitStops
 from boxbox.robot.racecraft import TURN_CURVATURE_1PM, Racecraft
