@@ -2,7 +2,7 @@
 chain calls them in turn once a step with the cars near: robot/tutorial/traffic.py `_avoid_collision`).
 
 - `touch_brake`: racecraft's lift or touch of brake for a car in our lane closer than
-  RacecraftParams.margin_m, unless it pulls away (close_opening_mps);
+  BehindParams.margin_m, unless it pulls away (close_opening_mps);
 - `collision_brake`: the tutorial's fixed-gap filter, a full brake when the gap to a slower car in
   our lane is within our braking distance to its speed plus OpponentParams.length_margin_m;
 - `hazard_brake`: a full brake for a car out of control ahead whose slide crosses our lane before
@@ -13,15 +13,28 @@ chain calls them in turn once a step with the cars near: robot/tutorial/traffic.
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from dataclasses import dataclass
 
 from boxbox.robot.opponents import Nearby, OpponentParams, in_lane
 
-if TYPE_CHECKING:
-    from boxbox.robot.racecraft import RacecraftParams
+
+@dataclass(frozen=True)
+class BehindParams:
+    """racecraft's brake behind a car (RacecraftParams, and so TutorialParams, extend it: setup
+    files, --set and tune reach it); the fixed-gap filter's are OpponentParams'."""
+
+    margin_m: float = 2.0  # bumper gap kept to the car ahead
+    close_brake: float = 0.5  # the brake with a car ahead in our lane touching (less as the gap grows)
+    # ... unless it is faster than us by more than this (it pulls away): braking then only cost the exit
+    # behind it (aalborg at 820 m, every lap: 18 m/s braking 0.2 behind tita:3 at 22, 30 m lost by
+    # the next braking zone).  190 field races: 443 places with the brake whatever its speed, 343
+    # with 1 m/s, 316 with 0, and the same races with -1: a slower car this close gets the fixed-gap
+    # filter's full brake anyway (docs/racecraft.md)
+    close_opening_mps: float = 0.0
+    lane_m: float = 1.0  # a car ahead overlapping our width plus this is in our lane (brake for it)
 
 
-def touch_brake(v: float, cars: list[Nearby], width_m: float, p: RacecraftParams) -> float:
+def touch_brake(v: float, cars: list[Nearby], width_m: float, p: BehindParams) -> float:
     """The brake for the closest car ahead in our lane (its side within p.lane_m of ours) closer
     than p.margin_m bumper to bumper: p.close_brake touching, less as the gap grows, none for a car
     faster than us by more than p.close_opening_mps (it pulls away)."""

@@ -33,27 +33,19 @@ from dataclasses import dataclass, replace
 
 from boxbox.control.traffic import pass_side, room
 from boxbox.model.constants import G_MPS2
-from boxbox.robot.behind import touch_brake
+from boxbox.robot.behind import BehindParams, touch_brake
 from boxbox.robot.opponents import Nearby, in_lane
 
 TURN_CURVATURE_1PM = 1.0 / 300.0  # the line curves more than this: a turn whose inside counts
 
 
 @dataclass(frozen=True)
-class RacecraftParams:
+class RacecraftParams(BehindParams):
+    # the brake behind a car's first (robot/behind.py BehindParams), then passing, side by side, wrecks
     horizon_s: float = 2.0  # the turn whose inside counts: the line's curvature this many seconds ahead
-    margin_m: float = 2.0  # bumper gap kept to the car ahead
-    close_brake: float = 0.5  # the brake with a car ahead in our lane touching (less as the gap grows)
-    # ... unless it is faster than us by more than this (it pulls away): braking then only cost the exit
-    # behind it (aalborg at 820 m, every lap: 18 m/s braking 0.2 behind tita:3 at 22, 30 m lost by
-    # the next braking zone).  190 field races: 443 places with the brake whatever its speed, 343
-    # with 1 m/s, 316 with 0, and the same races with -1: a slower car this close gets the fixed-gap
-    # filter's full brake anyway (docs/racecraft.md)
-    close_opening_mps: float = 0.0
     # lateral gap kept to a car alongside: with the inside pass kept through the turn, 1 m let boxbox
     # touch bt:2 passing it on g-track-1's first lap (third of three, 931 damage; 1.5 m: first, none)
     side_gap_m: float = 1.5
-    lane_m: float = 1.0  # a car ahead overlapping our width plus this is in our lane (brake for it)
     edge_m: float = 1.0  # our centre this far inside the track's edge beyond half our width
     side_push_rad_per_m: float = 0.3  # steering away from a car alongside closer than the side margin
     hold_line_grip_share: float = 0.5  # a turn ahead needing this share of the grip at our speed: back to the line
