@@ -400,7 +400,9 @@ CSS = """
 body { font-family: system-ui, -apple-system, "Segoe UI", Roboto, "DejaVu Sans", sans-serif; margin: 1.5em auto;
        max-width: 1100px; color: #222; padding: 0 1em; }
 h1 { margin-bottom: 0.2em; } h2 { border-bottom: 1px solid #ccc; padding-bottom: 0.2em; margin-top: 1.6em; }
-.meta { color: #555; } .error { background: #fde8e8; border: 1px solid #d62728; padding: 0.6em; white-space: pre-wrap; }
+.meta { color: #555; } .error { background: #fde8e8; border: 1px solid #d62728; padding: 0.6em; }
+.error pre { font-family: ui-monospace, "DejaVu Sans Mono", Menlo, Consolas, monospace; white-space: pre-wrap;
+             margin: 0.4em 0 0; font-size: 0.9em; }
 .note { color: #555; font-size: 0.9em; }
 table { border-collapse: collapse; margin: 0.8em 0; font-size: 0.9em; }
 th, td { border: 1px solid #ccc; padding: 0.25em 0.6em; text-align: left; }
@@ -532,7 +534,7 @@ def build_report(run_dir: Path, limit: tuple[np.ndarray, np.ndarray] | None = No
              f"<p class='meta'>Wall time {r.get('wall_s', 0):.2f} s · run dir <code>{html.escape(str(run_dir))}</code> "
              f"· report made {time.strftime('%Y-%m-%d %H:%M:%S')}</p>"]
     if r.get("error"):
-        parts.append(f"<div class='error'><b>The race stopped early:</b> {html.escape(r['error'])}</div>")
+        parts.append(f"<div class='error'><b>The race stopped early:</b><pre>{html.escape(r['error'])}</pre></div>")
     parts += ["<h2>Results</h2>", _results_table(r), _replay_section(run_dir), "<h2>Lap times</h2>"]
     fig = fig_lap_times(drivers)
     if fig is not None:
