@@ -116,12 +116,13 @@ class TutorialParams(RacecraftParams):
     draft_straight_m: float = 0.0  # ... with this much road before the next braking zone (400: none in sight)
     draft_last_lap: bool = False  # ... on the last lap only (a finish in a car's slipstream: 0.1-0.2 s behind it)
     # the fixed-gap brake as the share of a full brake that slows us to the car's speed before the gap
-    # is down to this many metres (0: the tutorial's full brake; docs/racecraft.md, session 22)
+    # is down to this many metres (0: the tutorial's full brake; 1 m in 190 field races: +11 places,
+    # +24 % damage, docs/racecraft.md's table)
     soft_gap_m: float = 0.0
     # brake for a car out of control ahead (sliding more than this many degrees off its heading, or
-    # crossing the road) where its slide takes it by the time we reach it (0: off; session 22)
+    # crossing the road) where its slide takes it by the time we reach it (0: off; docs/racecraft.md's table)
     hazard_slip_deg: float = 0.0
-    lapped_own_side: bool = False  # ... passed on our side of it (for a robot moving away from us; off)
+    lapped_own_side: bool = False  # a car we lap passed on our side of it (for a robot moving away from us; off)
     # pit
     pit_lookahead_m: float = 6.0
     pit_mu: float = 0.4  # the seed's constant (used with pit_mu_source = "constant")

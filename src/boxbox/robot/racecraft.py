@@ -88,7 +88,7 @@ def converging(cars: list[Nearby], rates_mps: list[float], ahead_s: float) -> li
             c = replace(c, lateral_m=moved, mid_m=c.mid_m + shift)
         elif moved * c.lateral_m <= 0.0 and c.lateral_m:
             # predicted across us: at our centre, on the side it is on (mid_m exactly ours made room()
-            # take a car on our right for one on our left and steer us into it; docs/racecraft.md, session 16)
+            # take a car on our right for one on our left and steer us into it; docs/racecraft.md's table)
             side = math.copysign(1e-3, c.lateral_m)
             c = replace(c, lateral_m=side, mid_m=c.mid_m - c.lateral_m + side)
         out.append(c)
