@@ -394,7 +394,7 @@ class Race:
 
     def _stop_processes(self) -> None:
         kill_group(self.torcs)
-        kill_group(self.host)
+        kill_group(self.host, tree=True)
         if self.torcs is not None and self.torcs.stdout is not None:
             self.torcs.stdout.close()
         if self.reports is not None:

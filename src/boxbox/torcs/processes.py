@@ -3,9 +3,13 @@
 TORCS and the robot host are pinned to one core (they strictly alternate, so this costs nothing
 and makes the socket round trip ~15x cheaper), die with the launcher (PR_SET_PDEATHSIG), run in
 sessions of their own and are killed by process group at the end.  Processes a robot starts may
-leave both (a new session, a double fork): the launcher is their child subreaper for the race, so
-orphans come to it instead of init, and `ChildSweep` kills every process of the race still alive at
-the end (psutil: the launcher's new descendants that carry the race's BOXBOX_RUN_DIR).
+leave both (a new session, a double fork).  The forked robot host is their child subreaper, so they
+stay its descendants however they fork, and it ends them as it ends (`end_descendants`); the
+launcher ends them too when it has to kill the host (`kill_group(tree=True)`).  Behind that, the
+launcher is the child subreaper of the whole race, and `ChildSweep` kills every process of the race
+still alive at the end (psutil: the launcher's new descendants that carry the race's
+BOXBOX_RUN_DIR; a daemon forked from the host without an exec has the launcher's environment, not
+the race's, so this alone let it live on).
 """
 
 from __future__ import annotations
@@ -93,6 +97,7 @@ def _host_child(spec_path: Path, log_fd: int, cpu: int | None) -> None:
     code = 1
     try:
         os.setsid()
+        _libc.prctl(PR_SET_CHILD_SUBREAPER, 1)  # what the robot starts stays below the host (end_descendants)
         signal.set_wakeup_fd(-1)  # the launcher's stop signals are not the host's
         for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
             signal.signal(sig, signal.SIG_DFL)
@@ -114,7 +119,10 @@ def _host_child(spec_path: Path, log_fd: int, cpu: int | None) -> None:
         try:
             code = host.main([str(spec_path)])
         finally:
-            atexit._run_exitfuncs()  # a robot's own exit handlers run, as in a fresh interpreter
+            try:
+                atexit._run_exitfuncs()  # a robot's own exit handlers run, as in a fresh interpreter
+            finally:
+                end_descendants()
     except BaseException:  # noqa: BLE001  (anything here must end the child, reported)
         import traceback
 
@@ -127,12 +135,30 @@ def _host_child(spec_path: Path, log_fd: int, cpu: int | None) -> None:
             os._exit(code)
 
 
-def kill_group(proc: subprocess.Popen | ForkedHost | None) -> None:
-    """Kill a child and its process group (it leads a session of its own), and reap it."""
+def end_descendants(wait_s: float = 2.0) -> None:
+    """Kill every descendant of this process (the host's: all the robot started) and reap them."""
+    procs = psutil.Process().children(recursive=True)
+    for proc in procs:
+        with contextlib.suppress(psutil.NoSuchProcess):
+            proc.kill()
+    psutil.wait_procs(procs, timeout=wait_s)
+
+
+def kill_group(proc: subprocess.Popen | ForkedHost | None, tree: bool = False) -> None:
+    """Kill a child and its process group (it leads a session of its own), and reap it; with tree,
+    also every descendant it had (a forked host is their child subreaper: they are all below it
+    until it dies, then they would be orphans without a mark of the race)."""
     if proc is None:
         return
+    below: list[psutil.Process] = []
+    if tree and proc.poll() is None:
+        with contextlib.suppress(psutil.Error):
+            below = psutil.Process(proc.pid).children(recursive=True)
     with contextlib.suppress(ProcessLookupError, PermissionError):
         os.killpg(proc.pid, signal.SIGKILL)
+    for child in below:
+        with contextlib.suppress(psutil.Error):
+            child.kill()
     with contextlib.suppress(subprocess.TimeoutExpired):
         proc.wait(timeout=5)
 
