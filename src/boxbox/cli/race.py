@@ -86,10 +86,10 @@ def race(track, car, laps, robots, opponents, fuel_laps, pit_laps, pit_mode, jso
     from boxbox.torcs import checks, launch
 
     specs = list(robots) or [DEFAULT_ROBOT]
-    values = {**_setup_values(setup_file, specs), **parse_set(settings)}
+    values = {**_setup_values(setup_file, specs, setup_budget_s), **parse_set(settings)}
     options = RaceOptions(fuel_laps=fuel_laps, pit_laps=tuple(sorted(pit_laps)), pit_mode=pit_mode,
                           robot_args={"set": values} if values else {})
-    names = checks.check_robots(specs, options, track, car)
+    names = checks.check_robots(specs, options, track, car, setup_budget_s)
     overlay = ready()  # first: on a fresh machine the names below can only be checked once TORCS is there
     category, opp = checks.check_race(track, car, len(specs), opponents, pit_laps, laps)
     grid_slot = checks.check_grid_position(grid_position, len(opp))
@@ -101,7 +101,7 @@ def race(track, car, laps, robots, opponents, fuel_laps, pit_laps, pit_mode, jso
     _finish(run_with_progress(cfg, overlay, quiet or verbose), laps, report_dir)
 
 
-def _setup_values(setup_file: Path | None, specs: list[str]) -> dict:
+def _setup_values(setup_file: Path | None, specs: list[str], budget_s: float) -> dict:
     """--setup FILE's values, checked against the robots that declare parameters."""
     if setup_file is None:
         return {}
@@ -109,7 +109,7 @@ def _setup_values(setup_file: Path | None, specs: list[str]) -> dict:
     from boxbox.robot.tunable import check_setup_for, read_setup
 
     values = read_setup(setup_file)
-    check_setup_for([load_robot_class(s) for s in specs], values, str(setup_file))
+    check_setup_for([load_robot_class(s, budget_s) for s in specs], values, str(setup_file))
     return values
 
 

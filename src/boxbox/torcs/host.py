@@ -248,7 +248,7 @@ class Host:
         self.pit_laps = options.pit_laps
         self.slots: list[Slot] = []
         for entry in spec["robots"]:
-            cls = load_robot_class(entry["spec"])
+            cls = load_robot_class(entry["spec"], isolated=False)  # the host is the robot's own process
             self.slots.append(Slot(robot=cls(options), spec=entry["spec"], name=entry["name"]))
         if spec.get("telemetry", True):
             for i, slot in enumerate(self.slots):
