@@ -82,6 +82,21 @@ class Slot:
     lost_since_s: float | None = None  # when TORCS lost every car still racing (every_car_lost)
 
 
+class CallAbandoned(BaseException):
+    """The launcher gave up on the robot call the host is in (SIGUSR2, after the bridge stopped the
+    race for a call past its budget): the host leaves it, and ends the race as in any ending, with
+    each robot's on_race_end (docs/robots.md promises it once in every ending)."""
+
+
+_ABANDON_ARMED = [False]  # SIGUSR2 raises CallAbandoned only while the host serves the bridge
+
+
+def _abandon(signum: int, frame) -> None:
+    if _ABANDON_ARMED[0]:
+        _ABANDON_ARMED[0] = False  # once: on_race_end that follows runs to its end
+        raise CallAbandoned
+
+
 class RobotFault(Exception):
     """A robot call went wrong; the host turns it into a `Fault` record naming the car."""
 
@@ -299,12 +314,24 @@ class Host:
         """A robot call: any exception, or its sys.exit(), becomes a RobotFault naming the call."""
         try:
             return fn(*args)
+        except CallAbandoned:
+            raise
         except BaseException as exc:  # noqa: BLE001  (a robot's SystemExit is its fault too)
             raise RobotFault.from_exception(exc, f"in {where}") from exc
 
     # --- the loop ------------------------------------------------------------------------
     def serve(self, conn: socket.socket) -> None:
-        """Answer the bridge until it closes the connection."""
+        """Answer the bridge until it closes the connection, or the launcher abandons the call the
+        host is in (CallAbandoned)."""
+        _ABANDON_ARMED[0] = True
+        try:
+            self._serve(conn)
+        except CallAbandoned:
+            pass
+        finally:
+            _ABANDON_ARMED[0] = False
+
+    def _serve(self, conn: socket.socket) -> None:
         buf = self.buf
         header = wire.HEADER.unpack_from
         forked = _FORKED
@@ -394,6 +421,8 @@ class Host:
             slot.start_fuel_l = state.fuel_l
         try:
             c = slot.robot.drive(state)
+        except CallAbandoned:
+            raise
         except BaseException as exc:  # noqa: BLE001  (a robot's SystemExit is its fault too)
             raise RobotFault.from_exception(exc, f"in drive, step {step}, t={state.sim_time_s:.2f} s") from exc
         problem = c.problem(slot.max_gear) if type(c) is Controls else \
@@ -673,6 +702,7 @@ def main(argv: list[str]) -> int:
     os.environ["BOXBOX_RUN_DIR"] = str(run_dir)  # robots may keep files of their race here
     hang_file = open(run_dir.hang_traceback, "w")  # noqa: SIM115  (open for the process's life)
     faulthandler.register(signal.SIGUSR1, file=hang_file, all_threads=False)
+    signal.signal(signal.SIGUSR2, _abandon)
     listener = socket.socket(fileno=int(spec["listen_fd"]))
     try:
         host = Host(spec, link)

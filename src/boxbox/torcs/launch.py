@@ -364,11 +364,22 @@ class Race:
         hung = self.host is not None and "BOXBOX-FAULT timeout" in self.run_dir.read_text(self.run_dir.torcs_err)
         if hung:
             self._dump_hang()  # now, while the robot is still stuck where it hung
-        if self.reports is not None:
-            # a host that never got a connection waits in accept: no reason to wait for it
-            quick = not self.reports.connected or hung or self.timed_out
-            if not self.reports.drain(1.0 if quick else 30.0 if self.cfg.telemetry else 3.0):
-                self._dump_hang()
+        if self.reports is None:
+            return
+        if not self.reports.connected:  # a host that never got a connection waits in accept
+            self.reports.drain(1.0)
+        elif hung or self.timed_out:  # the host leaves the call it is stuck in, then calls on_race_end
+            self._abandon_call()
+            self.reports.drain(self.cfg.setup_budget_ms / 1000 + 1.0)
+        elif not self.reports.drain(30.0 if self.cfg.telemetry else 3.0):
+            self._dump_hang()
+
+    def _abandon_call(self) -> None:
+        """Tell a live host to leave the robot call it is stuck in (SIGUSR2: torcs/host.py), so
+        that it ends the race with each robot's on_race_end, as in every other ending."""
+        if self.host is not None and self.host.poll() is None:
+            with contextlib.suppress(ProcessLookupError):
+                self.host.send_signal(signal.SIGUSR2)
 
     def _dump_hang(self) -> None:
         """Ask a live host to write where it is stuck (faulthandler on SIGUSR1), once: asked again
