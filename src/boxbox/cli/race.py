@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 
@@ -23,7 +24,10 @@ from boxbox.cli.types import (
     skill_level_option,
     step_budget_option,
 )
-from boxbox.errors import UsageError
+from boxbox.errors import Interrupted, UsageError
+
+if TYPE_CHECKING:
+    from boxbox.torcs.signals import StopSignals
 
 SET_HELP = ("Set a parameter of the robots that declare it (see `boxbox params --robot SPEC`), "
             "e.g. --set mu_scale=0.9. Repeatable.")
@@ -84,6 +88,7 @@ def race(track, car, laps, robots, opponents, fuel_laps, pit_laps, pit_mode, jso
     from boxbox.robot.loader import DEFAULT_ROBOT
     from boxbox.robot.params import parse_set
     from boxbox.torcs import checks, launch
+    from boxbox.torcs.signals import StopSignals
 
     specs = list(robots) or [DEFAULT_ROBOT]
     values = {**_setup_values(setup_file, specs, setup_budget_s), **parse_set(settings)}
@@ -98,7 +103,8 @@ def race(track, car, laps, robots, opponents, fuel_laps, pit_laps, pit_mode, jso
                             setup_budget_ms=int(setup_budget_s * 1000), telemetry=not no_telemetry,
                             skill_level=skill_level, grid_position=grid_slot, learning=learning,
                             json_file=json_file, verbose=verbose)  # the race writes RUN_DIR/result.json, then this
-    _finish(run_with_progress(cfg, overlay, quiet or verbose), laps, report_dir)
+    with StopSignals() as stop:  # a Ctrl-C after the finish: the table and report first, then exit 130
+        _finish(run_with_progress(cfg, overlay, quiet or verbose), laps, report_dir, stop)
 
 
 def _setup_values(setup_file: Path | None, specs: list[str], budget_s: float) -> dict:
@@ -114,9 +120,10 @@ def _setup_values(setup_file: Path | None, specs: list[str], budget_s: float) ->
 
 
 
-def _finish(result, laps: int, report_dir: Path | None) -> None:
+def _finish(result, laps: int, report_dir: Path | None, stop: StopSignals) -> None:
     """The table and the report (also for a race stopped by a fault), then the verdict (the race has
-    written its JSON: RUN_DIR/result.json, then --json)."""
+    written its JSON: RUN_DIR/result.json, then --json); a stop signal that came after the race's
+    result was made is said last, as Interrupted (130)."""
     from boxbox.report.tables import results_table
     from boxbox.torcs.pitwatch import NOT_ASKED
 
@@ -140,6 +147,9 @@ def _finish(result, laps: int, report_dir: Path | None) -> None:
         if d.step_us_median is not None:
             err.print(f"[dim]{d.name}: drive step median {d.step_us_median:.1f} us, "
                       f"p99 {d.step_us_p99:.1f} us; run dir {result.run_dir}[/]")
+    if stop.stopped:
+        raise Interrupted(f"interrupted ({stop.names()}) after the race ended; its results are kept, "
+                          f"shown above (run dir {result.run_dir})")
 
 
 def _write_report(run_dir: Path, report_dir: Path) -> None:
