@@ -138,12 +138,12 @@ def lap_known(run_dir: Path, timeout: float = 30.0) -> bool:
     return True
 
 
-def wait_for(predicate, timeout: float) -> bool:
+def wait_for(predicate, timeout: float, poll_s: float = 0.05) -> bool:
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
         if predicate():
             return True
-        time.sleep(0.05)
+        time.sleep(poll_s)
     return False
 
 
@@ -281,9 +281,7 @@ def test_ctrl_c_just_after_the_finish_keeps_the_table_report_and_says_130(moment
                       "--report", str(report))
     ready = (lambda: lap_done(run_dir)) if moment == "last-lap-done" else (run_dir / "result.json").exists
     try:
-        deadline = time.monotonic() + 90
-        while not ready() and proc.poll() is None and time.monotonic() < deadline:
-            time.sleep(0.002)
+        wait_for(lambda: ready() or proc.poll() is not None, 90, poll_s=0.002)
         proc.send_signal(signal.SIGINT)
         out, err = proc.communicate(timeout=60)
     finally:
