@@ -158,6 +158,16 @@ def test_daemons_a_robot_double_forks_end_with_the_race(tmp_path, overlay):
     assert processes_mentioning("300.25") == []  # the exec'd one
 
 
+def test_a_robot_past_its_memory_limit_is_one_clear_fault(tmp_path, overlay):
+    """3 GiB mapped with --memory-limit 1: a MemoryError in the robot (RLIMIT_AS on the host), said
+    as the robot's excess, instead of the machine's memory running out and the OOM killer's SIGKILL."""
+    proc = run_boxbox("race", "--track", "g-track-1", "--laps", "1", "--robot", f"{HOSTILE}:TakesTooMuchMemory",
+                      "--memory-limit", "1", "--quiet", "--no-telemetry", "--run-dir", str(tmp_path / "run"))
+    assert proc.returncode == 4, proc.stderr
+    assert "failed: the robot used more than 1 GiB of memory (in drive, step" in error_line(proc)
+    assert "give it more with --memory-limit" in error_line(proc)
+
+
 def test_a_robot_within_its_step_budget_is_never_stopped_for_being_slow(tmp_path, overlay):
     """Case 12: 4 ms of every step with a 50 ms budget, a whole race: the wall limit is derived
     from the budget, so it cannot cut the race short. (A 20 ms budget was too close on a busy

@@ -141,3 +141,14 @@ class StartsDaemons(MiddleRobot):
                     os._exit(0)
                 os.wait()
         return super().drive(state)
+
+
+class TakesTooMuchMemory(MiddleRobot):
+    """Maps 3 GiB after a second of racing (numpy.empty: reserved, never touched, so no memory is used)."""
+
+    def drive(self, state):
+        if state.sim_time_s > 1.0:
+            import numpy as np
+
+            self.hoard = np.empty(3 << 30, dtype=np.uint8)
+        return super().drive(state)

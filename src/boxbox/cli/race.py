@@ -51,6 +51,9 @@ SET_HELP = ("Set a parameter of the robots that declare it (see `boxbox params -
 @step_budget_option
 @click.option("--setup-budget-s", type=SETUP_BUDGET_S, default=120, show_default=True,
               help="Wall time a robot may take in initial_fuel_l, on_track, pit_stop or on_race_end.")
+@click.option("--memory-limit", "memory_limit_gib", type=FiniteFloatRange(0.1, 1024), default=4, show_default=True,
+              help="Memory (GiB of address space) the robots may take beyond what their process starts with; "
+                   "more is the robot's fault, said in one line, e.g. --memory-limit 8.")
 @click.option("--set", "settings", multiple=True, metavar="KEY=VALUE", help=SET_HELP)
 @click.option("--setup", "setup_file", type=InputFile(),
               help="Robot parameters from a TOML setup file (`name = value` lines, as `boxbox tune` writes); "
@@ -73,8 +76,8 @@ SET_HELP = ("Set a parameter of the robots that declare it (see `boxbox params -
 @click.option("--verbose", is_flag=True,
               help="Show what the robots print as the race runs (it is always kept in RUN_DIR/host.log).")
 def race(track, car, laps, robots, opponents, fuel_laps, pit_laps, pit_mode, json_file, step_budget_ms, settings,
-         setup_file, setup_budget_s, learning, run_dir, no_telemetry, report_dir, grid_position, skill_level, quiet,
-         verbose) -> None:
+         setup_file, setup_budget_s, memory_limit_gib, learning, run_dir, no_telemetry, report_dir, grid_position,
+         skill_level, quiet, verbose) -> None:
     """Run one race in TORCS (console mode) and print the results.
 
     \b
@@ -102,7 +105,8 @@ def race(track, car, laps, robots, opponents, fuel_laps, pit_laps, pit_mode, jso
                             opponents=opp, options=options, step_budget_ms=int(step_budget_ms), run_dir=run_dir,
                             setup_budget_ms=int(setup_budget_s * 1000), telemetry=not no_telemetry,
                             skill_level=skill_level, grid_position=grid_slot, learning=learning,
-                            json_file=json_file, verbose=verbose)  # the race writes RUN_DIR/result.json, then this
+                            json_file=json_file, verbose=verbose,
+                            memory_limit_gib=memory_limit_gib)  # the race writes RUN_DIR/result.json, then this
     with StopSignals() as stop:  # a Ctrl-C after the finish: the table and report first, then exit 130
         _finish(run_with_progress(cfg, overlay, quiet or verbose), laps, report_dir, stop)
 

@@ -88,6 +88,7 @@ class CallAbandoned(BaseException):
     each robot's on_race_end (docs/robots.md promises it once in every ending)."""
 
 
+_MEMORY_LIMIT_GIB: list[float | None] = [None]  # the robots' allowance (RaceConfig.memory_limit_gib)
 _ABANDON_ARMED = [False]  # SIGUSR2 raises CallAbandoned only while the host serves the bridge
 
 
@@ -110,6 +111,9 @@ class RobotFault(Exception):
         its sys.exit(): the robot exiting is reported as such at once, never as a hang (SystemExit
         would otherwise end the host)."""
         tb = traceback.format_exc()
+        if isinstance(exc, MemoryError) and _MEMORY_LIMIT_GIB[0] is not None:
+            return cls("exception", f"the robot used more than {_MEMORY_LIMIT_GIB[0]:g} GiB of memory ({context}); "
+                                    "give it more with --memory-limit", tb)
         if isinstance(exc, SystemExit):
             code = "" if exc.code is None else repr(exc.code)
             return cls("exit", f"the robot called sys.exit({code}) ({context})", tb)
@@ -698,6 +702,7 @@ def main(argv: list[str]) -> int:
     spec = json.loads(Path(argv[0]).read_text())
     run_dir = RunDir(spec["run_dir"])
     link = HostLink(spec.get("link_fd"))
+    _MEMORY_LIMIT_GIB[0] = spec.get("memory_limit_gib")
     os.register_at_fork(after_in_child=lambda: forked_child(link))
     os.environ["BOXBOX_RUN_DIR"] = str(run_dir)  # robots may keep files of their race here
     hang_file = open(run_dir.hang_traceback, "w")  # noqa: SIM115  (open for the process's life)

@@ -32,13 +32,29 @@ PR_GET_CHILD_SUBREAPER = 37
 _libc = ctypes.CDLL(None, use_errno=True)
 
 
-def child_setup(cpu: int | None) -> Callable[[], None]:
-    """What a race's child does first: die with the launcher, and run on the race's core."""
+def child_setup(cpu: int | None, address_space_bytes: int | None = None) -> Callable[[], None]:
+    """What a race's child does first: die with the launcher, run on the race's core, and (the robot
+    host) keep within its address space (RLIMIT_AS: past it an allocation fails, a MemoryError in
+    Python, instead of the machine running out of memory and the OOM killer choosing a victim)."""
     def setup() -> None:
         _libc.prctl(PR_SET_PDEATHSIG, signal.SIGKILL)
         if cpu is not None:
             os.sched_setaffinity(0, {cpu})
+        if address_space_bytes is not None:
+            import resource
+
+            hard = resource.getrlimit(resource.RLIMIT_AS)[1]
+            soft = address_space_bytes if hard == resource.RLIM_INFINITY else min(address_space_bytes, hard)
+            resource.setrlimit(resource.RLIMIT_AS, (soft, hard))
     return setup
+
+
+def host_address_space(memory_limit_gib: float | None) -> int | None:
+    """The robot host's address-space limit: what the launcher maps now (the forked host starts with
+    it; an exec'd one maps about as much once it has imported boxbox) plus the robots' allowance."""
+    if memory_limit_gib is None:
+        return None
+    return psutil.Process().memory_info().vms + int(memory_limit_gib * 2**30)
 
 
 def pick_cpu() -> int | None:
@@ -54,12 +70,12 @@ class ForkedHost:
     loaded the robot class to check it). BOXBOX_HOST_EXEC=1 goes back to a fresh interpreter.
     """
 
-    def __init__(self, spec_path: Path, log_fd: int, cpu: int | None) -> None:
+    def __init__(self, spec_path: Path, log_fd: int, cpu: int | None, address_space_bytes: int | None = None) -> None:
         sys.stdout.flush()
         sys.stderr.flush()
         pid = os.fork()
         if pid == 0:  # the child: never returns into the launcher's code
-            _host_child(spec_path, log_fd, cpu)
+            _host_child(spec_path, log_fd, child_setup(cpu, address_space_bytes))
         self.pid = pid
         self.returncode: int | None = None
         self.args = ["fork", "boxbox.torcs.host", str(spec_path)]
@@ -91,7 +107,7 @@ class ForkedHost:
         self.send_signal(signal.SIGKILL)
 
 
-def _host_child(spec_path: Path, log_fd: int, cpu: int | None) -> None:
+def _host_child(spec_path: Path, log_fd: int, setup: Callable[[], None]) -> None:
     """The forked host: its own session, default signals, output to the log (log_fd: the write end
     of the launcher's LogPump); then the host's main."""
     code = 1
@@ -101,7 +117,7 @@ def _host_child(spec_path: Path, log_fd: int, cpu: int | None) -> None:
         signal.set_wakeup_fd(-1)  # the launcher's stop signals are not the host's
         for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
             signal.signal(sig, signal.SIG_DFL)
-        child_setup(cpu)()
+        setup()
         null = os.open(os.devnull, os.O_RDONLY)
         os.dup2(null, 0)
         os.dup2(log_fd, 1)
