@@ -78,3 +78,13 @@ def test_a_robot_file_is_checked_in_a_child_and_named(monkeypatch):
     assert not any(getattr(m, "__file__", None) == str(ROBOTS / "import_faults.py") for m in list(sys.modules.values()))
     with pytest.raises(UsageError, match="has no class 'Mien' \\(robots there: Mine"):
         checks.check_robots([f"{ROBOTS / 'import_faults.py'}:Mien"], RaceOptions(), "g-track-1", "car1-trb1")
+
+
+def test_a_robot_import_that_leaves_a_child_behind_is_checked_at_once(monkeypatch):
+    """The child's answer is a line: a process the import forked, holding the answer's pipe open
+    for 20 s, does not hold the check (it waited for the pipe to close: the whole set-up budget)."""
+    monkeypatch.setenv("IMPORT_FAULT", "daemon")
+    started = time.monotonic()
+    assert checks.check_robots([f"{ROBOTS / 'import_faults.py'}:Mine"], RaceOptions(), "g-track-1", "car1-trb1",
+                               setup_budget_s=15) == ["middle 1"]
+    assert time.monotonic() - started < 10

@@ -65,13 +65,11 @@ def load_robot_class(spec: str, budget_s: float = IMPORT_BUDGET_S, isolated: boo
 def robot_names(specs: list[str], check: Callable[[type[Robot]], None], budget_s: float) -> list[str]:
     """Each robot's name (`cls.name`), after loading it and running check on its class: a robot
     that is not boxbox's own in a child (`in_child`), never in this process."""
-    names = []
-    for spec in specs:
-        def name_of(cls: type[Robot]) -> str:
-            check(cls)
-            return cls.name
-        names.append(name_of(_load(spec)) if _trusted(spec) else in_child(spec, name_of, budget_s))
-    return names
+    def name_of(cls: type[Robot]) -> str:
+        check(cls)
+        return cls.name
+
+    return [name_of(_load(spec)) if _trusted(spec) else in_child(spec, name_of, budget_s) for spec in specs]
 
 
 def in_child(spec: str, work: Callable[[type[Robot]], str], budget_s: float) -> str:
@@ -115,7 +113,8 @@ def _child_answer(spec: str, work: Callable[[type[Robot]], str], write_fd: int) 
             reply = {"error": str(exc)}
         except BaseException as exc:  # noqa: BLE001  (the robot's own checks failed: told as such)
             reply = {"error": f"{_what(spec)} failed its checks: {import_failure(exc)}"}
-        data = json.dumps(reply).encode()
+        # a line: its end is the answer's (a daemon the import started may hold the pipe open long after)
+        data = json.dumps(reply).encode() + b"\n"
         while data:
             data = data[os.write(write_fd, data):]
     finally:
@@ -127,7 +126,8 @@ def _child_answer(spec: str, work: Callable[[type[Robot]], str], write_fd: int) 
 
 
 def _read_answer(fd: int, budget_s: float) -> tuple[bytes, bool]:
-    """What the child wrote until it closed the pipe; (so far, True) when budget_s ran out first."""
+    """The child's answer (a line), or what it wrote before it closed the pipe; (so far, True) when
+    budget_s ran out first."""
     chunks: list[bytes] = []
     deadline = time.monotonic() + budget_s
     with selectors.DefaultSelector() as sel:
@@ -140,6 +140,8 @@ def _read_answer(fd: int, budget_s: float) -> tuple[bytes, bool]:
                 if not (chunk := os.read(fd, 65536)):
                     return b"".join(chunks), False
                 chunks.append(chunk)
+                if chunk.endswith(b"\n"):
+                    return b"".join(chunks), False
 
 
 def _ended(status: int) -> str:
