@@ -440,7 +440,7 @@ class Race:
         result.error = f"{INTERRUPTED} (run dir {self.run_dir})" if self.stop.stopped else self._diagnosis()
         if self._killed_from_outside() and result.error:
             first, nl, rest = result.error.partition("\n")
-            result.error = f"{HOST_KILLED}: race again ({first})" + nl + rest
+            result.error = f"{HOST_KILLED}; race again: {first}" + nl + rest
         self._save(result)
         return result
 
