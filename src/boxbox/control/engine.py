@@ -1,7 +1,6 @@
 """The engine as simuv2 runs it (engine.cpp): its torque curve up to the rev limit, and the brake it
-gives with the throttle closed.  One copy of these rules for the brakes' model (control/carmodel.py),
-the fuel a lap takes (control/fuel.py) and the ideal gearbox of the lap simulation
-(robot/carsetup.py)."""
+gives with the throttle closed, for the brakes' model (control/carmodel.py) and the robot's
+throttle."""
 
 from __future__ import annotations
 

@@ -14,7 +14,6 @@ from boxbox.cache import cached_array
 from boxbox.control import carmodel, fuel, lapsim, speed, suspension, tyre
 from boxbox.control.braking import brake_distance, brake_limited_speed
 from boxbox.control.carmodel import CarModel
-from boxbox.control.engine import engine_brake_power_w
 from boxbox.control.speed import SpeedProfile, allowed_speed, bump_speed, crest_speed
 from boxbox.control.trackwidth import CUT_LIMIT_CAR_WIDTHS
 from boxbox.model import Car, CarSetup, Track
@@ -62,8 +61,11 @@ class TrackPlan(Robot):
         self._prepare_line(track, car, p)
         model = CarModel.from_car(car, fuel_l=0.5 * min(car.tank_l, race_l))
         step_m, _, _, speeds, point_mass = self._simulated_lap(car, model, p, "fuel-laps")
+        brake_w = fuel.padded_engine_brake_power_w(car.torque_curve_radps, car.torque_curve_nm,
+                                                   car.engine_tickover_radps,
+                                                   car.engine_revs_max_radps, car.engine_brake_coeff)
         return fuel.lap_fuel_l(step_m, speeds, point_mass.mass_kg, point_mass.cw_n_per_mps2, car.fuel_cons_factor,
-                               engine_brake_power_w(car))
+                               brake_w)
 
     def _simulated_lap(self, car: Car, model: CarModel, p: TutorialParams, kind: str
                        ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, lapsim.PointMassCar]:
