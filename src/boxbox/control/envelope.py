@@ -124,7 +124,11 @@ def max_safe_speed_mps(gap_m: float, front_speeds: np.ndarray, step_m: float, en
     cell_mps = _cells(front_speeds)
 
     def highest(room_m: float) -> float:  # where the room is gone, no faster than the car ahead there
-        return min(entry_speed(u, max(0.0, room_m + i * step_m)) for i, u in enumerate(cell_mps))
+        most_mps = math.inf
+        for i, u_mps in enumerate(cell_mps):
+            if u_mps < most_mps:  # entry_speed(u, ...) >= u: a faster point cannot lower it
+                most_mps = min(most_mps, entry_speed(u_mps, max(0.0, room_m + i * step_m)))
+        return most_mps
 
     guess_mps = highest(gap_m)  # no reaction: too high, so its reaction metres are too many
     driven_m, _ = _reaction(guess_mps, reaction_s, accel_mps2)
