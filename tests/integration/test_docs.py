@@ -141,10 +141,18 @@ def _pitstopper(result: dict, driver: dict) -> None:
         assert abs(stop["stop_error_m"]) < 0.5, f"{driver['name']}: stopped {stop['stop_error_m']} m from its box"
 
 
+def _no_damage(result: dict, driver: dict) -> None:
+    """docs/robots.md: the keepers finish their lap without touching each other (or anything)."""
+    _finishes(result, driver)
+    assert driver["damage"] == 0, f"{driver['name']}: damage {driver['damage']}"
+
+
 # robot name (its cars are "NAME 1", ...) -> (the doc that races it, the check of each of its cars)
 CLAIMS: dict[str, tuple[str, Callable[[dict, dict], None]]] = {
     "pitstopper": ("docs/robots.md", _pitstopper),
     "follower": ("docs/robots.md", _finishes),
+    "keeper": ("docs/robots.md", _no_damage),
+    "slowkeeper": ("docs/robots.md", _no_damage),
 }
 
 
