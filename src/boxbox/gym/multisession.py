@@ -21,7 +21,16 @@ from boxbox.torcs.host import complete_car
 from boxbox.torcs.launch import RaceConfig
 from boxbox.torcs.setup import Overlay
 
-from boxbox.gym.session import ANSWER_TIMEOUT_S, HSIZE, Race, RaceOrder, Session, Shared, TorcsGone  # isort: skip
+from boxbox.gym.session import (  # isort: skip
+    HSIZE,
+    SETUP_ANSWER_TIMEOUT_S,
+    STEP_TIMEOUT_S_DEFAULT,
+    Race,
+    RaceOrder,
+    Session,
+    Shared,
+    TorcsGone,
+)
 
 Controls = tuple[float, float, float, float, int, bool]  # steer, accel, brake, clutch, gear, pit
 PARKED: Controls = (0.0, 0.0, 1.0, 0.0, 1, False)  # what a car whose episode ended is given: it brakes
@@ -31,8 +40,8 @@ class MultiSession(Session):
     """The parallel env's races, one at a time (no spares): each a `MultiRace`."""
 
     def __init__(self, cfg: RaceConfig, overlay: Overlay, cpu: int | None = None,
-                 initial_fuel_l: float | None = None) -> None:
-        super().__init__(overlay, cpu=cpu)
+                 initial_fuel_l: float | None = None, step_timeout_s: float = STEP_TIMEOUT_S_DEFAULT) -> None:
+        super().__init__(overlay, cpu=cpu, step_timeout_s=step_timeout_s)
         self.cfg = cfg
         self.order = RaceOrder("multi", cfg, initial_fuel_l)  # every reset: the same race
         self.multi: MultiRace | None = None  # the race running (`race` too, which stop() and close() kill)
@@ -53,7 +62,8 @@ class MultiSession(Session):
 
     def _new_race(self, order: RaceOrder, spare: bool = False) -> MultiRace:
         self._count += 1
-        return MultiRace(order, self.overlay, self.shared, self.dir / f"r{self._count}", self.cpu)
+        return MultiRace(order, self.overlay, self.shared, self.dir / f"r{self._count}", self.cpu,
+                         self.step_timeout_s)
 
 
 class MultiRace(Race):
@@ -62,8 +72,9 @@ class MultiRace(Race):
 
     torcs_env = {"BOXBOX_BATCH_DRIVE": "1"}
 
-    def __init__(self, order: RaceOrder, overlay: Overlay, shared: Shared, folder: Path, cpu: int) -> None:
-        super().__init__(order, overlay, shared, folder, cpu)
+    def __init__(self, order: RaceOrder, overlay: Overlay, shared: Shared, folder: Path, cpu: int,
+                 step_timeout_s: float = STEP_TIMEOUT_S_DEFAULT) -> None:
+        super().__init__(order, overlay, shared, folder, cpu, step_timeout_s)
         self.n_cars = len(order.cfg.robots)
         self.cars: list[Car] = []  # each Python car's constants (its own pit, its own car index)
         self.pending: list[tuple[int, int]] = []  # (robot, step) of the DRIVEs awaiting an answer
@@ -75,7 +86,7 @@ class MultiRace(Race):
         self._spawn()
         self.conn = self._accept(block=True)
         assert self.conn is not None
-        self.conn.settimeout(ANSWER_TIMEOUT_S)
+        self.conn.settimeout(SETUP_ANSWER_TIMEOUT_S)
         chunks: dict[int, list[bytes]] = {}
         self.cars = [None] * self.n_cars  # type: ignore[list-item]
         while True:
@@ -83,6 +94,7 @@ class MultiRace(Race):
             kind, robot, step, count = wire.HEADER.unpack_from(self._buf, 0)
             if kind == wire.DRIVE:
                 assert self._base is not None and all(car is not None for car in self.cars)
+                self.conn.settimeout(self.step_timeout_s)
                 return self._base[0], self.cars, self._batch(robot, step, count)
             if kind == wire.HELLO:
                 self._reply(wire.HELLO, robot, step, wire.HELLO_REC, (wire.PROTOCOL_VERSION, 0.0, 0.0))

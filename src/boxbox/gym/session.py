@@ -56,7 +56,12 @@ HSIZE = wire.HEADER.size
 STATE_SIZE = wire.STATE_REC.size
 OPP_SIZE = wire.OPPONENT_REC.size
 CONNECT_TIMEOUT_S = 30.0  # TORCS connects within ~20 ms; this much means it is stuck
-ANSWER_TIMEOUT_S = 60.0  # TORCS answers a step in microseconds; this much means it hangs
+SETUP_ANSWER_TIMEOUT_S = 60.0  # TORCS loads a race in ~15 ms of CPU; a minute means it hangs, even loaded
+# TORCS answers a drive step in microseconds (a millisecond with a field of robots): the env's
+# `step_timeout_s` defaults to this much before a silent TORCS is a fault (a vector env's every
+# sub-env waits on the slowest), well above a scheduler's delays on a loaded machine
+STEP_TIMEOUT_S_DEFAULT = 5.0
+MAX_STEP_TIMEOUT_S = 3600.0
 SETUP_BUDGET_MS = 120_000
 FOLDER_PREFIX = "boxbox-gym-"  # TMP/boxbox-gym-<pid>-*: a session's folder
 # util-linux's setpriv sets PR_SET_PDEATHSIG before it execs TORCS: a spawn without a preexec_fn
@@ -230,8 +235,10 @@ class Race:
 
     torcs_env: dict[str, str] = {}  # more of TORCS's environment (gym/multisession.py: the bridge's batch mode)
 
-    def __init__(self, order: RaceOrder, overlay: Overlay, shared: Shared, folder: Path, cpu: int) -> None:
+    def __init__(self, order: RaceOrder, overlay: Overlay, shared: Shared, folder: Path, cpu: int,
+                 step_timeout_s: float = STEP_TIMEOUT_S_DEFAULT) -> None:
         self.order, self.cfg, self.overlay, self.shared, self.cpu = order, order.cfg, overlay, shared, cpu
+        self.step_timeout_s = step_timeout_s  # a drive step's answer, once the race is set up
         self.run = RunDir(folder)  # the names of TORCS's files in it
         self.on_pit: PitHandler | None = None  # the env's, once the race is handed over
         self.proc: subprocess.Popen | None = None
@@ -267,14 +274,14 @@ class Race:
             self.conn = self._accept(block)
             if self.conn is None:
                 return False
-        self.conn.settimeout(ANSWER_TIMEOUT_S if block else 0.0)
+        self.conn.settimeout(SETUP_ANSWER_TIMEOUT_S if block else 0.0)
         while True:
             try:
                 n = self._recv()
             except BlockingIOError:
                 return False
             if self._setup_message(n):
-                self.conn.settimeout(ANSWER_TIMEOUT_S)
+                self.conn.settimeout(self.step_timeout_s)
                 return True
 
     def _setup_message(self, n: int) -> bool:
@@ -466,7 +473,8 @@ class Race:
         except BlockingIOError:
             raise
         except TimeoutError:
-            raise TorcsGone(f"TORCS did not answer within {ANSWER_TIMEOUT_S:.0f} s") from None
+            raise TorcsGone(f"TORCS did not answer within {self.conn.gettimeout():g} s (hung; the env's "
+                            "step_timeout_s)") from None
         except OSError:
             n = 0
         if n == 0:
@@ -527,10 +535,11 @@ class Session:
     """The env's races, one at a time, with spares made ready ahead (`spares` of them, 0: none)."""
 
     def __init__(self, overlay: Overlay, cpu: int | None = None, on_pit: PitHandler | None = None,
-                 spares: int = 0) -> None:
+                 spares: int = 0, step_timeout_s: float = STEP_TIMEOUT_S_DEFAULT) -> None:
         from boxbox.gym.spare import SparePool  # (spare.py builds on this module)
 
         self.overlay = overlay
+        self.step_timeout_s = step_timeout_s
         self.on_pit = on_pit or (lambda state: PitOrder())
         self.cpu = pick_cpu() if cpu is None else cpu
         remove_stale_sockets(FOLDER_PREFIX)  # of env processes killed outright
@@ -609,7 +618,7 @@ class Session:
     def _new_race(self, order: RaceOrder, spare: bool = False) -> Race:
         self._count += 1
         return Race(order, self.overlay, self.shared, self.dir / f"r{self._count}",
-                    self.pool_cpu() if spare else self.cpu)
+                    self.pool_cpu() if spare else self.cpu, self.step_timeout_s)
 
     def pool_cpu(self) -> int:
         """Where a spare loads: the idlest other core if it was idle at least
