@@ -233,7 +233,7 @@ def test_the_wall_limit_covers_every_step_at_its_budget():
     assert steps == 60_000 == 1200.0 / STEP_S
     wall = model.wall_limit_s(3, 2000.0, python_cars=2, cars=5)
     assert wall >= steps * 2 * 0.2 + START_S + 2 * 3 * 120 + 2 * 3 * 120  # every call at its full budget
-    # the old limit (set-up budget + 60 s + 10 s a lap and car) was 5 ms a step over 200 laps
+    # not a set-up budget + 60 s + 10 s a lap and car, which is 5 ms a step over 200 laps
     assert model.wall_limit_s(200, 2000.0, 1, 1) / model.steps(200, 2000.0) > 0.2
 
 

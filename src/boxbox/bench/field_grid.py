@@ -1,12 +1,13 @@
 """`boxbox bench-field --laps 6-14`: the field benchmark over several race lengths, per track.
 
 One 10-lap race from the back of a field says little: these robots crash into each other, and a
-centimetre more or less of side gap reshuffles every race after the first contact (docs/racecraft.md,
-sessions 8 and 9). The same races at several lengths are as many samples: each length is a
-`bench-field` run (bench/field.py, cached per race), and the summary gives, per track and car, the
-place at each length, the wins and the damage summed, and over all tracks the places, wins and
-damage of the robot and of the anchor (inferno:3 from the same slot), and the robot's races counted
-against the racecraft targets (wins, damage under 300, ahead of the anchor, field damage no higher).
+centimetre more or less of side gap reshuffles every race after the first contact (a side gap 1 cm
+either way moved 30 field races from 98 to 104 places summed; docs/racecraft.md, what was tried).
+The same races at several lengths are as many samples: each length is a `bench-field` run
+(bench/field.py, cached per race), and the summary gives, per track and car, the place at each
+length, the wins and the damage summed, and over all tracks the places, wins and damage of the robot
+and of the anchor (inferno:3 from the same slot), and the robot's races counted against the
+racecraft targets (wins, damage under 300, ahead of the anchor, field damage no higher).
 
 `--repeats N` races each length N times, the robot's start fuel DITHER_L more each time (less where
 the tank is full).  50 g change nothing of its pace (fuel costs 0.022 s a lap per kg, robot/strategy.py),

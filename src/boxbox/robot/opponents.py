@@ -62,7 +62,7 @@ class OpponentParams:
     hazard_horizon_s: float = 2.0  # ... its slide followed this far ahead at most
     # a car we are lapping is passed on our side of it, not on the side with more room, for a robot
     # that moves away from a car lapping it (False: the tutorial's; not all do: 6 % more damage in
-    # 190 field races, docs/racecraft.md session 23)
+    # 190 field races, `bench-field --tracks all --repeats 5`; docs/racecraft.md, what was tried)
     lapped_own_side: bool = False
 
 

@@ -21,7 +21,8 @@ PROGRESS_LINE = re.compile(r"Sim Time:\s*([\d.]+)\s*\[s\], Leader Laps:\s*(\d+)"
 FAULT_LINE = re.compile(r"BOXBOX-FAULT (\S+) robot=(-?\d+) step=(\d+)(?: budget_ms=(\d+) answer=(\d+))?")
 HOST_LOG_TAIL = 2000  # characters of the host's log shown when it died
 # the hang traceback is taken after TORCS gave up on the robot: a host found in Host.finish had left
-# the late step and was winding down, so the step was slow, not stuck (a loaded machine, session 18)
+# the late step and was winding down, so the step was slow, not stuck (one field race in about 760 on
+# a loaded machine, docs/reliability.md)
 LATE_NOT_STUCK = re.compile(r'torcs/host\.py", line \d+ in finish\n')
 # a frame of gdb's backtrace: "#0  0x... in Name::fn(int, ...) () from /x/drivers/lliaw/lliaw.so"
 GDB_FRAME = re.compile(r"^#\d+\s+(?:0x[0-9a-f]+ in )?(\S+?)(?:\(| \().*? from (\S+)$", re.MULTILINE)

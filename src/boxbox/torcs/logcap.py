@@ -1,10 +1,10 @@
 """A race's logs, bounded: each keeps its first and its last megabyte and says what was cut.
 
-A robot printing 100 kB a step filled 921 MB of host.log in a 3 s race.  What the robot host and
-TORCS print now goes through a pipe to a thread of the launcher (`LogPump`), which writes the start
-of it to the file as it comes, keeps the end in memory, and at the end writes a line saying how
-much was cut, then the end.  The robot's side costs what it did: a write to a pipe instead of to a
-file.  TORCS's console (torcs.out), read by the launcher's own loop, is bounded the same way
+A robot printing 100 kB a step fills 921 MB of an unbounded host.log in a 3 s race.  So what the
+robot host and TORCS print goes through a pipe to a thread of the launcher (`LogPump`), which writes
+the start of it to the file as it comes, keeps the end in memory, and at the end writes a line
+saying how much was cut, then the end.  The robot's side costs what a write to a file would: a
+write to a pipe.  TORCS's console (torcs.out), read by the launcher's own loop, is bounded the same way
 (`CappedLog`).
 """
 

@@ -28,10 +28,6 @@ class TorcsInstall:
     def shared_lib_dir(self) -> Path:
         return self.lib_dir / "lib"
 
-    @property
-    def setup_script(self) -> Path:
-        return self.lib_dir / "setup_linux.sh"
-
 
 def system_torcs() -> TorcsInstall:
     return TorcsInstall(

@@ -19,7 +19,6 @@ import uuid
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 from boxbox.tune.objective import RaceScore, TuneConfig
 from boxbox.tune.storage import Storage, journal_path
@@ -223,7 +222,3 @@ def summary_rows(result: BenchTuneResult) -> list[tuple[str, str]]:
     if result.round_trip_ms is not None:
         rows.append(("PostgreSQL round trip (SELECT 1)", f"{result.round_trip_ms:.2f} ms"))
     return rows
-
-
-def general_rows(result: BenchTuneResult) -> list[Any]:
-    return result.general

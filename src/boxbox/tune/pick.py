@@ -62,7 +62,7 @@ class PickRule:
 
 
 # what bench-tune's generalisation compares: the default pick, the same without the trials around
-# it (the pick until 2026-11-25's run 3), and the smallest total
+# it (docs/tuning.md, runs 3 to 6: what the trials around a pick change), and the smallest total
 GENERAL_PICKS = {"robust": PickRule(), "every track": PickRule("robust", 0.0, False, 0), "fastest": PickRule("fastest")}
 
 

@@ -165,7 +165,7 @@ def test_tcl_range_ratio_shuts_the_throttle_within_the_peaks_slip_at_low_speed()
     assert tcl_filter(1.0, 16.0, spins(16, 16, 23, 23), R, RWD) == pytest.approx(0.5)
     assert tcl_filter(1.0, 16.0, spins(16, 16, 23, 23), R, RWD, held) == 0.0
     assert tcl_filter(1.0, 16.0, spins(16, 16, 20, 20), R, RWD, held) == pytest.approx(1.0 - 2.0 / 4.16)
-    # at speed the fixed 10 m/s is the smaller range and holds as before
+    # at speed the fixed 10 m/s is the smaller range and holds as without the ratio
     assert tcl_filter(1.0, 50.0, spins(50, 50, 55, 55), R, RWD, held) == pytest.approx(0.7)
 
 
