@@ -22,6 +22,7 @@ from boxbox import validate
 from boxbox.errors import RaceError, UsageError
 from boxbox.gym import reward as rw
 from boxbox.gym.assists import ASSISTS, Assists, check_assists
+from boxbox.gym.cores import usable_cpus
 from boxbox.gym.episodes import (
     Episode,
     Episodes,
@@ -30,17 +31,10 @@ from boxbox.gym.episodes import (
     stream_seed,
 )
 from boxbox.gym.pitstop import PitStop
+from boxbox.gym.race import MAX_STEP_TIMEOUT_S, STEP_TIMEOUT_S_DEFAULT, RaceOrder, Started, TorcsGone
 from boxbox.gym.render import Drawing, check_pixel_size, check_render_mode, pixel_space, render_fps
 from boxbox.gym.sensors import SCR_TRACK_ANGLES_DEG, TrackEdges, opponent_sectors
-from boxbox.gym.session import (
-    MAX_STEP_TIMEOUT_S,
-    STEP_TIMEOUT_S_DEFAULT,
-    RaceOrder,
-    Session,
-    Started,
-    TorcsGone,
-    usable_cpus,
-)
+from boxbox.gym.session import Session
 from boxbox.gym.spaces import ACTION_RANGES, DEFAULT_ACTIONS, ActionReader, ObservationLayout, Observer, action_space
 from boxbox.gym.spare import MAX_SPARES
 from boxbox.model import Car, PitOrder, State, Track

@@ -39,9 +39,9 @@ from boxbox.gym.env import (
 )
 from boxbox.gym.episodes import several
 from boxbox.gym.multisession import Controls, MultiSession
+from boxbox.gym.race import STEP_TIMEOUT_S_DEFAULT, TorcsGone
 from boxbox.gym.render import CAR_COLOURS, Drawing, check_pixel_size, check_render_mode, pixel_space, render_fps
 from boxbox.gym.sensors import SCR_TRACK_ANGLES_DEG, TrackEdges, opponent_sectors
-from boxbox.gym.session import STEP_TIMEOUT_S_DEFAULT, TorcsGone
 from boxbox.gym.spaces import DEFAULT_ACTIONS, ActionReader, ObservationLayout, Observer, action_space
 from boxbox.model import Car, State, Track
 from boxbox.model.skill import SkillLevel
