@@ -36,3 +36,21 @@ def processes_mentioning(text: str) -> list[str]:
 
 def read_json(path: Path) -> dict:
     return json.loads(path.read_text())
+
+
+VIEWPORT = {"width": 1280, "height": 1000}  # the pages' tests' browser window (CSS pixels)
+
+
+def open_page(browser, page_file: Path, ready: str | None = "window.replay && window.replay.ready"):
+    """The page loaded (and its viewer ready, unless ready is None); the list it appends console
+    errors, page errors and any request off the page's own file to."""
+    page = browser.new_page(viewport=VIEWPORT)
+    errors: list[str] = []
+    page.on("console", lambda m: errors.append(f"console {m.type}: {m.text}") if m.type == "error" else None)
+    page.on("pageerror", lambda e: errors.append(f"page error: {e}"))
+    page.on("request", lambda r: errors.append(f"request: {r.url}") if not r.url.startswith(("file:", "data:"))
+            else None)
+    page.goto(page_file.as_uri())
+    if ready:
+        page.wait_for_function(ready, timeout=30_000)
+    return page, errors

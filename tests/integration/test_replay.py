@@ -17,49 +17,11 @@ import time
 from pathlib import Path
 
 import numpy as np
-import pytest
 
 from boxbox.torcs.recording import load_recording
-from helpers import BOXBOX, ROBOTS, ROOT, read_json, run_boxbox
+from helpers import BOXBOX, ROBOTS, ROOT, VIEWPORT, open_page, read_json, run_boxbox
 
 ARTIFACTS = ROOT / "test-artifacts"
-# chromium as root, headless, without anything that reaches out to the network
-CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
-                 "--disable-component-update", "--disable-sync", "--no-first-run"]
-VIEWPORT = {"width": 1280, "height": 1000}
-
-
-@pytest.fixture(scope="session")
-def browser():
-    """Debian's chromium (installed when missing), driven by Playwright, which never downloads a browser."""
-    from boxbox.errors import BoxboxError
-    from boxbox.torcs import setup
-
-    try:
-        chromium = setup.ensure_chromium()
-    except BoxboxError as exc:
-        pytest.skip(f"Debian's chromium cannot be installed here: {exc}")
-    from playwright.sync_api import sync_playwright
-
-    with sync_playwright() as pw:
-        launched = pw.chromium.launch(executable_path=str(chromium), args=CHROMIUM_ARGS)
-        yield launched
-        launched.close()
-
-
-def open_page(browser, page_file: Path):
-    """The page loaded and its viewer ready; the list it appends console errors and page errors to."""
-    page = browser.new_page(viewport=VIEWPORT)
-    errors: list[str] = []
-    page.on("console", lambda m: errors.append(f"console {m.type}: {m.text}") if m.type == "error" else None)
-    page.on("pageerror", lambda e: errors.append(f"page error: {e}"))
-    page.on("request", lambda r: errors.append(f"request: {r.url}") if not r.url.startswith(("file:", "data:"))
-            else None)
-    page.goto(page_file.as_uri())
-    page.wait_for_function("window.replay && window.replay.ready", timeout=30_000)
-    return page, errors
-
-
 def embedded_data(page_file: Path) -> dict:
     text = page_file.read_text()
     found = re.search(r'<script type="application/json" id="bbr-data">(.*?)</script>', text, re.S)

@@ -15,7 +15,6 @@ from boxbox.report.contacts import (
     SIDE_NEITHER,
     SIDE_WE,
     Contact,
-    damage_events,
     find_contacts,
     usual_lines,
 )
@@ -66,13 +65,6 @@ def hit_at(t_s: float, points: float = 100.0) -> np.ndarray:
 def contacts(cars: dict[int, dict], ours: int = 0) -> list[Contact]:
     c = cars[ours]
     return find_contacts(frames(cars), ours, T, c["damage"], TRACK_M, LENGTHS)
-
-
-def test_damage_events_merge_close_rises_and_skip_repairs():
-    t = np.arange(10.0)
-    d = np.array([0, 10, 10, 30, 30, 0, 0, 5, 5, 5], dtype=float)  # 1 and 3 s: two; 5: a repair; 7: one
-    assert damage_events(t, d, merge_s=1.0) == [(1, 1, 10), (3, 3, 20), (7, 7, 5)]
-    assert damage_events(t, d, merge_s=2.0) == [(1, 3, 30), (7, 7, 5)]
 
 
 def test_usual_line_is_the_median_over_laps():
@@ -203,3 +195,18 @@ def test_contacts_command_needs_run_dirs_with_a_recording(tmp_path):
     (tmp_path / "empty").mkdir()
     result = CliRunner().invoke(main_group, ["contacts", str(tmp_path / "empty")])
     assert isinstance(result.exception, UsageError) and "no recording.parquet" in str(result.exception)
+
+
+def test_the_report_the_recording_and_the_contacts_merge_damage_alike():
+    """One rule (report/damage.py's damage_rises): the race report's incidents (one car's
+    telemetry), the recording's (every car) and the contacts count the same incidents."""
+    from boxbox.report.damage import damage_incidents as report_incidents
+    from boxbox.report.incidents import damage_incidents as recording_incidents
+
+    dmg = hit_at(3.0, 10.0) + hit_at(3.5, 20.0) + hit_at(4.5, 1.0) + hit_at(12.0, 5.0)
+    cars = {0: car(30.0 * T, damage=dmg)}
+    cols = columns(cars)
+    report = [(i.time_s, i.damage) for i in report_incidents({k: v for k, v in cols.items() if k != "car"})]
+    recording = [(i.time_s, i.damage) for i in recording_incidents(frames(cars), LENGTHS)]
+    found = [(c.time_s, c.damage) for c in contacts(cars)]
+    assert report == recording == found == [(3.0, 31), (12.0, 5)]

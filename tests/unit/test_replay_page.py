@@ -47,3 +47,72 @@ def test_the_footer_names_a_recorded_run_dir(tmp_path):
     (kept / "recording.parquet").write_bytes(b"")
     assert replay_line([str(gone), str(kept), str(kept), ""]) == f"replay: boxbox replay {kept}"
     assert replay_line([str(gone)]).startswith("replay: none of these races has a recording")
+
+
+def _no_replay(run_dir) -> str:
+    """The one line `boxbox replay` answers for run_dir (a UsageError's)."""
+    import pytest
+
+    from boxbox.errors import UsageError
+    from boxbox.report.replay import build_replay
+
+    with pytest.raises(UsageError) as raised:
+        build_replay(run_dir)
+    text = str(raised.value)
+    assert "\n" not in text
+    return text
+
+
+def _write_json(path, data) -> None:
+    import json
+
+    path.write_text(json.dumps(data))
+
+
+def test_each_race_without_a_recording_gets_its_own_sentence(tmp_path):
+    """An empty folder, a race of TORCS robots alone, one stopped before its first drive step and
+    one run with --no-telemetry: each says why it has no recording, not the same sentence for all."""
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    assert "is not a race's run dir" in _no_replay(empty)
+
+    alone = tmp_path / "alone"
+    alone.mkdir()
+    _write_json(alone / "result.json", {"drivers": [{"name": "bt 3", "module": "bt", "idx": 2, "laps": 1,
+                                                     "time": 80.0, "lap_times": [80.0]}], "error": None})
+    assert "TORCS robots alone" in _no_replay(alone)
+
+    early = tmp_path / "early"
+    early.mkdir()
+    _write_json(early / "host-spec.json", {"robots": [{"spec": "mine.py:Mine", "name": "mine 1"}], "telemetry": True})
+    _write_json(early / "result.json", {"drivers": [{"name": "mine 1", "module": "boxbox", "idx": 0, "laps": 0,
+                                                     "time": 0.0, "lap_times": []}],
+                                        "error": "robot 'mine.py:Mine' (mine 1) failed: RuntimeError: x (in on_track)"
+                                                 "\nTraceback (most recent call last):\n  ..."})
+    line = _no_replay(early)
+    assert "stopped before its first drive step" in line and "RuntimeError: x (in on_track)" in line
+    assert "Traceback" not in line
+
+    untimed = tmp_path / "untimed"
+    untimed.mkdir()
+    _write_json(untimed / "host-spec.json", {"robots": [{"spec": "mine.py:Mine", "name": "mine 1"}],
+                                             "telemetry": False})
+    assert "--no-telemetry" in _no_replay(untimed)
+    assert len({_no_replay(d).split(": ", 1)[1] for d in (empty, alone, early, untimed)}) == 4
+
+
+def test_an_empty_recording_and_a_recording_of_other_columns_are_one_line_each(tmp_path):
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    from boxbox.torcs.recording import COLUMNS
+
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    pq.write_table(pa.table({name: pa.array([], pa.float64()) for name, _ in COLUMNS}), empty / "recording.parquet")
+    assert "is empty" in _no_replay(empty)
+
+    other = tmp_path / "other"
+    other.mkdir()
+    pq.write_table(pa.table({"time_s": [0.0, 0.1], "speed": [1.0, 2.0]}), other / "recording.parquet")
+    assert "is not a boxbox race recording (no column car, python, lap, ...)" in _no_replay(other)

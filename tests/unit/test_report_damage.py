@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from boxbox.report.damage import damage_by_lap, damage_incidents, moved_text, nearest_text
+from boxbox.report.damage import DamageRise, damage_by_lap, damage_incidents, damage_rises, moved_text, nearest_text
 
 
 def _telemetry(damage: list[float], step_s: float = 0.02) -> dict[str, np.ndarray]:
@@ -65,3 +65,19 @@ def test_who_moved_in_before_the_hit():
     c["near_car"] = np.where(np.arange(n) < 40, 5, 3)  # car 5 was nearest at the window's start
     (i,) = damage_incidents(c)
     assert np.isnan(i.we_moved_in_m) and moved_text(i) == ""
+
+
+def test_damage_rises_merge_close_rises_and_skip_repairs():
+    t = np.arange(10.0)
+    d = np.array([0, 10, 10, 30, 30, 0, 0, 5, 5, 5], dtype=float)  # 1 and 3 s: two; 5: a repair; 7: one
+    assert damage_rises(t, d, merge_s=1.0) == [DamageRise(1, 1, 1, 10), DamageRise(3, 3, 1, 20),
+                                               DamageRise(7, 7, 1, 5)]
+    assert damage_rises(t, d, merge_s=2.0) == [DamageRise(1, 3, 2, 30), DamageRise(7, 7, 1, 5)]
+
+
+def test_damage_rises_skip_unknown_rows_and_merge_a_gap_of_merge_s_read_as_a_hair_more():
+    # a car not seen (NaN) in rows 2-3: the rise counts from row 1; no hit where it was not seen
+    t = np.array([0.0, 0.1, 0.2, 0.3, 0.4, 1.4000000000000004])
+    d = np.array([0.0, 0.0, np.nan, np.nan, 40.0, 50.0])
+    assert damage_rises(t, d) == [DamageRise(4, 5, 2, 50)]
+    assert damage_rises(t, np.nan_to_num(d, nan=0.0)) == [DamageRise(4, 5, 2, 50)]

@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, replace
 
+from boxbox.control.engine import engine_brake_power_w
 from boxbox.control.tyre import skid_grip_gain
 from boxbox.model.car import Car
 from boxbox.model.constants import AIR_DENSITY_KGPM3 as AIR_DENSITY
@@ -87,21 +88,6 @@ def brake_force_n(car: Car) -> float:
                   * getattr(car, f"brake_mu_{w}") * car.brake_pressure_max * share)
         total += torque / max(getattr(car, f"wheel_radius_{w}_m"), 0.01)
     return total if total > 0.0 else math.inf
-
-
-def engine_brake_power_w(car: Car) -> float:
-    """The power (W) the engine brakes with at zero throttle at its speed of most power: simuv2
-    brakes with brake_coeff x (w - tickover) / (revs max - tickover) of the full torque at w (as
-    control/fuel.py counts it), from the torque curve up to the rev limit only: TORCS pads some
-    cars' curves past it (the 155-DTM's reads 750 N m at 1150 rad/s, which would make 780 kW of
-    it); 0 without a curve.  What it adds to the brakes: P / v, 1.5 m/s^2 for the 155-DTM (114 kW)
-    at 68 m/s (measured at full brake on street-1: 1.3 beyond the brakes and drag)."""
-    tick, top = car.engine_tickover_radps, car.engine_revs_max_radps
-    points = [(w, t) for w, t in zip(car.torque_curve_radps, car.torque_curve_nm, strict=False) if w <= top]
-    if len(points) < 2 or not 0.0 <= tick < top:
-        return 0.0
-    w, torque_nm = max(points, key=lambda p: p[0] * p[1])
-    return max(0.0, car.engine_brake_coeff * max(0.0, w - tick) / (top - tick) * torque_nm * w)
 
 
 def tyre_mu(car: Car) -> float:

@@ -7,8 +7,8 @@ burns fuel for that too.  Along a line sampled every step_m[i] metres at speeds_
 
 - where the car speeds up or holds its speed, the engine delivers (m a + CW v^2 + m g grade) v;
 - where that force is negative (the car brakes), the throttle is closed: the engine brakes at its
-  engine-brake power (`engine_brake_power_w`, taken at the engine speed of its most power, where a
-  racing car's gear changes keep it).
+  engine-brake power (control/engine.py's `engine_brake_power_w`, taken at the engine speed of its
+  most power, where a racing car's gear changes keep it).
 
 Measured against boxbox's own laps alone (lap 5 of 10) on 37 of the 38 tracks (not spring, whose
 laps all have a stop), with the speed profile of the robot's simulated lap (control/lapsim.py): 5 %
@@ -22,22 +22,7 @@ import math
 
 import numpy as np
 
-from boxbox.control.traction import engine_brake_share
 from boxbox.model.constants import FUEL_L_PER_J, G_MPS2
-
-
-def engine_brake_power_w(torque_curve_radps: tuple[float, ...], torque_curve_nm: tuple[float, ...],
-                         tickover_radps: float, revs_max_radps: float, brake_coeff: float) -> float:
-    """The power (W) the engine brakes with at zero throttle at its engine speed of most power:
-    brake_coeff x (w - tickover) / (revs max - tickover) x full torque(w) x w."""
-    rpm, torque = np.asarray(torque_curve_radps, dtype=float), np.asarray(torque_curve_nm, dtype=float)
-    if len(rpm) < 2 or len(rpm) != len(torque) or not np.all(np.isfinite(rpm)) or not np.all(np.isfinite(torque)):
-        raise ValueError("the torque curve needs two or more finite (rad/s, N m) points")
-    if not 0.0 <= tickover_radps < revs_max_radps or not 0.0 <= brake_coeff < 10.0:
-        raise ValueError("need 0 <= tickover < revs max and 0 <= brake_coeff < 10")
-    best = int(np.argmax(rpm * torque))
-    w = float(rpm[best])
-    return engine_brake_share(w, tickover_radps, revs_max_radps, brake_coeff) * float(torque[best]) * w
 
 
 def lap_fuel_l(step_m: np.ndarray, speeds_mps: np.ndarray, mass_kg: float, cw_n_per_mps2: float,

@@ -19,6 +19,13 @@ from boxbox.model.track import STRAIGHT, Track
 
 DEFAULT_MAX_SPEED_MPS = 100.0
 QUARTER_TURN_RAD = math.pi / 2.0
+# The defaults of segment_speed_limits and SpeedProfile.from_track fit a car on the track's middle
+# line steered by steer_to_line's defaults (docs/robots.md): no turn is cut (full_arc_rad 0), and
+# 70% of the grip, as that law settles outside the line in fast turns.  Such a car
+# (tests/robots/parts.py, 1 lap of e-track-2, 2026-12-01) took damage 10,590 and no lap with the
+# whole grip and turns under a quarter turn taken as cut, 1,633 with the cut at 70%, 553 at 80%
+# without it, 0 at 70% without it.
+MIDDLE_LINE_MU_SCALE = 0.7
 
 
 def allowed_speed(
@@ -76,14 +83,15 @@ def bump_speed(roughness_1pm: float, bump_accel_mps2: float, max_speed_mps: floa
 
 
 def _turn_arc_fractions(seg_type: np.ndarray, arc_rad: np.ndarray, full_arc_rad: float) -> np.ndarray:
-    """Per segment: the arc of the whole turn it belongs to / full_arc_rad, at most 1 (1 on straights).
+    """Per segment: the arc of the whole turn it belongs to / full_arc_rad, at most 1 (1 on straights;
+    1 everywhere when full_arc_rad is 0: no turn is cut).
 
     A turn is a maximal run of consecutive segments turning the same way (radii may differ);
     runs wrap around the start line.
     """
     n = len(seg_type)
     frac = np.ones(n)
-    if n == 0:
+    if n == 0 or full_arc_rad <= 0.0:
         return frac
     # start scanning at a segment whose predecessor differs, so no run is cut by the start line
     changes = [i for i in range(n) if seg_type[i] != seg_type[i - 1]]
@@ -109,19 +117,19 @@ def segment_speed_limits(
     track: Track,
     model: CarModel,
     *,
-    mu_scale: float = 1.0,
+    mu_scale: float = MIDDLE_LINE_MU_SCALE,
     max_speed_mps: float = DEFAULT_MAX_SPEED_MPS,
-    full_arc_rad: float = QUARTER_TURN_RAD,
+    full_arc_rad: float = 0.0,
     short_turn_exponent: float = 1.0,
     width_fraction: float = 0.0,
 ) -> np.ndarray:
     """Allowed speed per segment (m/s); straights get max_speed_mps.
 
-    A turn whose total arc is below `full_arc_rad` (a quarter turn) can be cut, so its radius is
-    enlarged: r' = (r + width_fraction * width) / (arc / full_arc_rad) ** short_turn_exponent.
-    Exponent 1 is the shipped tutorial robot's rule (which also adds half the width, i.e.
-    width_fraction = 0.5; the default 0 keeps the middle-line radius). mu per segment is
-    friction * model.mu * mu_scale.
+    The defaults assume a car on the middle line (MIDDLE_LINE_MU_SCALE): every turn at its
+    middle-line radius, 70% of the grip.  A line that cuts turns passes `full_arc_rad` (e.g.
+    QUARTER_TURN_RAD): a turn whose total arc is below it is cut, so its radius is enlarged:
+    r' = (r + width_fraction * width) / (arc / full_arc_rad) ** short_turn_exponent.  mu per
+    segment is friction * model.mu * mu_scale.
     """
     s = track.seg
     seg_type = np.asarray(s["type"])
@@ -279,11 +287,12 @@ class SpeedProfile:
         model: CarModel,
         step_m: float = 2.0,
         *,
-        mu_scale: float = 1.0,
+        mu_scale: float = MIDDLE_LINE_MU_SCALE,
         max_speed_mps: float = DEFAULT_MAX_SPEED_MPS,
         **limit_options: float,
     ) -> SpeedProfile:
-        """Profile from the per-segment limits of `segment_speed_limits` (options passed on).
+        """Profile from the per-segment limits of `segment_speed_limits` (options passed on; its
+        defaults assume the middle line, no turn cut, 70% of the grip).
 
         The step is adjusted so a whole number of samples fills the lap. Each sample takes the
         lowest limit and friction of all segments within one step either side, so `speed_at`,

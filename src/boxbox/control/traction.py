@@ -152,15 +152,6 @@ def combined_slip_room(peak_slip: float, lateral_slip: float) -> float:
     return (p2 + math.sqrt(p2 * p2 - (1.0 - p2) * (sy2 - p2))) / (1.0 - p2)
 
 
-def engine_brake_share(rpm_radps: float, tickover_radps: float, revs_max_radps: float, brake_coeff: float) -> float:
-    """The engine brake as a share of the full torque at engine speed `rpm_radps`: simuv2 gives the
-    torque full x (throttle x (1 + share) - share), so no throttle brakes and part throttle gives less
-    than its share of the full torque."""
-    if revs_max_radps <= tickover_radps:
-        return 0.0
-    return brake_coeff * max(0.0, rpm_radps - tickover_radps) / (revs_max_radps - tickover_radps)
-
-
 def throttle_for_torque(torque_share: float, brake_share: float) -> float:
     """The throttle (0..1) whose torque is `torque_share` of the full torque, given the engine brake's
     share (engine_brake_share): at 0.4 of the full torque with a share of 0.25 it is 0.52, not 0.4."""
@@ -220,7 +211,6 @@ def drive_axles(car: Car) -> tuple[Axle, Axle]:
     front_ca, rear_ca = axle_downforce_coefficients(car)
     front_w = car.front_weight_share * car.mass_kg * G_MPS2
     rear_w = car.mass_kg * G_MPS2 - front_w
-    wheelbase_m = car.front_axle_x_m - car.rear_axle_x_m
-    shift = car.gc_height_m / wheelbase_m if wheelbase_m > 0.0 else 0.0
+    shift = car.gc_height_m / car.wheelbase_m if car.wheelbase_m > 0.0 else 0.0
     front_share = {RWD: 0.0, FWD: 1.0, AWD: 0.5}[car.drivetrain]
     return (Axle(front_w, front_ca, front_share, -shift), Axle(rear_w, rear_ca, 1.0 - front_share, shift))

@@ -18,22 +18,25 @@ from __future__ import annotations
 
 import math
 
-from boxbox.control.braking import brake_distance
 from boxbox.control.carmodel import CarModel
 from boxbox.control.gears import GearBox
-from boxbox.control.pit_brake import HOLD, STOP, PitBrakeFilter
+from boxbox.control.pit_brake import HOLD, STOP
 from boxbox.control.steering import steer_to_line
-from boxbox.control.stop import SpeedTracker
 from boxbox.model import Car, PitOrder, State, Track
-from boxbox.model.constants import G_MPS2
+from boxbox.robot.pit import PitParams, pit_brake_filter
 from boxbox.robot.pitpath import PitPath
 
 TAKEOVER_M = 300.0  # the env drives from this far before the pit entry
 APPROACH_MPS = 20.0  # speed held on the way to the entry when the filter asks for no other
-LOOKAHEAD_M = 4.0  # steering aims at the path this far ahead (the turn into the box is tight)
 THROTTLE_PER_MPS = 1.0  # throttle per m/s below the target speed (holding the limit needs ~0.2)
-STOP_GRIP_SHARE = 0.5  # the stop at the box uses half the pit lane's grip
-WHEELBASE_SHARE = 0.6  # wheelbase as a share of the car's length (TORCS's cars: about 0.6)
+# The gym's pit parameters: the pit brake filter's own defaults (the stop at the box with half the
+# lane's grip, 0.5 m from its centre is stopped, giving up after 5 s, the lane's braking grip at 0.9
+# of surface x tyre), steering 4 m ahead (the turn into the box is tight), where the robot's
+# (PitParams(), its tuned pit_* parameters) stop with 0.9 of the grip, 0.1 m from the centre,
+# give up after 10 s, brake with 0.65 and steer 6 m + 0.2 s ahead: the gym's pit stops
+# (tests/integration/test_gym_pit.py) are made with this set, the robot's figures with its own.
+GYM_PIT_PARAMS = PitParams(lookahead_m=4.0, brake_mu_scale=0.9, give_up_s=5.0, stop_threshold_m=0.5,
+                           stop_grip_share=0.5)
 
 
 class PitStop:
@@ -44,19 +47,11 @@ class PitStop:
         self.car = car
         model = CarModel.from_car(car, car.tank_l / 2.0)
         self.tyre_mu = model.mu
-        lane_mu = self.path.surface_friction * model.mu
-        self.filter = PitBrakeFilter(
-            lambda v1, v2, mu: brake_distance(v1, v2, mu, model),
-            limit_start_m=self.path.limit_start_m, box_m=self.path.box_m, limit_end_m=self.path.limit_end_m,
-            speed_limit_mps=self.path.speed_limit_mps, box_length_m=self.path.box_length_m,
-            pit_mu_source="surface", pit_mu=lane_mu, entry_mode="computed",
-            entry_constraints=self.path.entry_speed_constraints(lane_mu * 0.9), stop_mode="constant-decel",
-            stop_max_decel_mps2=STOP_GRIP_SHARE * lane_mu * G_MPS2, give_up=True,
-            tracker=SpeedTracker(full_brake_mps2=lane_mu * G_MPS2, drag_k_per_m=model.cw / model.mass_kg))
+        self.filter = pit_brake_filter(self.path, model, GYM_PIT_PARAMS, "constant-decel")
         self.gearbox = GearBox(car)
         self.curvature = track.curvature().tolist()
         self.friction = track.seg["friction"].tolist()
-        self.wheelbase_m = WHEELBASE_SHARE * car.length_m
+        self.wheelbase_m = car.steering_wheelbase_m
         self.reset()
 
     @classmethod
@@ -111,7 +106,7 @@ class PitStop:
         self.phase = r.phase
         target = r.target_speed_mps if r.target_speed_mps is not None else APPROACH_MPS
         throttle = 0.0 if r.brake > 0.0 or v >= target else min(1.0, THROTTLE_PER_MPS * (target - v))
-        ahead_m = s.dist_from_start_m + LOOKAHEAD_M
+        ahead_m = s.dist_from_start_m + GYM_PIT_PARAMS.lookahead_m
         slope = path.slope_at_s(path.to_spline_coord(ahead_m)) if path.is_on_path(ahead_m) else 0.0
         steer = steer_to_line(s.angle_rad + math.atan(slope), path.offset_at(ahead_m) - s.to_middle_m,
                               self.curvature[seg], v, s.yaw_rate_rps, self.wheelbase_m, self.car.steer_lock_rad)

@@ -9,6 +9,7 @@ from boxbox.model.names import no_such_field
 
 RWD, FWD, AWD = 0, 1, 2
 DRIVETRAIN_NAMES = {RWD: "RWD", FWD: "FWD", AWD: "4WD"}
+STEERING_WHEELBASE_SHARE = 0.6  # the steering's wheelbase as a share of the car's length (TORCS's cars: about 0.6)
 
 
 @dataclass
@@ -169,6 +170,19 @@ class Car:
     pit_to_middle_m: float = 0.0
     pit_lmin_m: float = 0.0
     pit_lmax_m: float = 0.0
+
+    @property
+    def wheelbase_m(self) -> float:
+        """The distance between the axles (m), from the car's file (car1-trb1: 2.64 m)."""
+        return self.front_axle_x_m - self.rear_axle_x_m
+
+    @property
+    def steering_wheelbase_m(self) -> float:
+        """The wheelbase the tutorial robot's and the gym's pit steering feed forward with, and the
+        lever of the robot's front weight: STEERING_WHEELBASE_SHARE x the car's length (car1-trb1:
+        2.71 m against its axles' 2.64).  Every solo figure of the robot is measured with it: the
+        axles' wheelbase would change its steering, unmeasured."""
+        return STEERING_WHEELBASE_SHARE * self.length_m
 
     @property
     def max_gear(self) -> int:

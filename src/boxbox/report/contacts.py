@@ -24,9 +24,9 @@ from pathlib import Path
 
 import numpy as np
 
+from boxbox.report.damage import MERGE_S, damage_rises
 from boxbox.report.incidents import Frames
 
-MERGE_S = 1.0  # damage rises this close in time are one incident (as report/damage.py counts them)
 REACH_SLACK_M = 1.0  # "within a car's length": centres at most the longer car's length plus this apart
 ALONG_MAX_M = 20.0  # and no further apart along the track (a car across a hairpin is not in the contact)
 BEFORE_S = 1.0  # a change of line is judged over this long before the first hit
@@ -96,23 +96,6 @@ class Contact:
     def to_json(self) -> dict:
         out = {k: (None if isinstance(v, float) and math.isnan(v) else v) for k, v in asdict(self).items()}
         return {**out, "cause": self.cause}
-
-
-def damage_events(time_s: np.ndarray, damage: np.ndarray, merge_s: float = MERGE_S) -> list[tuple[int, int, int]]:
-    """(row of the first hit, row of the last, points taken) of each incident of a damage series: rises
-    under merge_s apart are one; a fall (a repair in the pits) is not a hit."""
-    d = np.nan_to_num(np.asarray(damage, dtype=float))
-    t = np.asarray(time_s, dtype=float)
-    rise = np.diff(d, prepend=d[:1])
-    hits = np.flatnonzero(rise > 0.0)
-    out, start = [], 0
-    for k in range(1, len(hits) + 1):
-        if k < len(hits) and t[hits[k]] - t[hits[k - 1]] <= merge_s:
-            continue
-        group = hits[start:k]
-        out.append((int(group[0]), int(group[-1]), int(round(float(rise[group].sum())))))
-        start = k
-    return out
 
 
 def usual_lines(f: Frames, track_length_m: float, bin_m: float = LINE_BIN_M) -> np.ndarray:
@@ -240,8 +223,8 @@ def find_contacts(f: Frames, car: int, time_s: np.ndarray, damage: np.ndarray, t
     t_all = np.asarray(time_s, dtype=float)
     out: list[Contact] = []
     last_contact: tuple[float, str] | None = None  # (its last hit, its cause)
-    for first, last, taken in damage_events(t_all, damage):
-        t, t_end = float(t_all[first]), float(t_all[last])
+    for rise in damage_rises(t_all, damage, MERGE_S):
+        t, t_end, taken = float(t_all[rise.first]), float(t_all[rise.last]), rise.damage
         alone = Contact(t, int(np.nan_to_num(at_time(f, "lap", t)[us])), float(at_time(f, "dist_m", t)[us]), taken,
                         "alone", nearest_m=_nearest_m(f, us, t, track_length_m))
         k = _other_car(f, us, t, track_length_m, lengths)

@@ -8,6 +8,8 @@ from dataclasses import dataclass
 import numpy as np
 
 MERGE_S = 1.0  # hits this close in time are one incident
+# the steps' times are sums of floats: two hits MERGE_S apart may read a hair more (1.0000000002 s)
+MERGE_ROUNDING_S = 1e-9
 NEAR_M = 15.0  # another car this close (centre to centre) at the first hit is named as the nearest
 MOVED_S = 0.5  # who moved over towards the other is judged over this long before the first hit
 
@@ -52,26 +54,47 @@ def damage_incidents(c: dict[str, np.ndarray], merge_s: float = MERGE_S) -> list
     missing = [k for k in need if k not in c]
     if missing:
         raise ValueError(f"telemetry lacks the column(s) {', '.join(missing)}")
-    dmg = np.nan_to_num(np.asarray(c["damage"], dtype=float))
-    rise = np.diff(dmg, prepend=dmg[:1])
-    hits = np.flatnonzero(rise > 0.0)
     t = np.asarray(c["time_s"], dtype=float)
     n = len(t)
     near = np.asarray(c.get("near_car", np.full(n, -1)), dtype=int)
     ahead = np.asarray(c.get("near_ahead_m", np.full(n, np.nan)), dtype=float)
     left = np.asarray(c.get("near_left_m", np.full(n, np.nan)), dtype=float)
     mid = np.asarray(c.get("to_middle_m", np.full(n, np.nan)), dtype=float)
-    out: list[Incident] = []
+    return [Incident(lap=int(c["lap"][r.first]), dist_m=float(c["dist_m"][r.first]), time_s=float(t[r.first]),
+                     damage=r.damage, speed_mps=float(c["speed_mps"][r.first]), hits=r.hits,
+                     x_m=float(c["x_m"][r.first]), y_m=float(c["y_m"][r.first]), near_car=int(near[r.first]),
+                     near_ahead_m=float(ahead[r.first]), near_left_m=float(left[r.first]),
+                     **_moved_in(t, r.first, near, left, mid))
+            for r in damage_rises(t, c["damage"], merge_s)]
+
+
+@dataclass(frozen=True)
+class DamageRise:
+    """The rises of a damage count merged into one incident: rows `first` to `last` (the first and
+    the last hit), `hits` rows on which the count rose, `damage` points taken in all."""
+
+    first: int
+    last: int
+    hits: int
+    damage: int
+
+
+def damage_rises(time_s: np.ndarray, damage: np.ndarray, merge_s: float = MERGE_S) -> list[DamageRise]:
+    """The incidents of a damage series (time_s, damage per row): each rise of the count is a hit,
+    hits under merge_s apart are one incident.  A fall of the count (a repair in the pits) is not a
+    hit; rows where the count is not known (NaN: a car not seen) are skipped, the rise counted from
+    the row before them.  The one rule of the race report, the incidents and the contacts."""
+    t = np.asarray(time_s, dtype=float)
+    d = np.asarray(damage, dtype=float)
+    known = np.flatnonzero(np.isfinite(d))
+    rise = np.diff(d[known])
+    hits, gains = known[1:][rise > 0.0], rise[rise > 0.0]
+    out: list[DamageRise] = []
     start = 0
     for k in range(1, len(hits) + 1):
-        if k < len(hits) and t[hits[k]] - t[hits[k - 1]] <= merge_s:
+        if k < len(hits) and t[hits[k]] - t[hits[k - 1]] <= merge_s + MERGE_ROUNDING_S:
             continue
-        first, group = hits[start], hits[start:k]
-        out.append(Incident(lap=int(c["lap"][first]), dist_m=float(c["dist_m"][first]), time_s=float(t[first]),
-                            damage=int(round(float(rise[group].sum()))), speed_mps=float(c["speed_mps"][first]),
-                            hits=len(group), x_m=float(c["x_m"][first]), y_m=float(c["y_m"][first]),
-                            near_car=int(near[first]), near_ahead_m=float(ahead[first]),
-                            near_left_m=float(left[first]), **_moved_in(t, first, near, left, mid)))
+        out.append(DamageRise(int(hits[start]), int(hits[k - 1]), k - start, int(round(float(gains[start:k].sum())))))
         start = k
     return out
 

@@ -16,7 +16,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-MERGE_S = 1.0  # damage rises this close in time are one incident (as report/damage.py counts them)
+from boxbox.report.damage import MERGE_S, damage_rises
+
 NEAR_SLACK_M = 1.0  # "within a car's length": centres at most the longer car's length plus this apart
 OFF_MERGE_S = 1.0  # off-track moments this close are one spell
 OFF_MIN_S = 0.2  # a spell shorter than this (two samples) is not listed
@@ -117,15 +118,8 @@ def damage_incidents(f: Frames, lengths: dict[int, float]) -> list[Incident]:
     were within a car's length, else damage (a barrier, a kerb, the car's own landing)."""
     out = []
     for k, car in enumerate(f.cars):
-        dmg = f.cols["damage"][:, k]
-        ok = np.flatnonzero(np.isfinite(dmg))
-        if len(ok) < 2:
-            continue
-        rise = np.diff(dmg[ok])
-        hits = ok[1:][rise > 0]
-        for first, last in _runs(np.isin(np.arange(len(f.times)), hits), f.times, MERGE_S):
-            before = ok[np.searchsorted(ok, first) - 1]
-            taken = int(round(float(np.nanmax(dmg[first:last + 1]) - dmg[before])))
+        for rise in damage_rises(f.times, f.cols["damage"][:, k], MERGE_S):
+            first, last, taken = rise.first, rise.last, rise.damage
             near = _near_cars(f, first, k, lengths)
             speed = f.at("speed_mps", first, k) * 3.6
             out.append(Incident("contact" if near else "damage", float(f.times[first]), _lap(f, first, k),

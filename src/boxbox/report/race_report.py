@@ -19,11 +19,12 @@ import numpy as np
 
 from boxbox.errors import UsageError
 from boxbox.report.damage import MERGE_S, MOVED_S, Incident, damage_by_lap, damage_incidents, moved_text, nearest_text
-from boxbox.report.tables import fmt_time
+from boxbox.report.tables import HTML_RESULTS, driver_label, fmt_time, html_table
+from boxbox.report.tables import KMH_PER_MPS as KMH
+from boxbox.report.tables import fmt_num as _num
 from boxbox.torcs.positions import positions_by_lap
-from boxbox.torcs.results import is_python_module
+from boxbox.torcs.results import DriverResult, RaceResult, is_python_module, json_problem
 
-KMH = 3.6
 REPORT_FILE = "report.html"
 COLORS = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22",
           "#17becf"]
@@ -51,12 +52,6 @@ def _img(fig, alt: str, dpi: int = 90) -> str:
     return f'<figure><img src="{_png(fig, dpi)}" alt="{caption}"><figcaption>{caption}</figcaption></figure>'
 
 
-def _num(value, fmt: str = "{:.2f}") -> str:
-    if value is None or (isinstance(value, float) and math.isnan(value)):
-        return "-"
-    return fmt.format(value)
-
-
 def _table(headers: list[str], rows: list[list[str]], cls: str = "") -> str:
     head = "".join(f"<th>{html.escape(h)}</th>" for h in headers)
     body = "".join("<tr>" + "".join(f"<td>{c}</td>" for c in row) + "</tr>" for row in rows)
@@ -75,10 +70,6 @@ def _break_wraps(x: np.ndarray, *ys: np.ndarray, jump: float) -> tuple[np.ndarra
         a = a.astype(float)
         out.append(np.insert(a, cut, np.nan))
     return tuple(out)
-
-
-def driver_label(d: dict) -> str:
-    return f"{d.get('name', '?')} ({d.get('module', '?')}:{d.get('idx', '?')})"
 
 
 # --- figures ---------------------------------------------------------------------------------------
@@ -337,16 +328,7 @@ def _positions_table(drivers: list[dict], places: list[list[int]]) -> str:
 
 
 def _results_table(r: dict) -> str:
-    rows = []
-    for d in r["drivers"]:
-        rows.append([str(d.get("rank") or "-"), html.escape(driver_label(d)), html.escape(d.get("car", "")),
-                     str(d.get("laps", 0)), fmt_time(d.get("time")), fmt_time(d.get("best_lap")),
-                     str(d.get("damage", 0)), str(d.get("pit_stops", 0)),
-                     _num(d.get("penalty_time"), "{:.1f}") if d.get("penalty_time") else "-",
-                     _num((d.get("top_speed") or 0) * KMH, "{:.1f}") if d.get("top_speed") else "-",
-                     _num(d.get("step_us_median"), "{:.1f}")])
-    return _table(["#", "driver", "car", "laps", "time", "best lap", "damage", "pits", "penalty s", "top km/h",
-                   "step µs (median)"], rows)
+    return html_table(HTML_RESULTS, r["drivers"])
 
 
 def _lap_table(drivers: list[dict]) -> str:
@@ -400,7 +382,9 @@ CSS = """
 body { font-family: system-ui, -apple-system, "Segoe UI", Roboto, "DejaVu Sans", sans-serif; margin: 1.5em auto;
        max-width: 1100px; color: #222; padding: 0 1em; }
 h1 { margin-bottom: 0.2em; } h2 { border-bottom: 1px solid #ccc; padding-bottom: 0.2em; margin-top: 1.6em; }
-.meta { color: #555; } .error { background: #fde8e8; border: 1px solid #d62728; padding: 0.6em; white-space: pre-wrap; }
+.meta { color: #555; } .error { background: #fde8e8; border: 1px solid #d62728; padding: 0.6em; }
+.error pre { font-family: ui-monospace, "DejaVu Sans Mono", Menlo, Consolas, monospace; white-space: pre-wrap;
+             margin: 0.4em 0 0; font-size: 0.9em; }
 .note { color: #555; font-size: 0.9em; }
 table { border-collapse: collapse; margin: 0.8em 0; font-size: 0.9em; }
 th, td { border: 1px solid #ccc; padding: 0.25em 0.6em; text-align: left; }
@@ -426,44 +410,20 @@ def _read_result(run_dir: Path) -> dict:
     return result
 
 
-NUMBER = (int, float)
-RESULT_TYPES: dict[str, tuple] = {"track": (str,), "category": (str,), "car": (str,), "laps": (int,),
-                                  "wall_s": NUMBER, "drivers": (list,), "run_dir": (str,), "error": (str, type(None)),
-                                  "skill_level": (str,), "limits": (dict,)}
-DRIVER_TYPES: dict[str, tuple] = {"name": (str,), "module": (str,), "idx": (int,), "car": (str,),
-                                  "car_index": (int,), "laps": (int,), "time": NUMBER, "best_lap": NUMBER,
-                                  "lap_times": (list,), "damage": (int,), "pit_stops": (int,),
-                                  "penalty_time": NUMBER, "top_speed": NUMBER, "rank": (int,),
-                                  "pit_events": (list,), "report": (dict,),
-                                  "step_us_median": (*NUMBER, type(None)), "step_us_p99": (*NUMBER, type(None))}
-
-
 def result_problem(r) -> str | None:
     """What makes `r` (a parsed result.json) something other than a race result, or None: the
     fields the report reads, where present, must have their types (a missing one is left out)."""
     if not isinstance(r, dict):
         return f"it holds a {type(r).__name__}, not an object"
-    problem = _types_problem(r, RESULT_TYPES, "")
+    problem = json_problem(RaceResult, r)
     if problem:
         return problem
     for i, d in enumerate(r.get("drivers", [])):
         if not isinstance(d, dict):
             return f"drivers[{i}] is a {type(d).__name__}, not an object"
-        problem = _types_problem(d, DRIVER_TYPES, f"drivers[{i}].")
+        problem = json_problem(DriverResult, d, f"drivers[{i}].")
         if problem:
             return problem
-        if not all(isinstance(t, NUMBER) and not isinstance(t, bool) for t in d.get("lap_times", [])):
-            return f"drivers[{i}].lap_times holds something other than numbers"
-        if not all(isinstance(e, dict) for e in d.get("pit_events", [])):
-            return f"drivers[{i}].pit_events holds something other than objects"
-    return None
-
-
-def _types_problem(obj: dict, types: dict[str, tuple], where: str) -> str | None:
-    for key, allowed in types.items():
-        if key in obj and (not isinstance(obj[key], allowed) or (isinstance(obj[key], bool) and bool not in allowed)):
-            names = " or ".join("null" if t is type(None) else t.__name__ for t in allowed)
-            return f"{where}{key} is {json.dumps(obj[key])[:40]}, not {names}"
     return None
 
 
@@ -532,7 +492,7 @@ def build_report(run_dir: Path, limit: tuple[np.ndarray, np.ndarray] | None = No
              f"<p class='meta'>Wall time {r.get('wall_s', 0):.2f} s · run dir <code>{html.escape(str(run_dir))}</code> "
              f"· report made {time.strftime('%Y-%m-%d %H:%M:%S')}</p>"]
     if r.get("error"):
-        parts.append(f"<div class='error'><b>The race stopped early:</b> {html.escape(r['error'])}</div>")
+        parts.append(f"<div class='error'><b>The race stopped early:</b><pre>{html.escape(r['error'])}</pre></div>")
     parts += ["<h2>Results</h2>", _results_table(r), _replay_section(run_dir), "<h2>Lap times</h2>"]
     fig = fig_lap_times(drivers)
     if fig is not None:

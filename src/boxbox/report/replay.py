@@ -21,7 +21,7 @@ import numpy as np
 
 from boxbox.errors import UsageError
 from boxbox.report.incidents import Frames, describe, find_incidents
-from boxbox.torcs.recording import load_recording
+from boxbox.torcs.recording import COLUMNS, load_recording, read_grid
 from boxbox.torcs.results import is_python_module
 
 REPLAY_FILE = "replay.html"
@@ -44,9 +44,29 @@ class Replay:
 
 
 def no_recording_error(run_dir: Path) -> UsageError:
-    return UsageError(f"{run_dir} has no recording ({RECORDING_FILE}): races with a Python car are recorded, not "
-                      "TORCS robots alone, nor races run with --no-telemetry or before boxbox recorded races; "
-                      "race it with `boxbox race`")
+    """Why run_dir has no recording, in one line that says what to do: not a run dir, a race of
+    TORCS robots alone, one run with --no-telemetry, one stopped before its first drive step (the
+    recording is made at the drive steps), or one from before boxbox recorded races."""
+    result = _read_json(run_dir / "result.json")
+    spec = _read_json(run_dir / "host-spec.json")
+    grid = read_grid(run_dir / "race.xml")
+    if result is None and spec is None and not grid:
+        return UsageError(f"{run_dir} is not a race's run dir (no result.json, race.xml nor {RECORDING_FILE}): "
+                          "give the folder `boxbox race` prints after its table (run_dir in its --json)")
+    drivers = [d for d in (result or {}).get("drivers", []) if isinstance(d, dict)]
+    python = [d for d in drivers if is_python_module(str(d.get("module", "")))]
+    if not python and not (spec or {}).get("robots") and not any(is_python_module(g["module"]) for g in grid):
+        return UsageError(f"{run_dir} has no recording ({RECORDING_FILE}): a race of TORCS robots alone is not "
+                          "recorded (the Python cars' drive steps record it); race one with a Python car")
+    if spec is not None and spec.get("telemetry") is False:
+        return UsageError(f"{run_dir} has no recording ({RECORDING_FILE}): it was raced with --no-telemetry; "
+                          "race it again without it")
+    if not any(d.get("lap_times") or d.get("time") for d in python):
+        error = str((result or {}).get("error") or "no result").splitlines()[0]
+        return UsageError(f"{run_dir} has no recording ({RECORDING_FILE}): the race stopped before its first drive "
+                          f"step ({error}); fix that and race it again")
+    return UsageError(f"{run_dir} has no recording ({RECORDING_FILE}): it was raced before boxbox recorded races, "
+                      "or the file was removed; race it again with `boxbox race`")
 
 
 def _read_json(path: Path) -> dict | None:
@@ -129,8 +149,13 @@ def build_replay(run_dir: Path) -> Replay:
         rec = load_recording(path)
     except Exception as exc:
         raise UsageError(f"{path} cannot be read ({type(exc).__name__}: {exc}); race again") from None
+    missing = [name for name, _ in COLUMNS if name not in rec.columns]
+    if missing:
+        raise UsageError(f"{path} is not a boxbox race recording (no column {', '.join(missing[:3])}"
+                         f"{', ...' if len(missing) > 3 else ''}): give the run dir of a race `boxbox race` ran")
     if not rec.rows:
-        raise no_recording_error(run_dir)
+        raise UsageError(f"{path} is empty (no sample: the race stopped as it started, or the file was cut); "
+                         "race it again")
     result = _read_json(run_dir / "result.json") or {}
     fault = _read_json(run_dir / "fault.json")
     frames = Frames.from_columns(rec.columns)

@@ -20,6 +20,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from boxbox.control.carmodel import WING_FACTOR, CarModel, axle_downforce_coefficients, wing_drag_coefficient
+from boxbox.control.engine import torque_curve_to_limit
 from boxbox.control.lapsim import PointMassCar, lap_speeds_mps, lap_time_s
 from boxbox.model import Car
 from boxbox.model.constants import AIR_DENSITY_KGPM3
@@ -43,8 +44,12 @@ def least_rear_wing_rad(car: Car, rear_balance: float) -> float:
 
 def ideal_gearbox_car(car: Car, model: CarModel) -> PointMassCar:
     """A point mass with the car's mass, downforce, drag (with the wings'), grip and an engine that
-    always runs at its best power (ideal gears): what a setup changes, without the gears."""
-    rpm, torque = np.asarray(car.torque_curve_radps), np.asarray(car.torque_curve_nm)
+    always runs at its best power (ideal gears): what a setup changes, without the gears.  The engine
+    is its torque curve up to the rev limit (torque_curve_to_limit), as the car has it."""
+    rpm_to_limit, torque_to_limit = torque_curve_to_limit(car)
+    if len(rpm_to_limit) < 2:  # no rev limit below the curve: the whole curve
+        rpm_to_limit, torque_to_limit = car.torque_curve_radps, car.torque_curve_nm
+    rpm, torque = np.asarray(rpm_to_limit), np.asarray(torque_to_limit)
     best = int(np.argmax(rpm * torque))
     radius_m = 0.3  # any: ratios are made for it
     speeds = np.geomspace(3.0, 120.0, IDEAL_GEARS)

@@ -64,6 +64,25 @@ class PitParams:
     brake_method: str = "exact"
 
 
+def pit_brake_filter(path: PitPath, model: CarModel, p: PitParams, stop_mode: str) -> PitBrakeFilter:
+    """The pit brake filter on `path` (the entry's braking, the speed limit, the stop at the box and
+    giving up) for a car of `model` with the parameters `p`: the one wiring of the pit part's
+    (PitStops) and the gym's pit stops (gym/pitstop.py)."""
+    lane_mu = path.surface_friction * model.mu
+    return PitBrakeFilter(
+        lambda v1, v2, mu: brake_distance(v1, v2, mu, model, p.brake_method),
+        limit_start_m=path.limit_start_m, box_m=path.box_m, limit_end_m=path.limit_end_m,
+        speed_limit_mps=path.speed_limit_mps, box_length_m=path.box_length_m,
+        pit_mu_source=p.mu_source, pit_mu=lane_mu, pit_mu_factor=p.mu, surface_mu_scale=p.brake_mu_scale,
+        entry_mode="computed" if p.entry_braking == "computed" else "ahead",
+        brake_ahead_m=p.brake_ahead_m, entry_constraints=path.entry_speed_constraints(lane_mu * 0.9),
+        stop_mode=stop_mode, stop_threshold_m=p.stop_threshold_m,
+        stop_max_decel_mps2=p.stop_grip_share * lane_mu * G_MPS2,
+        give_up=True, give_up_timeout_s=p.give_up_s,
+        # full brake on the lane's surface decelerates by about mu g (clutch open: no engine braking)
+        tracker=SpeedTracker(full_brake_mps2=lane_mu * G_MPS2, drag_k_per_m=model.cw / model.mass_kg))
+
+
 @dataclass
 class PitEvent:
     """One visit to the pit lane (times in s of race time; stop error in m, + past the box)."""
@@ -122,18 +141,7 @@ class PitStops:
         lane_mu = path.surface_friction * model.mu
         self.path = path
         self._coast_decel = 2.0 * 0.5 * lane_mu * G_MPS2  # v^2 = 2 a d with a = half the lane's grip
-        self.brake_filter = PitBrakeFilter(
-            lambda v1, v2, mu: brake_distance(v1, v2, mu, model, p.brake_method),
-            limit_start_m=path.limit_start_m, box_m=path.box_m, limit_end_m=path.limit_end_m,
-            speed_limit_mps=path.speed_limit_mps, box_length_m=path.box_length_m,
-            pit_mu_source=p.mu_source, pit_mu=lane_mu, pit_mu_factor=p.mu, surface_mu_scale=p.brake_mu_scale,
-            entry_mode="computed" if p.entry_braking == "computed" else "ahead",
-            brake_ahead_m=p.brake_ahead_m, entry_constraints=path.entry_speed_constraints(lane_mu * 0.9),
-            stop_mode=self.options.pit_mode, stop_threshold_m=p.stop_threshold_m,
-            stop_max_decel_mps2=p.stop_grip_share * lane_mu * G_MPS2,
-            give_up=True, give_up_timeout_s=p.give_up_s,
-            # full brake on the lane's surface decelerates by about mu g (clutch open: no engine braking)
-            tracker=SpeedTracker(full_brake_mps2=lane_mu * G_MPS2, drag_k_per_m=model.cw / model.mass_kg))
+        self.brake_filter = pit_brake_filter(path, model, p, self.options.pit_mode)
         self._exit_from_m, self._exit_caps = path.exit_speed_caps(lane_mu * 0.9, 0.5 * lane_mu * G_MPS2)
         mid = middle_line(track, step_m=2.0)
         self._step_m, self._n = mid.step_m, mid.n

@@ -25,6 +25,7 @@ from boxbox.cache import cached_array
 from boxbox.control import carmodel, fuel, lapsim, speed, suspension, tyre
 from boxbox.control.braking import brake_distance, brake_limited_speed
 from boxbox.control.carmodel import CarModel
+from boxbox.control.engine import engine_brake_power_w, engine_brake_share
 from boxbox.control.gears import GearBox
 from boxbox.control.offset_room import offset_room_ahead
 from boxbox.control.pit_brake import ENTRY, EXIT, FREE, GAVE_UP, HOLD, LANE, LIMIT, STOP
@@ -39,13 +40,12 @@ from boxbox.control.traction import (
     drive_axles,
     drive_force_room_n,
     driven_wheel_speed_mps,
-    engine_brake_share,
     spare_slip_ratio,
     tcl_from_slip,
     throttle_for_torque,
 )
 from boxbox.model import Car, CarSetup, Controls, PitOrder, State, Track
-from boxbox.model.car import FWD, RWD
+from boxbox.model.car import FWD, RWD, STEERING_WHEELBASE_SHARE
 from boxbox.model.constants import DRIVE_STEP_S, G_MPS2
 from boxbox.model.skill import SkillLevel
 from boxbox.robot import bottoming, carsetup
@@ -135,10 +135,8 @@ class TutorialRobot(Robot):
         self._prepare_line(track, car, p)
         model = CarModel.from_car(car, fuel_l=0.5 * min(car.tank_l, race_l))
         step_m, _, _, speeds, point_mass = self._simulated_lap(car, model, p, "fuel-laps")
-        brake_w = fuel.engine_brake_power_w(car.torque_curve_radps, car.torque_curve_nm, car.engine_tickover_radps,
-                                            car.engine_revs_max_radps, car.engine_brake_coeff)
         return fuel.lap_fuel_l(step_m, speeds, point_mass.mass_kg, point_mass.cw_n_per_mps2, car.fuel_cons_factor,
-                               brake_w)
+                               engine_brake_power_w(car))
 
     def _simulated_lap(self, car: Car, model: CarModel, p: TutorialParams, kind: str
                        ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, lapsim.PointMassCar]:
@@ -236,7 +234,7 @@ class TutorialRobot(Robot):
         self._init_race_state()
         self._setup_pit(track, car, p)
         self._inv_lock = 1.0 / car.steer_lock_rad
-        self.wheelbase_m = 0.6 * car.length_m  # not in the car's constants; 0.6 x length fits TORCS's cars
+        self.wheelbase_m = car.steering_wheelbase_m
         self._stuck_angle = math.radians(p.stuck_angle_deg)
 
     def _road(self, car: Car) -> Road:
@@ -262,7 +260,8 @@ class TutorialRobot(Robot):
         holds = self._peak_slip > 0.0 and tyre.falls_past_peak(*shape, SkillLevel(car.skill_level).skid_factor)
         self._holds_peak = holds and len(car.torque_curve_nm) >= 2
         # the weight on the front axle is the CG's share of the wheelbase behind it
-        self._cg_to_rear_m = car.front_weight_share * 0.6 * car.length_m
+        # (in this order: the product rounds as the robot's measured figures had it)
+        self._cg_to_rear_m = car.front_weight_share * STEERING_WHEELBASE_SHARE * car.length_m
         self._axles = drive_axles(car)
         self._drive_radius_m = car.wheel_radius_fr_m if car.drivetrain == FWD else car.wheel_radius_rr_m
         self.slip = SlipParams(abs_slip_mps=p.abs_slip_mps, abs_range_mps=p.abs_range_mps,

@@ -8,8 +8,11 @@ every other car. `save_result` writes the result to the run dir first, then to `
 
 from __future__ import annotations
 
+import json
+import types
+import typing
 import xml.etree.ElementTree as ET
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 
 from boxbox.files import write_json_atomic
@@ -55,6 +58,58 @@ class DriverResult:
         """A car driven by a Python robot (through boxbox's bridge), not by one of TORCS's robots."""
         return is_python_module(self.module)
 
+    @classmethod
+    def from_json(cls, data: dict) -> DriverResult:
+        """The driver `to_json` wrote (result.json, the bench cache); ValueError for a field of the
+        wrong type (json_problem), TypeError for an unknown one."""
+        problem = json_problem(cls, data)
+        if problem:
+            raise ValueError(problem)
+        return cls(**data)
+
+
+# a field's annotation -> the JSON values it takes (a float takes an int; JSON has no tuple)
+_JSON_TYPES: dict[type, tuple[type, ...]] = {str: (str,), int: (int,), float: (int, float), list: (list,),
+                                             dict: (dict,)}
+_ITEM_NAMES: dict[tuple[type, ...], str] = {(int, float): "numbers", (dict,): "objects"}
+
+
+def json_problem(cls: type, data: dict, where: str = "") -> str | None:
+    """What makes `data` (a parsed result.json, or one of its drivers) other than dataclass `cls`,
+    or None: each field present must have its type, from the field's annotation (a missing one is
+    left out; a list of dataclasses is checked item by item by its reader)."""
+    for name, (allowed, items) in _json_types(cls).items():
+        if name not in data:
+            continue
+        value = data[name]
+        if not isinstance(value, allowed) or (isinstance(value, bool) and bool not in allowed):
+            names = " or ".join("null" if t is type(None) else t.__name__ for t in allowed)
+            return f"{where}{name} is {json.dumps(value)[:40]}, not {names}"
+        if items and not all(isinstance(v, items) and not isinstance(v, bool) for v in typing.cast(list, value)):
+            return f"{where}{name} holds something other than {_ITEM_NAMES.get(items, 'its items')}"
+    return None
+
+
+def _json_types(cls: type) -> dict[str, tuple[tuple[type, ...], tuple[type, ...]]]:
+    """Per field of dataclass `cls`: the types its JSON value may have, and those of a list's items
+    (() when any)."""
+    hints = typing.get_type_hints(cls)
+    out = {}
+    for f in fields(cls):
+        hint = hints[f.name]
+        union = typing.get_origin(hint) in (types.UnionType, typing.Union)
+        allowed: tuple[type, ...] = ()
+        items: tuple[type, ...] = ()
+        for arg in typing.get_args(hint) if union else (hint,):
+            if arg is type(None):
+                allowed += (type(None),)
+                continue
+            allowed += _JSON_TYPES[typing.get_origin(arg) or arg]
+            if typing.get_origin(arg) is list:
+                items = _JSON_TYPES.get(typing.get_args(arg)[0], ())
+        out[f.name] = (allowed, items)
+    return out
+
 
 @dataclass
 class RaceResult:
@@ -76,10 +131,14 @@ class RaceResult:
 
     @classmethod
     def from_json(cls, data: dict) -> RaceResult:
-        """The inverse of to_json (result.json, the bench cache)."""
-        fields = dict(data)
-        fields["drivers"] = [DriverResult(**d) for d in fields.get("drivers", [])]
-        return cls(**fields)
+        """The inverse of to_json (result.json, the bench cache); ValueError for a field of the wrong
+        type (json_problem), TypeError for an unknown one."""
+        problem = json_problem(cls, data)
+        if problem:
+            raise ValueError(problem)
+        given = dict(data)
+        given["drivers"] = [DriverResult.from_json(d) for d in given.get("drivers", [])]
+        return cls(**given)
 
 
 def _attrs(section: ET.Element) -> dict[str, str]:

@@ -10,7 +10,6 @@ from boxbox.control.carmodel import (
     cornering_downforce_coefficient,
     downforce_coefficient,
     drag_coefficient,
-    engine_brake_power_w,
     wing_drag_coefficient,
 )
 from boxbox.model.car import Car
@@ -125,20 +124,6 @@ def test_brake_force_from_the_cars_brakes():
     assert brake_force_n(car) == pytest.approx(2 * front + 2 * rear, rel=1e-12)
     assert CarModel.from_car(car, brakes=True).brake_force_n == pytest.approx(2 * front + 2 * rear, rel=1e-12)
     assert brake_force_n(_car(brake_pressure_max=0.0)) == math.inf  # no pressure given: no limit known
-
-
-def test_engine_brake_power_reads_the_curve_up_to_the_rev_limit():
-    # the 155-DTM's curve as the bridge sends it: padded with 750 N m past its 1047 rad/s limit
-    rpm = (0.0, 105.0, 419.0, 628.0, 838.0, 1047.0, 1152.0, 1466.0)
-    torque = (750.0, 364.0, 463.0, 471.0, 401.0, 330.0, 750.0, 750.0)
-    car = _car(torque_curve_radps=rpm, torque_curve_nm=torque, engine_tickover_radps=105.0,
-               engine_revs_max_radps=1047.0, engine_brake_coeff=0.33)
-    # most power inside the limit at 1047 rad/s (346 kW; 838 rad/s gives 336): the whole
-    # brake_coeff there, 0.33 x 330 N m x 1047 rad/s
-    expected = 0.33 * (1047.0 - 105.0) / (1047.0 - 105.0) * 330.0 * 1047.0
-    assert engine_brake_power_w(car) == pytest.approx(expected, rel=1e-12)
-    assert CarModel.from_car(car, brakes=True).engine_brake_w == pytest.approx(expected, rel=1e-12)
-    assert engine_brake_power_w(_car()) == 0.0  # no curve: no engine brake counted
 
 
 def test_the_brakes_model_counts_the_wings_drag_and_the_tyres_model_no_brakes():

@@ -5,11 +5,8 @@ import math
 import numpy as np
 import pytest
 
-from boxbox.control.fuel import engine_brake_power_w, lap_fuel_l
+from boxbox.control.fuel import lap_fuel_l
 from boxbox.robot.start_fuel import MODEL_MARGIN, NO_PIT_SPARE_LAPS, TRAFFIC_MARGIN, start_fuel_l
-
-CURVE_RADPS = (0.0, 500.0, 1000.0)
-CURVE_NM = (100.0, 400.0, 300.0)  # most power at 1000 rad/s: 300 kW
 
 
 def test_steady_speed_burns_the_drags_work():
@@ -33,12 +30,6 @@ def test_speeding_up_costs_the_kinetic_energy_and_braking_the_engine_brake():
     assert with_brake - without == pytest.approx(50_000.0 * braking_s * 1e-7)
 
 
-def test_engine_brake_power_at_the_speed_of_most_power():
-    # at 1000 rad/s: 0.33 x (1000 - 100) / (1100 - 100) x 300 N m x 1000 rad/s
-    assert engine_brake_power_w(CURVE_RADPS, CURVE_NM, 100.0, 1100.0, 0.33) == pytest.approx(0.297 * 300_000.0)
-    assert engine_brake_power_w(CURVE_RADPS, CURVE_NM, 100.0, 1100.0, 0.0) == 0.0
-
-
 @pytest.mark.parametrize("bad", [
     dict(speeds=np.full(10, 0.0)), dict(speeds=np.full(10, math.nan)), dict(steps=np.full(10, -1.0)),
     dict(speeds=np.full(9, 10.0)), dict(mass=0.0), dict(cw=-1.0), dict(brake=math.inf * -1),
@@ -48,13 +39,6 @@ def test_lap_fuel_rejects_bad_input(bad):
     args.update(bad)
     with pytest.raises(ValueError):
         lap_fuel_l(args["steps"], args["speeds"], args["mass"], args["cw"], 1.0, args["brake"])
-
-
-def test_engine_brake_power_rejects_bad_input():
-    with pytest.raises(ValueError):
-        engine_brake_power_w((0.0,), (1.0,), 100.0, 1000.0, 0.33)
-    with pytest.raises(ValueError):
-        engine_brake_power_w(CURVE_RADPS, CURVE_NM, 1200.0, 1000.0, 0.33)
 
 
 def test_start_fuel_with_a_pit_lane_is_the_race_plus_the_strategys_margin():

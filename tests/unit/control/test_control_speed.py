@@ -5,7 +5,15 @@ import pytest
 
 from boxbox.control.braking import brake_distance_exact, max_entry_speed
 from boxbox.control.carmodel import CarModel
-from boxbox.control.speed import SpeedProfile, allowed_speed, bump_speed, crest_speed, segment_speed_limits
+from boxbox.control.speed import (
+    MIDDLE_LINE_MU_SCALE,
+    QUARTER_TURN_RAD,
+    SpeedProfile,
+    allowed_speed,
+    bump_speed,
+    crest_speed,
+    segment_speed_limits,
+)
 from boxbox.model.constants import G_MPS2 as G
 from boxbox.model.track import LEFT, RIGHT, STRAIGHT, Track
 from trackdata import TRACKS, load
@@ -130,19 +138,29 @@ def test_segment_limits_short_turn_gets_enlarged_radius():
         (STRAIGHT, 100.0, 0), (RIGHT, math.pi / 2, 50.0), (RIGHT, math.pi / 2, 50.0),  # 180 deg right
         (STRAIGHT, 100.0, 0),
     ])
-    lim = segment_speed_limits(track, NO_AERO)
+    lim = segment_speed_limits(track, NO_AERO, mu_scale=1.0, full_arc_rad=QUARTER_TURN_RAD)
     assert lim[0] == lim[3] == lim[6] == 100.0
     # half a quarter turn: radius / 0.5
     assert lim[1] == lim[2] == pytest.approx(allowed_speed(100.0, 1.0, NO_AERO), rel=1e-12)
     # long turn keeps its radius
     assert lim[4] == lim[5] == pytest.approx(allowed_speed(50.0, 1.0, NO_AERO), rel=1e-12)
     # the exponent softens the enlargement: 50 / sqrt(0.5)
-    soft = segment_speed_limits(track, NO_AERO, short_turn_exponent=0.5)
+    soft = segment_speed_limits(track, NO_AERO, mu_scale=1.0, full_arc_rad=QUARTER_TURN_RAD, short_turn_exponent=0.5)
     assert soft[1] == pytest.approx(allowed_speed(50.0 / math.sqrt(0.5), 1.0, NO_AERO), rel=1e-12)
     # half the width added to the radius (the shipped robot's choice)
-    wide = segment_speed_limits(track, NO_AERO, width_fraction=0.5)
+    wide = segment_speed_limits(track, NO_AERO, mu_scale=1.0, full_arc_rad=QUARTER_TURN_RAD, width_fraction=0.5)
     assert wide[4] == pytest.approx(allowed_speed(55.0, 1.0, NO_AERO), rel=1e-12)
     assert wide[1] == pytest.approx(allowed_speed(110.0, 1.0, NO_AERO), rel=1e-12)
+
+
+def test_segment_limits_default_to_the_middle_line_at_70_percent_grip():
+    """The defaults fit a car on the middle line (steer_to_line on it, docs/robots.md): no turn is
+    taken as cut (with a quarter turn's rule, e-track-2 wrecked such a car), 70% of the grip."""
+    track = _track([(STRAIGHT, 100.0, 0), (LEFT, math.pi / 8, 50.0), (LEFT, math.pi / 8, 50.0),
+                    (STRAIGHT, 100.0, 0), (RIGHT, math.pi, 50.0)])
+    lim = segment_speed_limits(track, NO_AERO)
+    assert lim[1] == lim[2] == lim[4] == pytest.approx(allowed_speed(50.0, MIDDLE_LINE_MU_SCALE, NO_AERO), rel=1e-12)
+    assert MIDDLE_LINE_MU_SCALE == 0.7
 
 
 def test_segment_limits_turn_across_start_line_is_one_turn():
@@ -151,7 +169,7 @@ def test_segment_limits_turn_across_start_line_is_one_turn():
         (RIGHT, math.pi / 6, 40.0), (STRAIGHT, 200.0, 0), (LEFT, math.pi, 40.0), (STRAIGHT, 200.0, 0),
         (RIGHT, math.pi / 6, 40.0),
     ])
-    lim = segment_speed_limits(track, NO_AERO)
+    lim = segment_speed_limits(track, NO_AERO, mu_scale=1.0, full_arc_rad=QUARTER_TURN_RAD)
     expected = allowed_speed(40.0 / (2 / 3), 1.0, NO_AERO)
     assert lim[0] == pytest.approx(expected, rel=1e-12)
     assert lim[4] == pytest.approx(expected, rel=1e-12)
@@ -261,7 +279,7 @@ def test_profile_from_curvature():
 
 def test_profile_from_track_samples_segment_limits():
     track = _track([(STRAIGHT, 301.0, 0), (LEFT, math.pi, 30.0), (STRAIGHT, 300.0, 0)])
-    p = SpeedProfile.from_track(track, NO_AERO, step_m=2.0)
+    p = SpeedProfile.from_track(track, NO_AERO, step_m=2.0, mu_scale=1.0)
     assert p.length_m == pytest.approx(track.length_m)
     assert p.step_m == pytest.approx(track.length_m / round(track.length_m / 2.0))
     turn = allowed_speed(30.0, 1.0, NO_AERO)
@@ -294,7 +312,7 @@ def test_profile_on_recorded_track_is_plausible(name):
 
 def test_profile_from_track_turn_across_start_line():
     track = _track([(LEFT, math.pi / 4, 40.0), (STRAIGHT, 500.0, 0), (LEFT, math.pi / 4, 40.0)])
-    p = SpeedProfile.from_track(track, NO_AERO)
+    p = SpeedProfile.from_track(track, NO_AERO, mu_scale=1.0, full_arc_rad=QUARTER_TURN_RAD)
     turn = allowed_speed(40.0, 1.0, NO_AERO)  # 90 deg in total: no enlargement
     assert p.speed_at(0.0) == pytest.approx(turn)
     assert p.speed_at(track.length_m - 1.0) == pytest.approx(turn)

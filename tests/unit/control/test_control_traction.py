@@ -12,7 +12,6 @@ from boxbox.control.traction import (
     drive_axles,
     drive_force_room_n,
     driven_wheel_speed_mps,
-    engine_brake_share,
     spare_slip_ratio,
     tcl_filter,
     throttle_for_torque,
@@ -192,13 +191,6 @@ def test_combined_slip_room_cuts_the_throttle_of_a_car_sliding_out_of_a_turn():
     assert tcl_filter(1.0, 36.7, wheels, R, RWD, ratio, room) == pytest.approx(1.0 - (9.9 - 2.0) / 10.0)
     # gripping (side slip 0.05): the turn's share still sets the room, nothing changes
     assert combined_slip_room(0.214, 0.05) > spare_slip_ratio(0.214, 0.5) > 0.15
-
-
-def test_engine_brake_share_grows_from_tickover_to_the_coefficient_at_most_revs():
-    assert engine_brake_share(100.0, 100.0, 1000.0, 0.33) == 0.0
-    assert engine_brake_share(50.0, 100.0, 1000.0, 0.33) == 0.0  # below tickover: no brake
-    assert engine_brake_share(550.0, 100.0, 1000.0, 0.33) == pytest.approx(0.165)
-    assert engine_brake_share(1000.0, 100.0, 1000.0, 0.33) == pytest.approx(0.33)
 
 
 def test_throttle_for_torque_adds_what_the_engine_brake_takes():

@@ -1,7 +1,8 @@
 /* boxbox replay viewer: the race on a canvas, plain JS, no network.  Its data is the JSON in
    #bbr-data (written by boxbox/report/replay.py): the track, the cars, the incidents, and per car
    and sample base64 typed arrays, car after car.  window.replay is a small API for tests and the
-   console: seek(t), play(), pause(), time(), worldToScreen(x, y), carState(car, t), jump(i). */
+   console: seek(t), play(), pause(), time(), setSpeed(x), worldToScreen(x, y), carState(car, t), jump(i),
+   labels() (where the last frame put each car's label). */
 (function () {
   "use strict";
   const root = document.getElementById("bbr-root");
@@ -11,6 +12,8 @@
   const UNKNOWN = -128; // a TORCS robot's controls are not recorded
   const GAP_S = 0.5; // samples further apart are not interpolated (no Python car was driven between)
   const BEFORE_S = 3; // a click on an incident shows it from this long before
+  const JUMP_SPEED = 1; // ... at most this fast (at 16x a contact is over in a fifth of a second)
+  const LABEL_H = 14, LABEL_GAP = 2; // a label's height (11px text) and the room kept between two
   const MIN_CAR_PX = 11; // cars drawn at least this long (a whole track at once shrinks them to dots)
   const FOLLOW_SPAN_M = 100; // what the smaller side of the view shows when following a car
   const KIND_COLORS = { contact: "#d62728", damage: "#ff7f0e", "off-track": "#8c564b", spin: "#9467bd",
@@ -36,7 +39,7 @@
   const canvas = $(".bbr-canvas");
   const ctx = canvas.getContext("2d");
   const state = { t: t0, playing: false, speed: 1, mode: "track", follow: 0, zoom: 1, lastWall: null,
-    shownIncident: -1, hiddenKinds: new Set() };
+    shownIncident: -1, hiddenKinds: new Set(), labels: [] };
   state.follow = Math.max(0, cars.findIndex((c) => c.python));
   const view = { scale: 1, wx: 0, wy: 0, w: 0, h: 0 };
 
@@ -216,13 +219,39 @@
       ctx.beginPath(); ctx.arc(sx, sy, Math.max(L, 16) * 0.75 + 3, 0, 2 * Math.PI); ctx.stroke();
     }
   }
-  function drawLabel(k, st) {
+  function overlaps(a, b) {
+    return a.x < b.x + b.w + LABEL_GAP && b.x < a.x + a.w + LABEL_GAP && a.y < b.y + b.h && b.y < a.y + a.h;
+  }
+  function placeLabel(sx, sy, L, w, placed) {
+    // beside the car (right, else left), then stepped up and down a label's height at a time, so
+    // the labels of a grid or a pack stand in a column instead of on each other; inside the canvas
+    const off = L * 0.6 + 6, x0 = Math.max(0, Math.min(view.w - w, sx + off)),
+      x1 = Math.max(0, Math.min(view.w - w, sx - off - w)), y = sy - L * 0.6 - 4 - LABEL_H + 3;
+    const fit = (r) => Math.max(0, Math.min(view.h - r.h, r.y));
+    for (let step = 0; step < 2 * C + 2; step++) {
+      const dy = (step % 2 ? -1 : 1) * Math.ceil(step / 2) * (LABEL_H + LABEL_GAP);
+      for (const x of [x0, x1]) {
+        const r = { x, y: 0, w, h: LABEL_H };
+        r.y = fit({ y: y + dy, h: LABEL_H });
+        if (!placed.some((p) => overlaps(p, r))) return r;
+      }
+    }
+    return null; // no room left anywhere near: the list and the panel name the car
+  }
+  function drawLabel(k, st, placed) {
     const [sx, sy] = worldToScreen(st.x, st.y);
-    if (!isFinite(sx)) return;
     const [L] = carBox(k);
+    if (!(sx > -L && sx < view.w + L && sy > -L && sy < view.h + L)) return; // off the view (or NaN)
     const text = (st.place ? "P" + st.place + " " : "") + cars[k].name;
     ctx.font = (k === state.follow ? "bold " : "") + "11px system-ui, sans-serif";
-    const lx = sx + L * 0.6 + 6, ly = sy - L * 0.6 - 4;
+    const r = placeLabel(sx, sy, L, 12 + ctx.measureText(text).width + 3, placed);
+    if (!r) return;
+    placed.push({ ...r, car: cars[k].car });
+    const lx = r.x, ly = r.y + LABEL_H - 3;
+    if (Math.abs(r.y - (sy - L * 0.6 - 4 - LABEL_H + 3)) > LABEL_H) { // moved away: a line to its car
+      ctx.lineWidth = 1; ctx.strokeStyle = "rgba(0,0,0,.5)";
+      ctx.beginPath(); ctx.moveTo(sx, sy); ctx.lineTo(r.x < sx ? r.x + r.w : r.x, r.y + LABEL_H / 2); ctx.stroke();
+    }
     ctx.fillStyle = cars[k].color; // the car's colour before its name: which label is whose in a pack
     ctx.fillRect(lx, ly - 9, 9, 9);
     ctx.lineWidth = 1; ctx.strokeStyle = "#333";
@@ -231,8 +260,13 @@
     ctx.strokeText(text, lx + 12, ly); ctx.fillText(text, lx + 12, ly);
   }
   function fmtTime(t) {
-    const s = Math.max(0, t), m = Math.floor(s / 60);
-    return (t < 0 ? "-" : "") + m + ":" + (s - 60 * m).toFixed(1).padStart(4, "0");
+    const tenths = Math.round(t * 10), s = Math.abs(tenths) / 10, m = Math.floor(s / 60); // no "-0:00.0"
+    return (tenths < 0 ? "-" : "") + m + ":" + (s - 60 * m).toFixed(1).padStart(4, "0");
+  }
+  function lapText(lap) {
+    // TORCS counts a finished car's lap on (4 after 3 laps): the race's laps at most
+    const shown = Math.max(0, lap);
+    return D.laps ? Math.min(shown, D.laps) + " of " + D.laps : String(shown);
   }
   function draw() {
     if (!view.w) return;
@@ -243,10 +277,11 @@
     const order = states.map((_, k) => k).filter((k) => k !== state.follow);
     order.push(state.follow); // the followed car on top
     for (const k of order) drawCar(k, states[k]);
-    for (const k of order) drawLabel(k, states[k]);
+    const placed = [];
+    for (const k of order.slice().reverse()) drawLabel(k, states[k], placed); // the followed car's first
+    state.labels = placed;
     const leader = states.find((s) => s.place === 1) || states[0];
-    $(".bbr-clock").textContent = "t " + fmtTime(state.t) + " · lap " + Math.max(leader.lap, 0) +
-      (D.laps ? " of " + D.laps : "") + " · " + state.speed + "x";
+    $(".bbr-clock").textContent = "t " + fmtTime(state.t) + " · lap " + lapText(leader.lap) + " · " + state.speed + "x";
     $(".bbr-scrub").value = state.t;
     drawPanel(states[state.follow]);
     markIncident();
@@ -270,7 +305,7 @@
   }
   function drawPanel(st) {
     const c = cars[state.follow];
-    const rows = [["place", st.place ? st.place + " of " + C : "-"], ["lap", Math.max(0, st.lap)],
+    const rows = [["place", st.place ? st.place + " of " + C : "-"], ["lap", lapText(st.lap)],
       ["speed", (st.speed * 3.6).toFixed(0) + " km/h"]];
     if (st.gear !== UNKNOWN) {
       rows.push(["gear", st.gear], ["throttle", bar(st.accel / 100, "#2ca02c")], ["brake", bar(st.brake / 100, "#d62728")],
@@ -291,6 +326,7 @@
     const inc = incidents[i];
     if (inc.cars.length && column(inc.cars[0]) >= 0) setFollow(column(inc.cars[0]));
     seek(Math.max(t0, inc.time_s - BEFORE_S));
+    if (state.speed > JUMP_SPEED) setSpeed(JUMP_SPEED);
     setPlaying(true);
   }
   function markIncident() {
@@ -345,7 +381,16 @@
 
   // --- playing -----------------------------------------------------------------------------------
   function seek(t) {
+    t = Number(t);
+    if (!Number.isFinite(t)) return; // NaN (an empty field, a bad sum): the time stays where it was
     state.t = Math.max(t0, Math.min(t1, t));
+    draw();
+  }
+  function setSpeed(v) {
+    v = Number(v);
+    if (!Number.isFinite(v) || v <= 0) return;
+    state.speed = v;
+    $(".bbr-speed").value = String(v);
     draw();
   }
   function frame(now) {
@@ -389,7 +434,7 @@
     carSelect.value = String(state.follow);
     carSelect.addEventListener("change", () => setFollow(Number(carSelect.value)));
     $(".bbr-view").addEventListener("change", (ev) => setMode(ev.target.value));
-    $(".bbr-speed").addEventListener("change", (ev) => { state.speed = Number(ev.target.value); draw(); });
+    $(".bbr-speed").addEventListener("change", (ev) => setSpeed(ev.target.value));
     $(".bbr-play").addEventListener("click", () => setPlaying(!state.playing));
     const scrub = $(".bbr-scrub");
     scrub.min = t0; scrub.max = t1; scrub.step = 0.01;
@@ -423,7 +468,7 @@
   resize();
   window.replay = {
     seek, play: () => setPlaying(true), pause: () => setPlaying(false), time: () => state.t,
-    playing: () => state.playing, setSpeed: (v) => { state.speed = v; $(".bbr-speed").value = String(v); },
+    playing: () => state.playing, setSpeed, labels: () => state.labels.slice(),
     view: setMode, follow: (car) => setFollow(column(car)), worldToScreen: (x, y) => { placeView(); return worldToScreen(x, y); },
     carState: (car, t) => carState(column(car), t === undefined ? state.t : t), jump, incidents, cars,
     start: t0, end: t1, canvas, ready: true,
