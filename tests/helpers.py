@@ -1,11 +1,14 @@
-"""Helpers for the integration tests, which run real TORCS races (never skipped)."""
+"""Helpers for the tests (the integration tests run real TORCS races, never skipped)."""
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
+import stat
 import subprocess
 import sys
+from collections.abc import Iterator
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -36,6 +39,24 @@ def processes_mentioning(text: str) -> list[str]:
 
 def read_json(path: Path) -> dict:
     return json.loads(path.read_text())
+
+
+@contextlib.contextmanager
+def kept_device(path: str) -> Iterator[str]:
+    """Yields the device's path; after the block, fails if it is no longer the same character
+    device, and first makes it again (as root: a regression of files.atomic_path must not break
+    /dev/null for the whole machine)."""
+    before = os.stat(path)
+    assert stat.S_ISCHR(before.st_mode)
+    try:
+        yield path
+    finally:
+        after = os.stat(path)
+        if not stat.S_ISCHR(after.st_mode):
+            os.remove(path)
+            os.mknod(path, stat.S_IFCHR | 0o666, before.st_rdev)
+            os.chmod(path, stat.S_IMODE(before.st_mode))
+        assert stat.S_ISCHR(after.st_mode), f"{path} is no longer a character device"
 
 
 VIEWPORT = {"width": 1280, "height": 1000}  # the pages' tests' browser window (CSS pixels)

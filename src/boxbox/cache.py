@@ -6,10 +6,12 @@ import hashlib
 import os
 from collections.abc import Callable
 from pathlib import Path
-
-import numpy as np
+from typing import TYPE_CHECKING
 
 from boxbox.files import atomic_path
+
+if TYPE_CHECKING:  # numpy loads with the first cached array: `boxbox tracks` reads the cache folder only
+    import numpy as np
 
 
 def cache_dir() -> Path:
@@ -22,6 +24,8 @@ def cache_dir() -> Path:
 
 def cached_array(kind: str, key_parts: list[bytes], compute: Callable[[], np.ndarray]) -> np.ndarray:
     """compute(), or its earlier result for the same key parts (kept as .npy under the cache)."""
+    import numpy as np
+
     digest = hashlib.sha256(b"\0".join(key_parts)).hexdigest()[:24]
     path = cache_dir() / kind / f"{digest}.npy"
     try:

@@ -15,3 +15,7 @@ PIT_MODES: tuple[PitMode, ...] = get_args(PitMode)
 LearningMode = Literal["on", "off", "fresh"]
 LEARNING_MODES: tuple[LearningMode, ...] = get_args(LearningMode)
 
+
+# how far a car may go past the track's edge: TORCS's own limit, or the painted edge (control/trackwidth.py)
+TrackLimits = Literal["torcs", "strict"]
+TRACK_LIMITS: tuple[TrackLimits, ...] = get_args(TrackLimits)

@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import Any, NoReturn
 
 from boxbox.errors import UsageError
+from boxbox.files import REGULAR, WRITE_THROUGH, output_kind, output_target
 from boxbox.options import LEARNING_MODES, PIT_MODES
 
 MAX_LAPS = 10_000  # far beyond any race worth running; keeps lap counts clear of C int overflows
@@ -298,9 +299,12 @@ def _path(value: Any, name: str | None) -> Path:
     if not isinstance(value, str | os.PathLike) or (isinstance(value, str) and not value.strip()):
         fail(f"{value!r} is not a path.", name)
     try:
-        return Path(os.path.abspath(os.path.expanduser(value)))
-    except (ValueError, TypeError):  # a NUL byte, a PathLike of bytes
+        path = Path(os.path.abspath(os.path.expanduser(value)))
+    except (ValueError, TypeError):  # a PathLike of bytes
         fail(f"{value!r} is not a path.", name)
+    if "\0" in str(path):  # no file name holds a NUL byte (and the system calls refuse it)
+        fail(f"{value!r} is not a path.", name)
+    return path
 
 
 def probe_writable(folder: Path) -> str | None:
@@ -328,15 +332,27 @@ def output_file(value: Any, *, name: str | None = None) -> Path:
 
 
 def _output_file_problem(path: Path) -> str | None:
-    if path.is_dir():
-        return f"{shown(path)} is a folder; give a file name."
-    if not path.parent.is_dir():
-        return f"folder {shown(path.parent)} does not exist; create it first."
-    if why := probe_writable(path.parent):
-        return f"cannot write in {shown(path.parent)} ({why}); choose another place."
-    if path.exists() and not os.access(path, os.W_OK):
+    target = output_target(path)  # a symlink's target is what gets written (files.atomic_path)
+    kind = output_kind(target)
+    if kind == WRITE_THROUGH:  # a device or FIFO: written into, no file made beside it
+        return None if os.access(target, os.W_OK) else f"{shown(path)} is not writable; choose another file."
+    if kind != REGULAR:
+        return f"{shown(path)} is {kind}; give a file name."
+    if not target.parent.is_dir():
+        existing = _nearest_existing(target.parent)
+        if not existing.is_dir():
+            return f"{shown(existing)} is a file, not a folder; give a file in a folder."
+        return f"folder {shown(target.parent)} does not exist; create it first."
+    if why := probe_writable(target.parent):
+        return f"cannot write in {shown(target.parent)} ({why}); choose another place."
+    if target.exists() and not os.access(target, os.W_OK):
         return f"{shown(path)} is not writable; choose another file."
     return None
+
+
+def _nearest_existing(path: Path) -> Path:
+    """path, or the nearest folder above it that exists (a file in the way counts: it exists)."""
+    return next(p for p in (path, *path.parents) if p.exists())
 
 
 def output_dir(value: Any, *, name: str | None = None) -> Path:
@@ -344,7 +360,7 @@ def output_dir(value: Any, *, name: str | None = None) -> Path:
     exists (where it will be created), must take a new file."""
     path = _path(value, name)
     try:
-        existing = next(p for p in (path, *path.parents) if p.exists())
+        existing = _nearest_existing(path)
     except OSError as exc:
         fail(f"{shown(path)}: {exc.strerror or exc}; choose another place.", name)
     if not existing.is_dir():

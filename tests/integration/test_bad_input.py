@@ -7,7 +7,7 @@ import subprocess
 
 import pytest
 
-from helpers import BOXBOX, ROBOTS, read_json, run_boxbox
+from helpers import BOXBOX, ROBOTS, kept_device, read_json, run_boxbox
 
 CASES = [
     (["--track", "g-trak-1"], "unknown track 'g-trak-1'; did you mean g-track-1"),
@@ -133,3 +133,23 @@ def test_relative_paths_work(tmp_path, overlay):
     result = read_json(tmp_path / "r.json")
     assert result["run_dir"] == str(tmp_path / "out" / "r1") and result["drivers"][0]["laps"] == 1
     assert (tmp_path / "out" / "r1" / "result.json").exists()
+
+
+def test_outputs_keep_the_devices_and_links_they_land_on(tmp_path, overlay):
+    """`race --json /dev/null` renamed a JSON file over /dev/null (as root): it is written into now,
+    and /dev/null stays a character device; the race's report and replay pages go through a
+    symlink to its target, the link kept (tests/unit/test_outputs.py walks every option)."""
+    run_dir = tmp_path / "run"
+    with kept_device("/dev/null"):
+        proc = run_boxbox("race", "--track", "g-track-1", "--laps", "1", "--quiet", "--run-dir", str(run_dir),
+                          "--json", "/dev/null")
+        assert proc.returncode == 0, proc.stderr
+    assert read_json(run_dir / "result.json")["drivers"][0]["laps"] == 1
+    assert not (run_dir / "hang-traceback.txt").exists()  # no hang, so none kept
+    (tmp_path / "pages").mkdir()
+    for command in ("report", "replay"):
+        link = tmp_path / f"{command}.html"
+        link.symlink_to(tmp_path / "pages" / f"{command}.html")
+        proc = run_boxbox(command, str(run_dir), "--out", str(link))
+        assert proc.returncode == 0, proc.stderr
+        assert link.is_symlink() and "<html" in (tmp_path / "pages" / f"{command}.html").read_text().lower()

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import polars as pl
-
 from helpers import read_json, run_boxbox
 
 
@@ -21,18 +19,3 @@ def test_boxbox_passes_two_torcs_robots_from_the_back_without_contact(tmp_path):
     assert me["damage"] < 100, me
     # the first lap, standing start behind two cars, costs little against the same lap alone (42.48 s)
     assert me["lap_times"][0] < 42.48 + 2.5, me["lap_times"]
-
-
-
-def test_the_traffic_planner_drives_a_field_race_and_moves_the_line(tmp_path):
-    """`--set planner=true` (robot/planning.py): the planned offset takes the tutorial's place in a
-    real race from the back, with no fault and little damage; the line is moved aside to pass."""
-    out = tmp_path / "r.json"
-    r = run_boxbox("race", "--track", "g-track-1", "--laps", "2", "--learning", "fresh", "--grid-position", "last",
-                   "--opponents", "bt:2,berniw:3", "--set", "planner=true", "--json", str(out))
-    assert r.returncode == 0, r.stderr
-    result = read_json(out)
-    me = _boxbox(result)
-    assert me["damage"] < 100, me
-    offsets = pl.read_parquet(f"{result['run_dir']}/telemetry.parquet")["sig_offset_m"]
-    assert offsets.abs().max() > 2.0  # aside by more than a car's width at some point

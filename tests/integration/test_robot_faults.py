@@ -78,3 +78,26 @@ def test_the_robot_host_log_is_bounded(tmp_path, overlay):
     assert len(log) < 2_200_000
     assert log.startswith(b"step xxx") and log.rstrip().endswith(b"last words of the robot")
     assert b"bytes of the log cut here" in log
+
+
+def test_a_huge_exception_message_is_bounded_and_the_line_points_to_the_prints(tmp_path, overlay):
+    """A 20 MB message gave 40 MB on stderr, in result.json and in fault.json: each is now a few kB,
+    the cut said; the error line says where the robot's last prints are (host.log)."""
+    proc, run_dir, _ = race(tmp_path, f"{FAULTY}:RaisesAHugeMessage")
+    assert proc.returncode == 4, proc.stderr[-2000:]
+    assert len(proc.stderr) < 50_000
+    for path in (run_dir / "result.json", run_dir / "fault.json", tmp_path / "r.json"):
+        assert path.stat().st_size < 50_000, path
+    line = error_line(proc)
+    assert "ValueError: xxx" in line and "characters of the message cut here" in line
+    assert f"its prints are in {run_dir / 'host.log'}" in line
+    assert "the robot's last words" in (run_dir / "host.log").read_text()
+
+
+def test_a_robot_that_closes_the_bridges_socket_is_said_so(tmp_path, overlay):
+    """It was reported "killed by SIGKILL" (the launcher's kill of the host at the end)."""
+    proc, _, _ = race(tmp_path, f"{FAULTY}:ClosesItsDescriptors")
+    assert proc.returncode == 4, proc.stderr
+    line = error_line(proc)
+    assert "the robot process dropped its connection to TORCS during the race" in line, line
+    assert "closes file descriptors it did not open" in line and "SIGKILL" not in line

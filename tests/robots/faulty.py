@@ -19,6 +19,25 @@ class RaisesInDrive(MiddleRobot):
         return super().drive(state)
 
 
+class RaisesAHugeMessage(MiddleRobot):
+    """A 20 MB exception message (a robot dumping its state into one): bounded wherever it is said."""
+
+    def drive(self, state):
+        if state.sim_time_s > 1.0:
+            print("the robot's last words", flush=True)
+            raise ValueError("x" * 20_000_000)
+        return super().drive(state)
+
+
+class ClosesItsDescriptors(MiddleRobot):
+    """Closes every file descriptor it did not open, the bridge's socket among them."""
+
+    def drive(self, state):
+        if state.sim_time_s > 1.0:
+            os.closerange(3, 4096)
+        return super().drive(state)
+
+
 class RaisesInOnTrack(MiddleRobot):
     def on_track(self, track, car):
         raise RuntimeError("deliberate failure in on_track")

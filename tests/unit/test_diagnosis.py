@@ -63,3 +63,58 @@ def test_stack_top_names_the_torcs_robot_or_library_a_stalled_torcs_was_in():
     assert stack_top(IN_THE_BRIDGE) == "boxbox's bridge (bb_recv in boxbox.so)"
     assert stack_top("") is None
     assert stack_top("ptrace: Operation not permitted.\n") is None  # gdb could not attach
+
+
+# --- a robot's fault: bounded, and pointing to the robot's prints ------------------------------------
+
+def test_a_huge_exception_message_is_bounded_and_the_cut_said():
+    from boxbox.torcs.faults import Fault
+
+    huge = "x" * 20_000_000
+    fault = Fault(kind="exception", message=f"ValueError: {huge} (in drive, step 3)", where="drive",
+                  traceback=f"Traceback (most recent call last):\n  File 'r.py', line 1\nValueError: {huge}\n")
+    assert len(fault.message) < 3000 and len(fault.traceback) < 15_000
+    assert fault.message.startswith("ValueError: xxx") and fault.message.endswith("(in drive, step 3)")
+    assert "characters of the message cut here" in fault.message and "\n" not in fault.message
+    assert "characters of the traceback cut here" in fault.traceback
+    assert Fault.from_json(fault.to_json()) == fault  # read back as written
+
+
+def test_a_robots_fault_line_points_to_its_prints(tmp_path):
+    from boxbox.torcs.faults import Fault
+
+    run_dir = RunDir(tmp_path)
+    end = Ending(robots=["my_robot.py:R"], names=["r 1"], step_budget_ms=200.0, setup_budget_ms=120000.0,
+                 wall_limit_s=100.0, fault=Fault(kind="exception", message="ValueError: boom (in drive, step 3)",
+                                                 where="drive", traceback="Traceback ...\nValueError: boom\n"))
+    run_dir.host_log.write_text("the robot's last words\n")
+    first, _, rest = (diagnose(run_dir, end) or "").partition("\n")
+    assert first == (f"robot 'my_robot.py:R' failed: ValueError: boom (in drive, step 3); its prints are in "
+                     f"{run_dir.host_log}")
+    assert rest.startswith("Traceback")
+
+
+def test_a_run_dir_keeps_hang_traceback_txt_only_when_a_hang_wrote_in_it(tmp_path):
+    """The host opens it at its start (faulthandler writes there on a hang); a race without a hang
+    left it empty in every run dir."""
+    run_dir = RunDir(tmp_path)
+    run_dir.hang_traceback.write_text("")
+    run_dir.remove_temporaries()
+    assert not run_dir.hang_traceback.exists()
+    run_dir.hang_traceback.write_text(STUCK)
+    run_dir.remove_temporaries()
+    assert run_dir.hang_traceback.read_text() == STUCK
+
+
+def test_a_host_that_dropped_the_bridge_while_running_is_not_said_killed(tmp_path):
+    """A robot that closed the bridge's socket: the host ran on until the launcher killed it at
+    the end, which read as "killed by SIGKILL"."""
+    run_dir = RunDir(tmp_path)
+    run_dir.torcs_err.write_text("BOXBOX-FAULT host-gone robot=0 step=99\n")
+    end = Ending(robots=["my_robot.py:R"], names=["r 1"], step_budget_ms=200.0, setup_budget_ms=120000.0,
+                 wall_limit_s=100.0, host_code=-9, host_stopped=True)
+    line = diagnose(run_dir, end) or ""
+    assert line.startswith("the robot process dropped its connection to TORCS during the race (step 99) while "
+                           "driving robot 'my_robot.py:R' (r 1), though it still ran")
+    end.host_stopped = False  # died of a SIGKILL from outside (the OOM killer's kind): said as such
+    assert (diagnose(run_dir, end) or "").startswith("the robot process was killed by SIGKILL during the race")

@@ -36,3 +36,18 @@ def test_race_file_lists_drivers_in_order():
     assert xml.index('val="boxbox"') < xml.index('val="bt"')
     assert '<attnum name="laps" val="5"/>' in xml
     assert '<attstr name="display mode" val="results only"/>' in xml
+
+
+def test_an_unknown_track_or_car_in_capitals_gets_the_nearest_names(monkeypatch):
+    """E-TRACK-2 got no suggestion: the nearest names are found case aside."""
+    import pytest
+
+    from boxbox.errors import UsageError
+    from boxbox.torcs import catalog
+
+    monkeypatch.setattr(catalog, "tracks", lambda: {"e-track-2": "road", "g-track-1": "road"})
+    monkeypatch.setattr(catalog, "cars", lambda: ["car1-trb1", "155-DTM"])
+    with pytest.raises(UsageError, match=r"unknown track 'E-TRACK-2'; did you mean e-track-2[,?]"):
+        catalog.check_track("E-TRACK-2")
+    with pytest.raises(UsageError, match=r"unknown car '155-dtm'; did you mean 155-DTM\?"):
+        catalog.check_car("155-dtm")

@@ -1,19 +1,19 @@
-"""Opponent filters (boxbox.robot.opponents) on hand-built States: plain numbers and braking physics."""
+"""Opponent filters (boxbox.robot.opponents) and the brakes behind a car (boxbox.robot.behind) on
+hand-built States: plain numbers and braking physics."""
 
 import math
+from dataclasses import replace
 
 import pytest
 
 from boxbox.model import Opponent, State
 from boxbox.model.state import CAR_STATE_DNF, CAR_STATE_FINISH, CAR_STATE_PIT
+from boxbox.robot.behind import collision_brake, hazard_brake, out_of_control
 from boxbox.robot.opponents import (
     Nearby,
     OpponentParams,
-    collision_brake,
-    hazard_brake,
     in_lane,
     nearby,
-    out_of_control,
     overtake_offset,
     side_steer,
     track_velocity_mps,
@@ -298,10 +298,19 @@ def test_collision_brake_soft_is_the_share_of_a_full_brake_the_gap_needs():
 
 def test_in_lane_is_within_our_width_plus_the_side_margin():
     lane = WIDTH_M + P.side_margin_m
-    assert in_lane(near(10.0, lateral_m=lane - 0.01), WIDTH_M, P)
-    assert in_lane(near(10.0, lateral_m=-(lane - 0.01)), WIDTH_M, P)
-    assert not in_lane(near(10.0, lateral_m=lane), WIDTH_M, P)
-    assert not in_lane(near(10.0, lateral_m=-(lane + 1.0)), WIDTH_M, P)
+    assert in_lane(near(10.0, lateral_m=lane - 0.01), WIDTH_M, P.side_margin_m)
+    assert in_lane(near(10.0, lateral_m=-(lane - 0.01)), WIDTH_M, P.side_margin_m)
+    assert not in_lane(near(10.0, lateral_m=lane), WIDTH_M, P.side_margin_m)
+    assert not in_lane(near(10.0, lateral_m=-(lane + 1.0)), WIDTH_M, P.side_margin_m)
+
+
+def test_in_lane_with_half_widths_is_the_sides_within_the_margin():
+    """racecraft's lane: half of both widths apart plus the margin (a car's width ours when unknown)."""
+    wide = Nearby(10.0, 5.5, 0.0, 20.0, 0, 3.0)  # 3 m wide: 2.5 m centre to centre plus the margin
+    assert in_lane(replace(wide, lateral_m=2.5 + 1.0 - 0.01), 2.0, 1.0, half_widths=True)
+    assert not in_lane(replace(wide, lateral_m=-(2.5 + 1.0)), 2.0, 1.0, half_widths=True)
+    unknown = replace(wide, width_m=0.0, lateral_m=2.0 + 1.0 - 0.01)  # its width ours: 2 m apart
+    assert in_lane(unknown, 2.0, 1.0, half_widths=True) and not in_lane(unknown, 2.0, 0.5, half_widths=True)
 
 
 def test_collision_brake_any_dangerous_car_among_several():

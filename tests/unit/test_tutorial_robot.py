@@ -14,8 +14,6 @@ import pytest
 import boxbox.robot.params as params_mod
 from boxbox.model import Opponent, State
 from boxbox.robot.base import RaceOptions
-from boxbox.robot.opponents import Nearby
-from boxbox.robot.racecraft import Racecraft, RacecraftParams
 from boxbox.robot.racingline import middle_line
 from boxbox.robot.tutorial import OFFSET_ROOM_AHEAD_M, TutorialRobot
 from trackdata import load
@@ -719,24 +717,6 @@ def test_an_overtaking_offset_comes_back_before_the_line_reaches_the_edge():
     assert pulled > robot.n // 10  # the rule acts, not only in theory
 
 
-def test_a_car_ahead_is_judged_where_our_line_meets_it_on_the_line_it_drove_before():
-    """The robot's wiring of racecraft's on_our_path: our line ahead from the racing line, the car's
-    place there from the lines remembered (robot/opponent_lines.py), with learn_lines on."""
-    robot = robot_for("aalborg")
-    robot.craft = Racecraft(RacecraftParams(path_lane=True, learn_lines=True), robot.car.width_m,
-                            robot.car.length_m, 1.2)
-    robot._dist_m, robot.offset_m = 1000.0, 0.0
-    # 19.5 m ahead (a 15 m gap), 10 m/s slower, 6 m left of our line: met after 1.5 s, 30 m on
-    car = Nearby(19.5, 15.0, 6.0, 10.0, 0, 1.94, robot.line.offset_at(1019.5) + 6.0, 3)
-    ours_m = robot.line.offset_at(1030.0)
-    [unknown] = robot._on_our_path([car], 20.0)  # never seen there: it keeps its to_middle
-    assert unknown.lateral_m == pytest.approx(min(6.0, car.mid_m - ours_m, key=abs))
-    # seen before where it will be then (15 m further on, 1034.5 m): on our line's place
-    robot.opp_lines.observe(1000.0, [Nearby(34.5, 30.0, 0.0, 10.0, 0, 1.94, ours_m, 3)])
-    [seen] = robot._on_our_path([car], 20.0)
-    assert seen.lateral_m == pytest.approx(0.0) and seen.mid_m == pytest.approx(ours_m)
-
-
 def test_the_slipstream_pass_moves_over_for_a_car_at_our_speed_only_with_draft_on():
     # michigan: 7.5 m behind a car in our lane, both at 60 m/s, well below what the car does alone
     offsets = {}
@@ -798,26 +778,6 @@ def test_the_hazard_brake_brakes_for_a_car_sliding_across_the_road_ahead_only_wi
     assert brakes[25.0] == 1.0
 
 
-def test_a_car_we_lap_is_braked_for_where_our_line_meets_it_only_with_lapped_path_lane():
-    # g-track-1, where the line swings across the road: a lapped car 20 m ahead at 10 m/s, more than
-    # our lane aside now but where our line is when we reach it (1 s on, 30 m on at 30 m/s)
-    brakes = {}
-    for on, car_laps in ((False, 1.0), (True, 1.0), (True, 2.0)):
-        robot, _ = build("g-track-1", robot_args={"set": {"lapped_path_lane": on}})
-        swing = [abs(robot.line.offset_at(d + 30.0) - robot.line.offset_at(d)) for d in range(0, 2000, 5)]
-        d = 5.0 * int(np.argmax(swing))
-        require(max(swing) > 4.5, "a stretch where the line moves 4.5 m across in 30 m")
-        me = line_state(robot, d, 30.0)._replace(sim_time_s=10.0, laps=2.0)
-        require(robot.drive(me).brake == 0.0, "no brake at 30 m/s there alone")
-        robot, _ = build("g-track-1", robot_args={"set": {"lapped_path_lane": on}})
-        car = make_opp(robot, dist_from_start_m=d + 24.52, to_middle_m=robot.line.offset_at(d + 30.0), speed_mps=10.0,
-                       laps=car_laps, car_index=1.0)
-        brakes[on, car_laps] = robot.drive(me._replace(opponents=(car,), n_opponents=1.0)).brake
-    assert brakes[False, 1.0] == 0.0
-    assert brakes[True, 1.0] == 1.0
-    assert brakes[True, 2.0] == 0.0  # a car on our lap: where it is, as before
-
-
 def test_the_learning_file_is_written_at_the_race_end_not_in_a_drive_step(tmp_path):
     """A file write inside a drive step took over 200 ms on a busy disk (past the step budget): the
     laps' lessons are kept in memory and written once, by on_race_end, which the host always calls."""
@@ -831,3 +791,10 @@ def test_the_learning_file_is_written_at_the_race_end_not_in_a_drive_step(tmp_pa
     robot.on_race_end(line_state(robot, 100.0, 20.0, laps=3.0))
     [saved] = tmp_path.iterdir()
     assert saved.name == "g-track-1--car1-trb1.json" and json.loads(saved.read_text())["turns"]
+
+
+def test_racecraft_parameters_are_set_like_every_other():
+    """RacecraftParams' fields are TutorialParams': --set (and setup files, tune) reach racecraft."""
+    robot, _ = build("g-track-1", robot_args={"set": {"side_gap_m": 2.0, "keep_inside": False}})
+    assert robot.craft.p.side_gap_m == 2.0 and not robot.craft.p.keep_inside
+    assert robot_for("g-track-1").craft.p.side_gap_m == 1.5  # the default

@@ -63,6 +63,18 @@ def test_controls_validation(controls, problem):
     assert controls.problem(max_gear=6) == problem
 
 
+@pytest.mark.parametrize("name,lo", [("steer", -1.0), ("accel", 0.0), ("brake", 0.0), ("clutch", 0.0)])
+def test_a_control_a_rounding_outside_its_range_is_set_to_the_bound(name, lo):
+    """1 + 1e-12 (a steer summed from several terms) stopped the race: within 1e-9 of a bound it
+    is the bound; further out it is refused, the same for every control."""
+    for bound, nudge in ((1.0, 1e-12), (1.0, 9e-10), (lo, -1e-12)):
+        controls = Controls(**{name: bound + nudge})
+        assert controls.problem(max_gear=6) is None
+        assert getattr(controls, name) == bound
+    assert Controls(**{name: 1.0 + 2e-9}).problem(max_gear=6) == f"{name}={1.0 + 2e-9} is outside [{lo:g}, 1]"
+    assert Controls(**{name: lo - 1e-6}).problem(max_gear=6) == f"{name}={lo - 1e-6} is outside [{lo:g}, 1]"
+
+
 def test_controls_positional_fields_match_the_documented_constructor():
     c = Controls(steer=0.0, accel=0.5, brake=0.0, clutch=0.0, gear=1)
     assert (c.steer, c.accel, c.brake, c.clutch, c.gear, c.pit_request) == (0.0, 0.5, 0.0, 0.0, 1, False)

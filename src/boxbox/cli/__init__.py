@@ -7,25 +7,44 @@ though a worker was lost 5 (docs/tuning.md), Ctrl-C or SIGTERM 130.
 
 from __future__ import annotations
 
+import importlib
 import signal
 import sys
 
 import click
 
-from boxbox.cli.bench import bench, bench_field, bench_learning, bench_pits, bench_speed, bench_telemetry
-from boxbox.cli.common import err
-from boxbox.cli.gym import bench_gym, scr_server
-from boxbox.cli.info import cars, doctor, robots, setup, tracks
-from boxbox.cli.limit import limit
-from boxbox.cli.race import drill, params, race
-from boxbox.cli.reliability import soak, sweep
-from boxbox.cli.replay import replay
-from boxbox.cli.report import contacts, report
-from boxbox.cli.tune import bench_tune, tune
 from boxbox.errors import BoxboxError
 
+# each command's module in this package: a command loads its module when it is run (or its help
+# shown), so `boxbox tracks` does not load the tuner's; the modules load numpy, TORCS's side and
+# the rest inside their commands, so `boxbox --help`, which reads every command's help, stays quick
+COMMANDS = {
+    **dict.fromkeys(("race", "params", "drill"), "race"),
+    **dict.fromkeys(("setup", "doctor", "tracks", "cars", "robots"), "info"),
+    **dict.fromkeys(("bench", "bench-speed", "bench-pits", "bench-field", "bench-telemetry", "bench-learning"),
+                    "bench"),
+    **dict.fromkeys(("report", "contacts"), "report"), "replay": "replay",
+    **dict.fromkeys(("sweep", "soak"), "reliability"), **dict.fromkeys(("scr-server", "bench-gym"), "gym"),
+    "limit": "limit", **dict.fromkeys(("tune", "bench-tune"), "tune"),
+}
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 110})
+
+class LazyGroup(click.Group):
+    """click's group, its commands found in COMMANDS and imported when first asked for."""
+
+    def list_commands(self, ctx: click.Context) -> list[str]:
+        return sorted(COMMANDS)
+
+    def get_command(self, ctx: click.Context, cmd_name: str) -> click.Command | None:
+        if cmd_name not in COMMANDS:
+            return None
+        module = importlib.import_module(f"boxbox.cli.{COMMANDS[cmd_name]}")
+        command = getattr(module, cmd_name.replace("-", "_"))
+        assert isinstance(command, click.Command) and command.name == cmd_name, cmd_name
+        return command
+
+
+@click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 110})
 def main_group() -> None:
     """boxbox: write TORCS robots in Python and race them in the real TORCS.
 
@@ -36,12 +55,6 @@ def main_group() -> None:
       boxbox report RUN_DIR
       boxbox replay RUN_DIR --open
     """
-
-
-for _command in (race, params, drill, setup, doctor, tracks, cars, robots, bench, bench_speed, bench_pits,
-                 bench_field, bench_telemetry, bench_learning, report, contacts, replay, sweep, soak, scr_server,
-                 bench_gym, limit, tune, bench_tune):
-    main_group.add_command(_command)
 
 
 def _sigterm_as_interrupt(signum, frame) -> None:
@@ -55,14 +68,20 @@ def main() -> None:
     except click.exceptions.Exit as exc:
         sys.exit(exc.exit_code)
     except click.exceptions.Abort:
-        err.print("boxbox: aborted")
+        _error("boxbox: aborted")
         sys.exit(130)
     except click.UsageError as exc:
-        err.print(f"boxbox: error: {exc.format_message()} (see --help)", markup=False, highlight=False)
+        _error(f"boxbox: error: {exc.format_message()} (see --help)")
         sys.exit(2)
     except BoxboxError as exc:
         if exc.exit_code == 130:  # stopped by a signal: more of them (Ctrl-C pressed again) must not
             for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):  # kill the exit (SIG_IGN
                 signal.signal(sig, signal.SIG_IGN)  # holds through the interpreter's shutdown)
-        err.print(f"boxbox: error: {exc}", markup=False, highlight=False)
+        _error(f"boxbox: error: {exc}")
         sys.exit(exc.exit_code)
+
+
+def _error(line: str) -> None:
+    from boxbox.cli.common import err
+
+    err.print(line, markup=False, highlight=False)

@@ -6,8 +6,8 @@ import click
 
 from boxbox.cli.common import out, ready
 from boxbox.cli.types import Choice, OutputFile, skill_level_option
-from boxbox.control.trackwidth import TRACK_LIMITS
 from boxbox.files import write_json_atomic
+from boxbox.options import TRACK_LIMITS
 
 
 @click.command()

@@ -20,7 +20,7 @@ from boxbox.cli.types import (
     WholeNumber,
     skill_level_option,
 )
-from boxbox.tune.pick import RADIUS, PickRule
+from boxbox.tune.pick import RADIUS, PickRule  # (pick.py loads nothing heavy: `boxbox --help` reads this)
 
 
 class StudyName(click.ParamType):

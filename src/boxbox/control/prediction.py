@@ -16,8 +16,9 @@ to_middle: metres from the track's middle, + to the left), over a few seconds at
   it) plus its lap-to-lap lateral variability, up to `max_lateral_m`.
 
 Every car at once (numpy arrays of shape (cars, times)): a prediction of ten cars over 16 times
-costs some tens of microseconds.  The robot's use is in robot/planning.py, the planner that reads it
-in control/frenet_planner.py.
+costs some tens of microseconds.  No robot reads it yet: it is kept for the braking and yielding
+behind and beside cars that will (the traffic planner that read it measured worse than the tutorial's
+overtaking and was retired: docs/racecraft.md).
 """
 
 from __future__ import annotations

@@ -13,14 +13,12 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
-from typing import Literal
 
 import numpy as np
 
 from boxbox.model.track import LEFT, RIGHT
+from boxbox.options import TRACK_LIMITS
 
-TrackLimits = Literal["torcs", "strict"]
-TRACK_LIMITS: tuple[str, ...] = ("torcs", "strict")
 CUT_LIMIT_CAR_WIDTHS = 0.7  # ReRaceRules: a cut starts 0.7 car widths beyond the inside edge
 BORDER_WALL = 2  # TORCS's TR_WALL as a border style
 

@@ -5,6 +5,11 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+# a control this far outside its range is float rounding, not a robot's mistake: steer computed as
+# 1 + 1e-12 from a sum of terms stopped the race; it is set to the bound, and what is further out
+# is refused (the same rule for steer, accel, brake and clutch)
+ROUNDING = 1e-9
+
 
 @dataclass(slots=True)
 class Controls:
@@ -18,7 +23,8 @@ class Controls:
     pit_request: bool = False  # ask the race engine for a pit stop
 
     def problem(self, max_gear: int) -> str | None:
-        """Why these controls are invalid, or None when they are fine."""
+        """Why these controls are invalid, or None when they are fine (a value within ROUNDING of
+        its range is set to the bound it passed)."""
         try:  # fast path: one chained comparison per field (NaN fails every comparison)
             if (-1.0 <= self.steer <= 1.0 and 0.0 <= self.accel <= 1.0 and 0.0 <= self.brake <= 1.0
                     and 0.0 <= self.clutch <= 1.0 and type(self.gear) is int and -1 <= self.gear <= max_gear
@@ -29,6 +35,9 @@ class Controls:
         self._plain_numbers()
         for name, lo in (("steer", -1.0), ("accel", 0.0), ("brake", 0.0), ("clutch", 0.0)):
             value = getattr(self, name)
+            if type(value) in (float, int) and lo - ROUNDING <= value <= 1.0 + ROUNDING:
+                value = min(max(value, lo), 1.0)  # a rounding's worth outside its range: at the bound
+                setattr(self, name, value)
             if type(value) not in (float, int) or not lo <= value <= 1.0:
                 if isinstance(value, (float, int)) and not isinstance(value, bool):
                     if math.isnan(value) or math.isinf(value):

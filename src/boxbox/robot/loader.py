@@ -54,7 +54,7 @@ def load_robot_class(spec: str) -> type[Robot]:
     if where.endswith(".py") or "/" in where:
         path = Path(where)
         if not path.is_file():
-            raise UsageError(f"robot file '{where}' does not exist")
+            raise UsageError(f"robot file '{where}' does not exist (looked in {path.absolute().parent})")
         mod_name = f"boxbox_user_robot_{abs(hash(str(path.resolve())))}"
         module_spec = importlib.util.spec_from_file_location(mod_name, path)
         if module_spec is None or module_spec.loader is None:

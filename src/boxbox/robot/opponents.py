@@ -1,6 +1,6 @@
-"""Opponents: who is where relative to us, and the tutorial's filters that react to them.
+"""Opponents: who is where relative to us (`nearby`, `in_lane`), and the tutorial's filters that
+steer for them (the brakes for a car ahead are robot/behind.py's).
 
-- collision brake filter: brake when we could not slow to the speed of a car ahead in the gap;
 - side collision steering filter: steer away from a car alongside;
 - overtaking: move the line sideways towards the free side of a slower car ahead;
 - letting a faster lapping car pass: move aside when it is close behind.
@@ -109,68 +109,14 @@ def nearby(state: State, length_m: float, track_length_m: float, back_range_m: f
     return out
 
 
-def in_lane(c: Nearby, width_m: float, p: OpponentParams) -> bool:
-    """Whether car c is in our lane: its centre within our width plus the side margin of ours (the
-    tutorial's lane, for braking for it and for following it)."""
-    return abs(c.lateral_m) < width_m + p.side_margin_m
-
-
-def gap_too_short(need_m: float, gap_m: float, p: OpponentParams) -> bool:
-    """The fixed-gap filter's rule: the braking distance need_m plus the length margin is more than
-    the bumper gap, or the gap is under the margin anyway."""
-    return need_m + p.length_margin_m > gap_m or gap_m < p.length_margin_m
-
-
-def collision_brake(brake: float, speed_mps: float, cars: list[Nearby], width_m: float, p: OpponentParams,
-                    brakedist) -> float:
-    """Full brake when the gap to a slower car in our lane is within our braking distance (with
-    p.soft_gap_m: the share of a full brake that slows us to its speed within the gap beyond that)."""
-    want = 0.0
-    for c in cars:
-        if c.dist_m > 0 and c.speed_mps < speed_mps and in_lane(c, width_m, p):
-            need = brakedist(speed_mps, c.speed_mps)
-            if gap_too_short(need, c.gap_m, p):
-                if p.soft_gap_m <= 0.0:
-                    return 1.0
-                room_m = c.gap_m - p.soft_gap_m
-                want = max(want, 1.0 if room_m <= need else need / room_m)
-    return max(brake, want)
-
-
-HAZARD_MIN_SPEED_MPS = 3.0  # a car slower than this is a stopped car for the filters, not a slide
-
-
-def out_of_control(c: Nearby, p: OpponentParams) -> bool:
-    """Whether car c slides more than p.hazard_slip_deg off its heading, or crosses the road at more
-    than half its speed (its course 30 degrees or more off the track's): a spin or a crash, where
-    it is now says little about where it will be."""
-    if c.speed_mps < HAZARD_MIN_SPEED_MPS:
-        return False
-    return abs(c.slip_rad) > math.radians(p.hazard_slip_deg) or abs(c.across_mps) > 0.5 * c.speed_mps
-
-
-def hazard_brake(brake: float, speed_mps: float, my_mid_m: float, cars: list[Nearby], width_m: float,
-                 p: OpponentParams, brakedist) -> float:
-    """Full brake for a car out of control ahead whose slide crosses our lane before we reach it
-    (followed at its speed across the track for the time we take to close the gap, at most
-    p.hazard_horizon_s) when we could not slow to its speed along the track within the gap: the
-    fixed-gap filter for where it is going, not where it is.  Not stopped at the track's edge: there
-    the slide ends, but our lane is inside it, so the answer is the same while we are on the road."""
-    if p.hazard_slip_deg <= 0.0:
-        return brake
-    lane_m = width_m + p.side_margin_m
-    for c in cars:
-        if c.dist_m <= 0.0 or not out_of_control(c, p):
-            continue
-        along = math.sqrt(max(0.0, c.speed_mps * c.speed_mps - c.across_mps * c.across_mps))
-        if speed_mps <= along:
-            continue
-        t_s = min(p.hazard_horizon_s, max(0.0, c.gap_m) / (speed_mps - along))
-        there = c.mid_m + c.across_mps * t_s
-        lo, hi = min(c.mid_m, there), max(c.mid_m, there)
-        if lo < my_mid_m + lane_m and hi > my_mid_m - lane_m and gap_too_short(brakedist(speed_mps, along), c.gap_m, p):
-            return 1.0
-    return brake
+def in_lane(c: Nearby, width_m: float, margin_m: float, half_widths: bool = False) -> bool:
+    """Whether car c is in our lane, the one test every filter asks: its centre within our width plus
+    margin_m of ours (the tutorial's lane, with OpponentParams.side_margin_m: the fixed-gap brake,
+    following), or with half_widths, its side within margin_m of ours (half of both widths apart
+    plus margin_m, its width ours when unknown: racecraft's touch of brake and wrecks,
+    RacecraftParams.lane_m)."""
+    reach_m = 0.5 * (width_m + (c.width_m or width_m)) if half_widths else width_m
+    return abs(c.lateral_m) < reach_m + margin_m
 
 
 def side_steer(steer: float, cars: list[Nearby], length_m: float, width_m: float, steer_lock_rad: float,

@@ -17,6 +17,7 @@ from dataclasses import dataclass, fields
 from pathlib import Path
 
 from boxbox.errors import UsageError
+from boxbox.robot.racecraft import RacecraftParams
 
 SETUPS = Path(__file__).parent / "setups"
 
@@ -28,7 +29,9 @@ def setups_dir() -> Path:
 
 
 @dataclass(frozen=True)
-class TutorialParams:
+class TutorialParams(RacecraftParams):
+    # racecraft's parameters (braking and yielding behind and beside a car, passing, wrecks) come
+    # first, from RacecraftParams (robot/racecraft.py): set like every other one
     # steering: "lookahead" = the tutorial's target point (17 m + 0.33 s x speed ahead);
     # "line" = follow the racing line (curvature feed-forward + heading and distance corrections)
     steering: str = "line"
@@ -113,21 +116,13 @@ class TutorialParams:
     draft_straight_m: float = 0.0  # ... with this much road before the next braking zone (400: none in sight)
     draft_last_lap: bool = False  # ... on the last lap only (a finish in a car's slipstream: 0.1-0.2 s behind it)
     # the fixed-gap brake as the share of a full brake that slows us to the car's speed before the gap
-    # is down to this many metres (0: the tutorial's full brake; docs/racecraft.md, session 22)
+    # is down to this many metres (0: the tutorial's full brake; 1 m in 190 field races: +11 places,
+    # +24 % damage, docs/racecraft.md's table)
     soft_gap_m: float = 0.0
     # brake for a car out of control ahead (sliding more than this many degrees off its heading, or
-    # crossing the road) where its slide takes it by the time we reach it (0: off; session 22)
+    # crossing the road) where its slide takes it by the time we reach it (0: off; docs/racecraft.md's table)
     hazard_slip_deg: float = 0.0
-    # a car we are lapping is braked for where our line meets it, not where it is now (its rear corner
-    # was where a late pass swung out into it: a fifth of our damage).  190 field races: 6.6 % less
-    # damage, places within chance, but lapping is slower (michigan's standard race 5.9 s); off,
-    # docs/racecraft.md session 23
-    lapped_path_lane: bool = False
-    lapped_own_side: bool = False  # ... passed on our side of it (for a robot moving away from us; off)
-    # plan the way through traffic: each car near predicted over 3 s from what it was seen doing, our
-    # path among sampled candidates by progress against risk (robot/planning.py), in place of the
-    # tutorial's overtaking offset (off: docs/racecraft.md, issue #51)
-    planner: bool = False
+    lapped_own_side: bool = False  # a car we lap passed on our side of it (for a robot moving away from us; off)
     # pit
     pit_lookahead_m: float = 6.0
     pit_mu: float = 0.4  # the seed's constant (used with pit_mu_source = "constant")
@@ -172,6 +167,7 @@ BOUNDS = {
     "counter_lock_accel": Bound(0.0, 1.0), "lock_accel": Bound(0.0, 1.0),
     "pit_brake_mu_scale": Bound(0.1, 1.5), "pit_stop_grip_share": Bound(0.1, 1.0), "pit_mu": Bound(0.05, 2.0),
     "soft_gap_m": Bound(0.0, 10.0), "hazard_slip_deg": Bound(0.0, 90.0),
+    "margin_m": Bound(0.1, 20.0), "close_brake": Bound(0.0, 1.0), "hold_line_grip_share": Bound(0.05, 2.0),
     "learn_gain": Bound(0.0, 1.0), "learn_margin_m": Bound(0.0, 3.0), "learn_steady_error_m": Bound(0.1, 5.0),
 }
 

@@ -13,8 +13,10 @@ from boxbox.torcs.paths import ROBOT_MODULE, system_torcs
 
 
 def _near(name: str, options: list[str]) -> str:
-    near = difflib.get_close_matches(name, options, n=3, cutoff=0.5)
-    return f"; did you mean {', '.join(near)}?" if near else ""
+    """The nearest names, case aside (E-TRACK-2 -> e-track-2), as a hint."""
+    spelt = {option.lower(): option for option in options}
+    near = difflib.get_close_matches(name.lower(), list(spelt), n=3, cutoff=0.5)
+    return f"; did you mean {', '.join(spelt[n] for n in near)}?" if near else ""
 
 
 @lru_cache(maxsize=1)

@@ -13,7 +13,7 @@ import signal
 from dataclasses import dataclass
 
 from boxbox.torcs import wire
-from boxbox.torcs.faults import Fault
+from boxbox.torcs.faults import RACE_KINDS, Fault
 from boxbox.torcs.paths import ROBOT_MODULE
 from boxbox.torcs.rundir import RunDir
 
@@ -44,6 +44,7 @@ class Ending:
     fault: Fault | None = None
     torcs_code: int | None = None
     host_code: int | None = None
+    host_stopped: bool = False  # the host still ran when the race was over, and the launcher killed it
 
     def who(self, robot: int) -> str:
         if 0 <= robot < len(self.robots):
@@ -56,7 +57,7 @@ def diagnose(run_dir: RunDir, end: Ending) -> str | None:
     err_text = run_dir.read_text(run_dir.torcs_err)
     fault = end.fault or Fault.read(run_dir.fault)
     if fault is not None:
-        return fault.line(end.robots[0] if end.robots else "")
+        return robot_fault_line(run_dir, fault, end.robots[0] if end.robots else "")
     if marker := FAULT_LINE.search(err_text):
         return _bridge_fault(run_dir, end, marker)
     if end.timed_out and end.stalled_s is not None:
@@ -81,6 +82,14 @@ def diagnose(run_dir: RunDir, end: Ending) -> str | None:
         log = run_dir.read_text(run_dir.host_log).strip()
         return f"the robot process {exit_text(end.host_code)}" + (f"\n{log[-HOST_LOG_TAIL:]}" if log else "")
     return None
+
+
+def robot_fault_line(run_dir: RunDir, fault: Fault, default_spec: str) -> str:
+    """The fault's line; a robot's fault also says where the robot's last prints are (host.log)."""
+    first, nl, rest = fault.line(default_spec).partition("\n")
+    if fault.kind not in RACE_KINDS and run_dir.host_log.is_file() and run_dir.host_log.stat().st_size:
+        first += f"; its prints are in {run_dir.host_log}"
+    return first + nl + rest
 
 
 def stack_top(gdb_text: str) -> str | None:
@@ -113,6 +122,10 @@ def _bridge_fault(run_dir: RunDir, end: Ending, marker: re.Match) -> str:
                 "was, its host was already finishing the race): a slow step or a loaded machine; give more time " \
                 "with --step-budget-ms, or race fewer jobs at once"
         return timeout_line(who, end, step, marker) + (f"\nwhere the robot was stuck:\n{hang_tb}" if hang_tb else "")
+    if kind == "host-gone" and end.host_stopped:  # its socket closed, the process alive: not a kill from outside
+        return f"the robot process dropped its connection to TORCS during the race (step {step}) while driving " \
+            f"{who}, though it still ran (stopped at the end): a robot that closes file descriptors it did not " \
+            "open (os.closerange) cuts the bridge"
     if kind in ("host-gone", "connect"):
         how = exit_text(end.host_code) if end.host_code is not None else "ended"
         log = run_dir.read_text(run_dir.host_log).strip()

@@ -14,10 +14,16 @@ from pathlib import Path
 from typing import Literal
 
 from boxbox.files import write_json_atomic
+from boxbox.torcs.logcap import capped_text
 
 FaultKind = Literal["exception", "exit", "invalid-controls", "invalid-value", "sim-time-limit", "sim-breakdown"]
 RACE_KINDS = ("sim-time-limit", "sim-breakdown")  # the race's fault, not the robot's: no "robot X failed"
 RobotCall = Literal["__init__", "initial_fuel_l", "on_track", "drive", "pit_stop", "on_race_end"]
+# a fault's message and traceback are bounded as host.log is (torcs/logcap.py): the start and the
+# end kept, the cut said, so an exception's 20 MB message is a few kB in the error line, fault.json
+# and result.json (the traceback's last line repeats the message: bounded with it)
+MESSAGE_CHARS = (1500, 500)
+TRACEBACK_CHARS = (8000, 4000)
 
 
 @dataclass(frozen=True)
@@ -31,6 +37,10 @@ class Fault:
     step: int = 0  # the drive step (0 before the race)
     sim_time_s: float = 0.0
     traceback: str = ""
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "message", capped_text(self.message, "message", *MESSAGE_CHARS))
+        object.__setattr__(self, "traceback", capped_text(self.traceback, "traceback", *TRACEBACK_CHARS))
 
     def to_json(self) -> dict:
         return asdict(self)

@@ -189,6 +189,7 @@ class Race:
         self.laps_seen: list[tuple[int, float]] = []
         self.timed_out = False
         self.hang_dumped = False  # the host was asked for its stack (once: the diagnosis prints it)
+        self.host_stopped = False  # the host still ran when the race was over: killed here (diagnosis.Ending)
         self.stalled = False  # timed out by the stall limit: TORCS stopped calling the robots
         # what the robot host and TORCS print, bounded (torcs/logcap.py); the host's shown with verbose
         self.host_pump: LogPump | None = None
@@ -394,6 +395,7 @@ class Race:
 
     def _stop_processes(self) -> None:
         kill_group(self.torcs)
+        self.host_stopped = self.host is not None and self.host.poll() is None
         kill_group(self.host)
         if self.torcs is not None and self.torcs.stdout is not None:
             self.torcs.stdout.close()
@@ -455,7 +457,7 @@ class Race:
                      stalled_sim_s=self.reports.alive_sim_s if self.reports else 0.0,
                      fault=self.reports.fault if self.reports else None,
                      torcs_code=self.torcs.returncode if self.torcs else None,
-                     host_code=self.host.poll() if self.host else None)
+                     host_code=self.host.poll() if self.host else None, host_stopped=self.host_stopped)
         error = diagnose(self.run_dir, end)
         if error is None:
             return None

@@ -20,6 +20,7 @@ from typing import BinaryIO
 
 HEAD_BYTES = 1 << 20  # the start of a log kept
 TAIL_BYTES = 1 << 20  # and its end
+NOTE_CHARS = 200  # room for cut_note's line
 
 
 class CappedLog:
@@ -72,8 +73,7 @@ class CappedLog:
         """The cut, said, and the end of the log."""
         self._trim()
         if self.cut:
-            self._put(f"\n[boxbox: {self.cut} bytes of the log cut here; it keeps its first {self.head_bytes} "
-                      f"and its last {self.tail_bytes} bytes]\n".encode())
+            self._put(f"\n{cut_note(self.cut, 'bytes', 'log', self.head_bytes, self.tail_bytes)}\n".encode())
         self._put(bytes(self.tail))
         self.tail = bytearray()
         self._close_file()
@@ -83,6 +83,19 @@ class CappedLog:
             with contextlib.suppress(OSError):
                 self.file.close()
             self.file = None
+
+
+def cut_note(cut: int, unit: str, what: str, head: int, tail: int) -> str:
+    """The line that stands where a bounded text was cut."""
+    return f"[boxbox: {cut} {unit} of the {what} cut here; it keeps its first {head} and its last {tail} {unit}]"
+
+
+def capped_text(text: str, what: str, head: int, tail: int) -> str:
+    """text, or its first `head` and last `tail` characters with the cut said between them (a
+    robot's exception of 20 MB made a 40 MB result.json, fault.json and stderr)."""
+    if len(text) <= head + tail + NOTE_CHARS:  # a text cut once is not cut again when read back
+        return text
+    return f"{text[:head]} {cut_note(len(text) - head - tail, 'characters', what, head, tail)} {text[-tail:]}"
 
 
 class LogPump:

@@ -146,9 +146,12 @@ class RunDir:
 
     def remove_temporaries(self) -> None:
         """Telemetry spool and half-written files a killed host left (a host that ends normally
-        removes its own)."""
+        removes its own), and hang-traceback.txt when no hang wrote in it."""
         for path in [*self.path.glob(".telemetry-*"), *self.path.glob(".*.tmp*")]:
             path.unlink(missing_ok=True)
+        with contextlib.suppress(OSError):  # the host opens it for a hang's stack: kept only when one came
+            if self.hang_traceback.stat().st_size == 0:
+                self.hang_traceback.unlink()
 
     @contextlib.contextmanager
     def locked(self) -> Iterator[None]:

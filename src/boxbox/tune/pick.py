@@ -24,9 +24,10 @@ from __future__ import annotations
 import math
 import statistics
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from boxbox.tune.objective import RESULT_ATTR, TuneConfig
+if TYPE_CHECKING:  # objective.py loads the racing side: the command line reads RADIUS without it
+    from boxbox.tune.objective import TuneConfig
 
 PICKS = ("robust", "fastest")
 # the neighbourhood of a trial: each searched number within this share of its declared range (an
@@ -163,6 +164,8 @@ def robust_choice(samples: list[Sample], ref: Sample, tracks: list[str], radius:
 
 
 def _races(trial: Any) -> dict[str, dict]:
+    from boxbox.tune.objective import RESULT_ATTR
+
     return {r["track"]: r for r in trial.user_attrs.get(RESULT_ATTR, {}).get("races", [])}
 
 
