@@ -89,11 +89,11 @@ def race(track: str = "e-track-2", *, laps: int = 3, robots: str | type[Robot] |
         from boxbox.robot.tunable import check_setup_for, read_setup
 
         from_file = read_setup(args["setup"])
-        check_setup_for([load_robot_class(s) for s in specs], from_file, str(args["setup"]))
+        check_setup_for([load_robot_class(s, args["setup_budget_s"]) for s in specs], from_file, str(args["setup"]))
         values = {**from_file, **values}
     options = RaceOptions(fuel_laps=args["fuel_laps"], pit_laps=tuple(sorted(args["pit_laps"])),
                           pit_mode=args["pit_mode"], robot_args={"set": values} if values else {})
-    names = checks.check_robots(specs, options, args["track"], args["car"])
+    names = checks.check_robots(specs, options, args["track"], args["car"], args["setup_budget_s"])
     overlay = torcs_setup.ensure_ready()
     category, opp = checks.check_race(args["track"], args["car"], len(specs), args["opponents"], args["pit_laps"],
                                       args["laps"])

@@ -145,6 +145,29 @@ def test_robot_children_in_their_own_sessions_end_with_the_race(tmp_path, overla
     assert processes_mentioning(str(run_dir)) == []
 
 
+def test_daemons_a_robot_double_forks_end_with_the_race(tmp_path, overlay):
+    """A daemon double-forked from the robot (fork, setsid, fork) with no exec, or exec'd with an
+    empty environment, carries no mark of the race: it outlived the race (parent PID 1) until the
+    forked host became the child subreaper of what its robot starts, and ends it."""
+    run_dir = tmp_path / "run"
+    proc = run_boxbox("race", "--track", "g-track-1", "--laps", "1", "--robot", f"{HOSTILE}:StartsDaemons",
+                      "--quiet", "--no-telemetry", "--run-dir", str(run_dir))
+    assert proc.returncode == 0, proc.stderr
+    time.sleep(0.5)
+    assert processes_mentioning(str(run_dir)) == []  # the Python daemon has the launcher's command line
+    assert processes_mentioning("300.25") == []  # the exec'd one
+
+
+def test_a_robot_past_its_memory_limit_is_one_clear_fault(tmp_path, overlay):
+    """3 GiB mapped with --memory-limit 1: a MemoryError in the robot (RLIMIT_AS on the host), said
+    as the robot's excess, instead of the machine's memory running out and the OOM killer's SIGKILL."""
+    proc = run_boxbox("race", "--track", "g-track-1", "--laps", "1", "--robot", f"{HOSTILE}:TakesTooMuchMemory",
+                      "--memory-limit", "1", "--quiet", "--no-telemetry", "--run-dir", str(tmp_path / "run"))
+    assert proc.returncode == 4, proc.stderr
+    assert "failed: the robot used more than 1 GiB of memory (in drive, step" in error_line(proc)
+    assert "give it more with --memory-limit" in error_line(proc)
+
+
 def test_a_robot_within_its_step_budget_is_never_stopped_for_being_slow(tmp_path, overlay):
     """Case 12: 4 ms of every step with a 50 ms budget, a whole race: the wall limit is derived
     from the budget, so it cannot cut the race short. (A 20 ms budget was too close on a busy

@@ -138,12 +138,12 @@ def lap_known(run_dir: Path, timeout: float = 30.0) -> bool:
     return True
 
 
-def wait_for(predicate, timeout: float) -> bool:
+def wait_for(predicate, timeout: float, poll_s: float = 0.05) -> bool:
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
         if predicate():
             return True
-        time.sleep(0.05)
+        time.sleep(poll_s)
     return False
 
 
@@ -268,3 +268,31 @@ def test_socket_folders_of_a_launcher_killed_outright_are_removed_by_the_next_ra
     proc, _, _ = race(tmp_path)
     assert proc.returncode == 0, proc.stderr
     assert not stale.exists()
+
+
+@pytest.mark.parametrize("moment", ["last-lap-done", "result-written"])
+def test_ctrl_c_just_after_the_finish_keeps_the_table_report_and_says_130(moment, tmp_path, overlay):
+    """A Ctrl-C as the race ends: when its last lap is done, or once RUN_DIR/result.json is written
+    (the race's result made, the table and report to come). It was ignored (exit 0) or lost the
+    table and the report (a KeyboardInterrupt, exit 130); now the results, the table, the run dir's
+    path and the report are all kept and shown, and the exit status is 130."""
+    run_dir, report = tmp_path / "run", tmp_path / "out"
+    proc = start_race("--laps", "1", "--robot", "middle", "--run-dir", str(run_dir), "--json", str(tmp_path / "r.json"),
+                      "--report", str(report))
+    ready = (lambda: lap_done(run_dir)) if moment == "last-lap-done" else (run_dir / "result.json").exists
+    try:
+        wait_for(lambda: ready() or proc.poll() is not None, 90, poll_s=0.002)
+        proc.send_signal(signal.SIGINT)
+        out, err = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 130, err
+    assert "middle 1" in out, out  # the table
+    assert (report / "report.html").exists(), err
+    assert f"run dir {run_dir}" in err and "Traceback" not in err, err
+    lines = [ln for ln in err.splitlines() if ln.startswith("boxbox: error:")]
+    assert len(lines) == 1 and "interrupted" in lines[0], err
+    [me] = read_json(tmp_path / "r.json")["drivers"]
+    assert me["laps"] >= 1 or me["lap_times"], me
+    assert processes_mentioning(str(run_dir)) == []

@@ -217,3 +217,36 @@ def test_workers_started_at_once_on_a_fresh_database(overlay, postgres, tmp_path
     assert states.count(optuna.trial.TrialState.COMPLETE) + states.count(optuna.trial.TrialState.PRUNED) == 3
     assert optuna.trial.TrialState.RUNNING not in states
     assert all((tmp_path / f"w{i}" / "best.toml").exists() for i in range(3))
+
+
+def test_a_race_host_killed_from_outside_is_lost_not_scored(overlay):
+    """A race host killed from outside (SIGKILL, the OOM killer's kind of death) gave its trial
+    the 1000 s penalty, COMPLETE, as if the robot had failed; now the race is lost (RaceLost): the
+    trial fails and runs again (tests/unit/test_tune_workers.py), as a lost worker's does."""
+    import threading
+
+    from boxbox.tune.objective import RaceLost, TuneConfig, run_race
+
+    cfg = TuneConfig(study="outside-kill", robot="middle", tracks=[TRACK], categories=["road"], laps=20)
+    me = psutil.Process()
+    killed: list[int] = []
+
+    def kill_the_host() -> None:
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline and not killed:
+            kids = me.children()
+            if any("torcs" in " ".join(k.cmdline()) for k in kids):  # racing: the host is the Python child
+                time.sleep(2.0)
+                for kid in kids:
+                    with contextlib.suppress(psutil.Error):
+                        if kid.cmdline() == me.cmdline():
+                            kid.kill()
+                            killed.append(kid.pid)
+            time.sleep(0.05)
+
+    killer = threading.Thread(target=kill_the_host, daemon=True)
+    killer.start()
+    with pytest.raises(RaceLost, match="the robot host was killed by SIGKILL with no fault of its robot said"):
+        run_race(cfg, 0, {}, None)
+    killer.join()
+    assert killed

@@ -86,6 +86,16 @@ class Faults(Recorder):
             raise ValueError("deliberate failure in drive")
 
 
+class Hangs(Recorder):
+    """Stops answering in drive: past its step budget the race is stopped (a hang)."""
+
+    def ending(self, state):
+        if state.sim_time_s > FAULT_AT_S:
+            import time
+
+            time.sleep(600)
+
+
 class KillsTorcs(Recorder):
     def ending(self, state):
         if state.sim_time_s > FAULT_AT_S:

@@ -116,3 +116,39 @@ class StopsTorcs(MiddleRobot):
                 except (psutil.Error, OSError):
                     pass
         return super().drive(state)
+
+
+class StartsDaemons(MiddleRobot):
+    """Double-forks two daemons the classic way (fork, setsid, fork) without going through the shell:
+    one runs `sleep 300.25` with an empty environment, the other sleeps in Python, never exec'd (so
+    both lack the race's BOXBOX_RUN_DIR in their environment as the system shows it)."""
+
+    started = False
+
+    def drive(self, state):
+        if not self.started:
+            import os
+            import time
+
+            self.started = True
+            for execs in (True, False):
+                if os.fork() == 0:
+                    os.setsid()
+                    if os.fork() == 0:
+                        if execs:
+                            os.execve("/bin/sleep", ["sleep", "300.25"], {})
+                        time.sleep(300)
+                    os._exit(0)
+                os.wait()
+        return super().drive(state)
+
+
+class TakesTooMuchMemory(MiddleRobot):
+    """Maps 3 GiB after a second of racing (numpy.empty: reserved, never touched, so no memory is used)."""
+
+    def drive(self, state):
+        if state.sim_time_s > 1.0:
+            import numpy as np
+
+            self.hoard = np.empty(3 << 30, dtype=np.uint8)
+        return super().drive(state)

@@ -115,3 +115,31 @@ def test_the_front_reaps_every_worker(tmp_path):
     assert [w.number for w in lost] == [3] and reclaimed == [3] and lost[0].how_it_ended == "killed by SIGKILL"
     assert seen and not seen[-1]  # reaped while the others ran
     assert all(p.returncode is not None for p in procs) and not any(worker_alive(w.tag) for w in workers)
+
+
+def test_a_trial_whose_race_was_lost_fails_and_runs_again_at_most_max_retry_times():
+    """RaceLost (a race host killed from outside): the trial fails and its values are queued again,
+    as a lost worker's trial is; not scored, and not retried for ever."""
+    import optuna
+
+    from boxbox.tune.objective import RaceLost
+    from boxbox.tune.study import StopFlag, _run_trial
+
+    optuna.logging.set_verbosity(optuna.logging.WARNING)
+    study = optuna.create_study()
+    study.enqueue_trial({"x": 0.5})
+
+    def objective(trial):
+        trial.suggest_float("x", 0, 1)
+        raise RaceLost("the robot host was killed by SIGKILL")
+
+    for _ in range(5):
+        trial = study.ask()
+        assert _run_trial(study, trial, objective, StopFlag(), max_retry=2) == 0
+    states = [t.state for t in study.get_trials()]
+    assert optuna.trial.TrialState.COMPLETE not in states
+    first, second, third = study.get_trials()[:3]
+    assert first.state == second.state == third.state == optuna.trial.TrialState.FAIL
+    assert second.params == third.params == {"x": 0.5}  # run again with the same values
+    assert third.system_attrs["retry_history"] == [0, 1]  # ... twice, then no more
+    assert study.get_trials()[3].params != {"x": 0.5}

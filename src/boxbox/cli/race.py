@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 
@@ -23,7 +24,10 @@ from boxbox.cli.types import (
     skill_level_option,
     step_budget_option,
 )
-from boxbox.errors import UsageError
+from boxbox.errors import Interrupted, UsageError
+
+if TYPE_CHECKING:
+    from boxbox.torcs.signals import StopSignals
 
 SET_HELP = ("Set a parameter of the robots that declare it (see `boxbox params --robot SPEC`), "
             "e.g. --set mu_scale=0.9. Repeatable.")
@@ -47,6 +51,9 @@ SET_HELP = ("Set a parameter of the robots that declare it (see `boxbox params -
 @step_budget_option
 @click.option("--setup-budget-s", type=SETUP_BUDGET_S, default=120, show_default=True,
               help="Wall time a robot may take in initial_fuel_l, on_track, pit_stop or on_race_end.")
+@click.option("--memory-limit", "memory_limit_gib", type=FiniteFloatRange(0.1, 1024), default=4, show_default=True,
+              help="Memory (GiB of address space) the robots may take beyond what their process starts with; "
+                   "more is the robot's fault, said in one line, e.g. --memory-limit 8.")
 @click.option("--set", "settings", multiple=True, metavar="KEY=VALUE", help=SET_HELP)
 @click.option("--setup", "setup_file", type=InputFile(),
               help="Robot parameters from a TOML setup file (`name = value` lines, as `boxbox tune` writes); "
@@ -69,8 +76,8 @@ SET_HELP = ("Set a parameter of the robots that declare it (see `boxbox params -
 @click.option("--verbose", is_flag=True,
               help="Show what the robots print as the race runs (it is always kept in RUN_DIR/host.log).")
 def race(track, car, laps, robots, opponents, fuel_laps, pit_laps, pit_mode, json_file, step_budget_ms, settings,
-         setup_file, setup_budget_s, learning, run_dir, no_telemetry, report_dir, grid_position, skill_level, quiet,
-         verbose) -> None:
+         setup_file, setup_budget_s, memory_limit_gib, learning, run_dir, no_telemetry, report_dir, grid_position,
+         skill_level, quiet, verbose) -> None:
     """Run one race in TORCS (console mode) and print the results.
 
     \b
@@ -84,12 +91,13 @@ def race(track, car, laps, robots, opponents, fuel_laps, pit_laps, pit_mode, jso
     from boxbox.robot.loader import DEFAULT_ROBOT
     from boxbox.robot.params import parse_set
     from boxbox.torcs import checks, launch
+    from boxbox.torcs.signals import StopSignals
 
     specs = list(robots) or [DEFAULT_ROBOT]
-    values = {**_setup_values(setup_file, specs), **parse_set(settings)}
+    values = {**_setup_values(setup_file, specs, setup_budget_s), **parse_set(settings)}
     options = RaceOptions(fuel_laps=fuel_laps, pit_laps=tuple(sorted(pit_laps)), pit_mode=pit_mode,
                           robot_args={"set": values} if values else {})
-    names = checks.check_robots(specs, options, track, car)
+    names = checks.check_robots(specs, options, track, car, setup_budget_s)
     overlay = ready()  # first: on a fresh machine the names below can only be checked once TORCS is there
     category, opp = checks.check_race(track, car, len(specs), opponents, pit_laps, laps)
     grid_slot = checks.check_grid_position(grid_position, len(opp))
@@ -97,11 +105,13 @@ def race(track, car, laps, robots, opponents, fuel_laps, pit_laps, pit_mode, jso
                             opponents=opp, options=options, step_budget_ms=int(step_budget_ms), run_dir=run_dir,
                             setup_budget_ms=int(setup_budget_s * 1000), telemetry=not no_telemetry,
                             skill_level=skill_level, grid_position=grid_slot, learning=learning,
-                            json_file=json_file, verbose=verbose)  # the race writes RUN_DIR/result.json, then this
-    _finish(run_with_progress(cfg, overlay, quiet or verbose), laps, report_dir)
+                            json_file=json_file, verbose=verbose,
+                            memory_limit_gib=memory_limit_gib)  # the race writes RUN_DIR/result.json, then this
+    with StopSignals() as stop:  # a Ctrl-C after the finish: the table and report first, then exit 130
+        _finish(run_with_progress(cfg, overlay, quiet or verbose), laps, report_dir, stop)
 
 
-def _setup_values(setup_file: Path | None, specs: list[str]) -> dict:
+def _setup_values(setup_file: Path | None, specs: list[str], budget_s: float) -> dict:
     """--setup FILE's values, checked against the robots that declare parameters."""
     if setup_file is None:
         return {}
@@ -109,14 +119,15 @@ def _setup_values(setup_file: Path | None, specs: list[str]) -> dict:
     from boxbox.robot.tunable import check_setup_for, read_setup
 
     values = read_setup(setup_file)
-    check_setup_for([load_robot_class(s) for s in specs], values, str(setup_file))
+    check_setup_for([load_robot_class(s, budget_s) for s in specs], values, str(setup_file))
     return values
 
 
 
-def _finish(result, laps: int, report_dir: Path | None) -> None:
+def _finish(result, laps: int, report_dir: Path | None, stop: StopSignals) -> None:
     """The table and the report (also for a race stopped by a fault), then the verdict (the race has
-    written its JSON: RUN_DIR/result.json, then --json)."""
+    written its JSON: RUN_DIR/result.json, then --json); a stop signal that came after the race's
+    result was made is said last, as Interrupted (130)."""
     from boxbox.report.tables import results_table
     from boxbox.torcs.pitwatch import NOT_ASKED
 
@@ -140,6 +151,9 @@ def _finish(result, laps: int, report_dir: Path | None) -> None:
         if d.step_us_median is not None:
             err.print(f"[dim]{d.name}: drive step median {d.step_us_median:.1f} us, "
                       f"p99 {d.step_us_p99:.1f} us; run dir {result.run_dir}[/]")
+    if stop.stopped:
+        raise Interrupted(f"interrupted ({stop.names()}) after the race ended; its results are kept, "
+                          f"shown above (run dir {result.run_dir})")
 
 
 def _write_report(run_dir: Path, report_dir: Path) -> None:

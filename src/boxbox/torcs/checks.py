@@ -46,18 +46,17 @@ def check_field(python_cars: int, opponents: int) -> None:
                          f"drop {total - MAX_CARS} opponent(s)")
 
 
-def check_robots(specs: list[str], options: RaceOptions, track: str, car: str) -> list[str]:
-    """Each Python robot's class loaded and its settings checked (before the set-up, on the command
-    line and in boxbox.race alike); the names its cars race under."""
-    from boxbox.robot.loader import load_robot_class
+def check_robots(specs: list[str], options: RaceOptions, track: str, car: str,
+                 setup_budget_s: float | None = None) -> list[str]:
+    """Each Python robot's class loaded and its settings checked, a robot that is not boxbox's own
+    in a child process within the set-up budget (robot/loader.py), before the set-up, on the command
+    line and in boxbox.race alike; the names its cars race under."""
+    from boxbox.robot.loader import IMPORT_BUDGET_S, robot_names
 
     check_field(len(specs), 0)
-    names = []
-    for i, spec in enumerate(specs):
-        cls = load_robot_class(spec)
-        cls.check_setup(options, track, car)
-        names.append(f"{cls.name} {i + 1}")
-    return names
+    names = robot_names(specs, lambda cls: cls.check_setup(options, track, car),
+                        IMPORT_BUDGET_S if setup_budget_s is None else setup_budget_s)
+    return [f"{name} {i + 1}" for i, name in enumerate(names)]
 
 
 def check_pit_laps(track: str, pit_laps: Iterable[int], laps: int) -> None:

@@ -52,6 +52,22 @@ _FORKED = [False]
 HEARTBEAT_NS = int(HEARTBEAT_S * 1e9)
 
 
+class CallAbandoned(BaseException):
+    """The launcher gave up on the robot call the host is in (SIGUSR2, after the bridge stopped the
+    race for a call past its budget): the host leaves it, and ends the race as in any ending, with
+    each robot's on_race_end (docs/robots.md promises it once in every ending)."""
+
+
+_MEMORY_LIMIT_GIB: list[float | None] = [None]  # the robots' allowance (RaceConfig.memory_limit_gib)
+_ABANDON_ARMED = [False]  # SIGUSR2 raises CallAbandoned only while the host serves the bridge
+
+
+def _abandon(signum: int, frame) -> None:
+    if _ABANDON_ARMED[0]:
+        _ABANDON_ARMED[0] = False  # once: on_race_end that follows runs to its end
+        raise CallAbandoned
+
+
 class RobotFault(Exception):
     """A robot call went wrong; the host turns it into a `Fault` record naming the car."""
 
@@ -65,6 +81,9 @@ class RobotFault(Exception):
         its sys.exit(): the robot exiting is reported as such at once, never as a hang (SystemExit
         would otherwise end the host)."""
         tb = traceback.format_exc()
+        if isinstance(exc, MemoryError) and _MEMORY_LIMIT_GIB[0] is not None:
+            return cls("exception", f"the robot used more than {_MEMORY_LIMIT_GIB[0]:g} GiB of memory ({context}); "
+                                    "give it more with --memory-limit", tb)
         if isinstance(exc, SystemExit):
             code = "" if exc.code is None else repr(exc.code)
             return cls("exit", f"the robot called sys.exit({code}) ({context})", tb)
@@ -104,7 +123,7 @@ class Host:
         self.pit_laps = options.pit_laps
         self.slots: list[Slot] = []
         for entry in spec["robots"]:
-            cls = load_robot_class(entry["spec"])
+            cls = load_robot_class(entry["spec"], isolated=False)  # the host is the robot's own process
             self.slots.append(Slot(robot=cls(options), spec=entry["spec"], name=entry["name"]))
         if spec.get("telemetry", True):
             for i, slot in enumerate(self.slots):
@@ -150,12 +169,24 @@ class Host:
         """A robot call: any exception, or its sys.exit(), becomes a RobotFault naming the call."""
         try:
             return fn(*args)
+        except CallAbandoned:
+            raise
         except BaseException as exc:  # noqa: BLE001  (a robot's SystemExit is its fault too)
             raise RobotFault.from_exception(exc, f"in {where}") from exc
 
     # --- the loop ------------------------------------------------------------------------
     def serve(self, conn: socket.socket) -> None:
-        """Answer the bridge until it closes the connection."""
+        """Answer the bridge until it closes the connection, or the launcher abandons the call the
+        host is in (CallAbandoned)."""
+        _ABANDON_ARMED[0] = True
+        try:
+            self._serve(conn)
+        except CallAbandoned:
+            pass
+        finally:
+            _ABANDON_ARMED[0] = False
+
+    def _serve(self, conn: socket.socket) -> None:
         buf = self.buf
         header = wire.HEADER.unpack_from
         forked = _FORKED
@@ -238,6 +269,8 @@ class Host:
             slot.start_fuel_l = state.fuel_l
         try:
             c = slot.robot.drive(state)
+        except CallAbandoned:
+            raise
         except BaseException as exc:  # noqa: BLE001  (a robot's SystemExit is its fault too)
             raise RobotFault.from_exception(exc, f"in drive, step {step}, t={state.sim_time_s:.2f} s") from exc
         problem = c.problem(slot.max_gear) if type(c) is Controls else \
@@ -487,10 +520,12 @@ def main(argv: list[str]) -> int:
     spec = json.loads(Path(argv[0]).read_text())
     run_dir = RunDir(spec["run_dir"])
     link = HostLink(spec.get("link_fd"))
+    _MEMORY_LIMIT_GIB[0] = spec.get("memory_limit_gib")
     os.register_at_fork(after_in_child=lambda: forked_child(link))
     os.environ["BOXBOX_RUN_DIR"] = str(run_dir)  # robots may keep files of their race here
     hang_file = open(run_dir.hang_traceback, "w")  # noqa: SIM115  (open for the process's life)
     faulthandler.register(signal.SIGUSR1, file=hang_file, all_threads=False)
+    signal.signal(signal.SIGUSR2, _abandon)
     listener = socket.socket(fileno=int(spec["listen_fd"]))
     try:
         host = Host(spec, link)

@@ -39,7 +39,7 @@ from boxbox.torcs.diagnosis import PROGRESS_LINE, Ending, diagnose
 from boxbox.torcs.hostlink import HostReports
 from boxbox.torcs.logcap import CappedLog, LogPump
 from boxbox.torcs.paths import MAX_PYTHON_CARS, ROBOT_MODULE
-from boxbox.torcs.processes import ChildSweep, ForkedHost, child_setup, kill_group, pick_cpu
+from boxbox.torcs.processes import ChildSweep, ForkedHost, child_setup, host_address_space, kill_group, pick_cpu
 from boxbox.torcs.racefile import grid, race_xml, robot_xml, with_skill_level
 from boxbox.torcs.results import DriverResult, RaceResult, merge_drivers, parse_results_file, save_result
 from boxbox.torcs.rundir import RunDir
@@ -49,6 +49,11 @@ from boxbox.torcs.timing import MIN_SPEED_MPS, TimeModel
 
 Progress = Callable[[int, float], None]  # (leader laps done, sim time)
 INTERRUPTED = "the race was interrupted (Ctrl-C, SIGTERM or SIGHUP); TORCS was stopped, the results so far are kept"
+# the host dead of SIGKILL with no fault said and nobody in the race sending it: the kernel's OOM
+# killer, or an operator's kill -9 (a robot's own excess of memory is a MemoryError: memory_limit_gib)
+HOST_KILLED = ("the robot host was killed by SIGKILL with no fault of its robot said "
+               "(the kernel's OOM killer, or kill -9)")
+MEMORY_LIMIT_GIB = 4.0  # the robots' allowance of memory, beyond what the host starts with
 SOCK_PREFIX = "boxbox-sock-"
 GDB_TIMEOUT_S = 20.0  # a backtrace of a stalled TORCS (gdb attaching and reading symbols takes 1-3 s)
 
@@ -71,6 +76,9 @@ class RaceConfig:
     setup_budget_ms: int = 120_000
     min_speed_mps: float = MIN_SPEED_MPS
     wall_limit_s: float | None = None
+    # address space the robots may map beyond what the host starts with (GiB; None: no limit): more
+    # is a MemoryError in the robot, its fault, instead of the OOM killer's SIGKILL of anything
+    memory_limit_gib: float | None = MEMORY_LIMIT_GIB
     cpu: int | None = None
     run_dir: Path | None = None  # None: a new folder under CACHE/runs (the oldest pruned, keep_runs kept)
     json_file: Path | None = None  # the result is also written here, after RUN_DIR/result.json
@@ -191,6 +199,7 @@ class Race:
         self.hang_dumped = False  # the host was asked for its stack (once: the diagnosis prints it)
         self.host_stopped = False  # the host still ran when the race was over: killed here (diagnosis.Ending)
         self.stalled = False  # timed out by the stall limit: TORCS stopped calling the robots
+        self.host_ended: int | None = None  # how the host ended by itself, before the launcher killed it
         # what the robot host and TORCS print, bounded (torcs/logcap.py); the host's shown with verbose
         self.host_pump: LogPump | None = None
         self.err_pump: LogPump | None = None
@@ -255,6 +264,7 @@ class Race:
                 "robots": [{"spec": s, "name": n} for s, n in zip(cfg.robots, cfg.names, strict=True)],
                 "options": dataclasses.asdict(cfg.options), "telemetry": cfg.telemetry,
                 "connect_timeout_s": cfg.time_model.start_limit_s(len(cfg.robots)),
+                "memory_limit_gib": cfg.memory_limit_gib,
                 "limits": {"laps": cfg.laps, "min_speed_mps": cfg.min_speed_mps},
                 "skill_level": int(cfg.skill_level), "fuel_offset_l": cfg.fuel_offset_l}
 
@@ -264,10 +274,11 @@ class Race:
                 # the host writes telemetry.parquet as the race ends: imported here, once per launcher
                 # process, every forked host has it (a bench, a study or a notebook races many times)
                 import pyarrow.parquet  # noqa: F401
-            return ForkedHost(self.run_dir.host_spec, log_fd, self.cpu)
+            return ForkedHost(self.run_dir.host_spec, log_fd, self.cpu, host_address_space(self.cfg.memory_limit_gib))
         return subprocess.Popen([sys.executable, "-m", "boxbox.torcs.host", str(self.run_dir.host_spec)],
                                 stdout=log_fd, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
-                                pass_fds=[listen_fd, link_fd], preexec_fn=child_setup(self.cpu),
+                                pass_fds=[listen_fd, link_fd],
+                                preexec_fn=child_setup(self.cpu, host_address_space(self.cfg.memory_limit_gib)),
                                 start_new_session=True, env=self.env)
 
     def _start_torcs(self) -> None:
@@ -365,11 +376,22 @@ class Race:
         hung = self.host is not None and "BOXBOX-FAULT timeout" in self.run_dir.read_text(self.run_dir.torcs_err)
         if hung:
             self._dump_hang()  # now, while the robot is still stuck where it hung
-        if self.reports is not None:
-            # a host that never got a connection waits in accept: no reason to wait for it
-            quick = not self.reports.connected or hung or self.timed_out
-            if not self.reports.drain(1.0 if quick else 30.0 if self.cfg.telemetry else 3.0):
-                self._dump_hang()
+        if self.reports is None:
+            return
+        if not self.reports.connected:  # a host that never got a connection waits in accept
+            self.reports.drain(1.0)
+        elif hung or self.timed_out:  # the host leaves the call it is stuck in, then calls on_race_end
+            self._abandon_call()
+            self.reports.drain(self.cfg.setup_budget_ms / 1000 + 1.0)
+        elif not self.reports.drain(30.0 if self.cfg.telemetry else 3.0):
+            self._dump_hang()
+
+    def _abandon_call(self) -> None:
+        """Tell a live host to leave the robot call it is stuck in (SIGUSR2: torcs/host.py), so
+        that it ends the race with each robot's on_race_end, as in every other ending."""
+        if self.host is not None and self.host.poll() is None:
+            with contextlib.suppress(ProcessLookupError):
+                self.host.send_signal(signal.SIGUSR2)
 
     def _dump_hang(self) -> None:
         """Ask a live host to write where it is stuck (faulthandler on SIGUSR1), once: asked again
@@ -395,8 +417,9 @@ class Race:
 
     def _stop_processes(self) -> None:
         kill_group(self.torcs)
-        self.host_stopped = self.host is not None and self.host.poll() is None
-        kill_group(self.host)
+        self.host_ended = self.host.poll() if self.host is not None else None
+        self.host_stopped = self.host is not None and self.host_ended is None
+        kill_group(self.host, tree=True)
         if self.torcs is not None and self.torcs.stdout is not None:
             self.torcs.stdout.close()
         if self.reports is not None:
@@ -417,8 +440,17 @@ class Race:
                                        self.laps_seen)
         result.limits = self._limits()
         result.error = f"{INTERRUPTED} (run dir {self.run_dir})" if self.stop.stopped else self._diagnosis()
+        if self._killed_from_outside() and result.error:
+            first, nl, rest = result.error.partition("\n")
+            result.error = f"{HOST_KILLED}; race again: {first}" + nl + rest
         self._save(result)
         return result
+
+    def _killed_from_outside(self) -> bool:
+        """The host died of SIGKILL by itself (the launcher had not killed it), with no fault said,
+        in a race nobody stopped: from outside (a robot's own excess of memory is a MemoryError)."""
+        return self.host_ended == -signal.SIGKILL and not self.stop.stopped and \
+            (self.reports is None or self.reports.fault is None)
 
     def _limits(self) -> dict:
         cfg = self.cfg

@@ -3,9 +3,13 @@
 TORCS and the robot host are pinned to one core (they strictly alternate, so this costs nothing
 and makes the socket round trip ~15x cheaper), die with the launcher (PR_SET_PDEATHSIG), run in
 sessions of their own and are killed by process group at the end.  Processes a robot starts may
-leave both (a new session, a double fork): the launcher is their child subreaper for the race, so
-orphans come to it instead of init, and `ChildSweep` kills every process of the race still alive at
-the end (psutil: the launcher's new descendants that carry the race's BOXBOX_RUN_DIR).
+leave both (a new session, a double fork).  The forked robot host is their child subreaper, so they
+stay its descendants however they fork, and it ends them as it ends (`end_descendants`); the
+launcher ends them too when it has to kill the host (`kill_group(tree=True)`).  Behind that, the
+launcher is the child subreaper of the whole race, and `ChildSweep` kills every process of the race
+still alive at the end (psutil: the launcher's new descendants that carry the race's
+BOXBOX_RUN_DIR; a daemon forked from the host without an exec has the launcher's environment, not
+the race's, so this alone let it live on).
 """
 
 from __future__ import annotations
@@ -28,13 +32,29 @@ PR_GET_CHILD_SUBREAPER = 37
 _libc = ctypes.CDLL(None, use_errno=True)
 
 
-def child_setup(cpu: int | None) -> Callable[[], None]:
-    """What a race's child does first: die with the launcher, and run on the race's core."""
+def child_setup(cpu: int | None, address_space_bytes: int | None = None) -> Callable[[], None]:
+    """What a race's child does first: die with the launcher, run on the race's core, and (the robot
+    host) keep within its address space (RLIMIT_AS: past it an allocation fails, a MemoryError in
+    Python, instead of the machine running out of memory and the OOM killer choosing a victim)."""
     def setup() -> None:
         _libc.prctl(PR_SET_PDEATHSIG, signal.SIGKILL)
         if cpu is not None:
             os.sched_setaffinity(0, {cpu})
+        if address_space_bytes is not None:
+            import resource
+
+            hard = resource.getrlimit(resource.RLIMIT_AS)[1]
+            soft = address_space_bytes if hard == resource.RLIM_INFINITY else min(address_space_bytes, hard)
+            resource.setrlimit(resource.RLIMIT_AS, (soft, hard))
     return setup
+
+
+def host_address_space(memory_limit_gib: float | None) -> int | None:
+    """The robot host's address-space limit: what the launcher maps now (the forked host starts with
+    it; an exec'd one maps about as much once it has imported boxbox) plus the robots' allowance."""
+    if memory_limit_gib is None:
+        return None
+    return psutil.Process().memory_info().vms + int(memory_limit_gib * 2**30)
 
 
 def pick_cpu() -> int | None:
@@ -50,12 +70,12 @@ class ForkedHost:
     loaded the robot class to check it). BOXBOX_HOST_EXEC=1 goes back to a fresh interpreter.
     """
 
-    def __init__(self, spec_path: Path, log_fd: int, cpu: int | None) -> None:
+    def __init__(self, spec_path: Path, log_fd: int, cpu: int | None, address_space_bytes: int | None = None) -> None:
         sys.stdout.flush()
         sys.stderr.flush()
         pid = os.fork()
         if pid == 0:  # the child: never returns into the launcher's code
-            _host_child(spec_path, log_fd, cpu)
+            _host_child(spec_path, log_fd, child_setup(cpu, address_space_bytes))
         self.pid = pid
         self.returncode: int | None = None
         self.args = ["fork", "boxbox.torcs.host", str(spec_path)]
@@ -87,16 +107,17 @@ class ForkedHost:
         self.send_signal(signal.SIGKILL)
 
 
-def _host_child(spec_path: Path, log_fd: int, cpu: int | None) -> None:
+def _host_child(spec_path: Path, log_fd: int, setup: Callable[[], None]) -> None:
     """The forked host: its own session, default signals, output to the log (log_fd: the write end
     of the launcher's LogPump); then the host's main."""
     code = 1
     try:
         os.setsid()
+        _libc.prctl(PR_SET_CHILD_SUBREAPER, 1)  # what the robot starts stays below the host (end_descendants)
         signal.set_wakeup_fd(-1)  # the launcher's stop signals are not the host's
         for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
             signal.signal(sig, signal.SIG_DFL)
-        child_setup(cpu)()
+        setup()
         null = os.open(os.devnull, os.O_RDONLY)
         os.dup2(null, 0)
         os.dup2(log_fd, 1)
@@ -114,7 +135,10 @@ def _host_child(spec_path: Path, log_fd: int, cpu: int | None) -> None:
         try:
             code = host.main([str(spec_path)])
         finally:
-            atexit._run_exitfuncs()  # a robot's own exit handlers run, as in a fresh interpreter
+            try:
+                atexit._run_exitfuncs()  # a robot's own exit handlers run, as in a fresh interpreter
+            finally:
+                end_descendants()
     except BaseException:  # noqa: BLE001  (anything here must end the child, reported)
         import traceback
 
@@ -127,12 +151,30 @@ def _host_child(spec_path: Path, log_fd: int, cpu: int | None) -> None:
             os._exit(code)
 
 
-def kill_group(proc: subprocess.Popen | ForkedHost | None) -> None:
-    """Kill a child and its process group (it leads a session of its own), and reap it."""
+def end_descendants(wait_s: float = 2.0) -> None:
+    """Kill every descendant of this process (the host's: all the robot started) and reap them."""
+    procs = psutil.Process().children(recursive=True)
+    for proc in procs:
+        with contextlib.suppress(psutil.NoSuchProcess):
+            proc.kill()
+    psutil.wait_procs(procs, timeout=wait_s)
+
+
+def kill_group(proc: subprocess.Popen | ForkedHost | None, tree: bool = False) -> None:
+    """Kill a child and its process group (it leads a session of its own), and reap it; with tree,
+    also every descendant it had (a forked host is their child subreaper: they are all below it
+    until it dies, then they would be orphans without a mark of the race)."""
     if proc is None:
         return
+    below: list[psutil.Process] = []
+    if tree and proc.poll() is None:
+        with contextlib.suppress(psutil.Error):
+            below = psutil.Process(proc.pid).children(recursive=True)
     with contextlib.suppress(ProcessLookupError, PermissionError):
         os.killpg(proc.pid, signal.SIGKILL)
+    for child in below:
+        with contextlib.suppress(psutil.Error):
+            child.kill()
     with contextlib.suppress(subprocess.TimeoutExpired):
         proc.wait(timeout=5)
 

@@ -5,6 +5,11 @@ Ctrl-C while the first was being handled lost the results, and SIGHUP (the termi
 the launcher outright, results and clean-up with it.  `StopSignals` notes them instead and wakes the
 launcher's select loop (a wakeup pipe), which stops TORCS, collects and writes the results; further
 signals change nothing.  The previous handlers come back when the race is over.
+
+A command that shows the race's results holds its own `StopSignals` around the race and the
+showing (`boxbox race`: the table, the report): the race's own then shares it, so a Ctrl-C just
+after the finish neither cuts the table and report short (a KeyboardInterrupt) nor goes unsaid
+(noted once the race's result was made: exit 0); the command says it, with exit 130, at its end.
 """
 
 from __future__ import annotations
@@ -14,6 +19,7 @@ import signal
 import threading
 
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+_HELD: list[StopSignals] = []  # the outermost context that holds the signals now (at most one)
 
 
 class StopSignals:
@@ -26,10 +32,16 @@ class StopSignals:
         self._write_fd: int | None = None
         self._old: dict[int, object] = {}
         self._old_wakeup = -1
+        self._shared = False
 
     def __enter__(self) -> StopSignals:
         if threading.current_thread() is not threading.main_thread():
             return self
+        if _HELD:  # a command holds them around this race: its notes are this race's
+            self._shared = True
+            self.received, self.wakeup_fd = _HELD[0].received, _HELD[0].wakeup_fd
+            return self
+        _HELD.append(self)
         self.wakeup_fd, self._write_fd = os.pipe()
         os.set_blocking(self.wakeup_fd, False)
         os.set_blocking(self._write_fd, False)
@@ -57,8 +69,9 @@ class StopSignals:
                 pass
 
     def __exit__(self, *exc) -> None:
-        if self.wakeup_fd is None:
+        if self._shared or self.wakeup_fd is None:
             return
+        _HELD.remove(self)
         signal.set_wakeup_fd(self._old_wakeup)
         if not self.received:
             for sig, handler in self._old.items():

@@ -18,7 +18,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
-from boxbox.errors import Interrupted
+from boxbox.errors import BoxboxError, Interrupted
 from boxbox.tune.storage import worker_alive, worker_tag
 
 # a lap that does not count: well beyond any lap of TORCS's tracks by the boxbox robot (spring, 22 km,
@@ -31,6 +31,11 @@ RESULT_ATTR = "result"  # a trial's races (RaceScore each), races skipped by pru
 
 class TrialInterrupted(Interrupted):
     """Ctrl-C, SIGTERM or SIGHUP stopped a race of the trial: the trial fails, the worker stops."""
+
+
+class RaceLost(BoxboxError):
+    """A race's host was killed from outside (the OOM killer's kind of death): not the robot's
+    doing, so no score; the trial fails and runs again, as a lost worker's does."""
 
 
 @dataclass
@@ -123,7 +128,7 @@ def run_race(cfg: TuneConfig, index: int, settings: dict, cpu: int | None) -> Ra
     from boxbox.robot.base import RaceOptions
     from boxbox.robot.loader import load_robot_class
     from boxbox.torcs import launch, setup
-    from boxbox.torcs.launch import INTERRUPTED
+    from boxbox.torcs.launch import HOST_KILLED, INTERRUPTED
 
     options = RaceOptions(robot_args={"set": dict(settings)} if settings else {})
     name = f"{load_robot_class(cfg.robot).name} 1"
@@ -136,6 +141,8 @@ def run_race(cfg: TuneConfig, index: int, settings: dict, cpu: int | None) -> Ra
         result = launch.run_race(race_cfg, setup.ensure_ready())
     if result.error and result.error.startswith(INTERRUPTED):
         raise TrialInterrupted(result.error)
+    if result.error and result.error.startswith(HOST_KILLED):
+        raise RaceLost(result.error.partition("\n")[0])
     return score_race(result, cfg.laps, cfg.damage_limit)
 
 

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from boxbox.errors import BoxboxError
-from boxbox.tune.objective import RESULT_ATTR, TrialInterrupted, TuneConfig, make_objective, sweep_dead_runs
+from boxbox.tune.objective import RESULT_ATTR, RaceLost, TrialInterrupted, TuneConfig, make_objective, sweep_dead_runs
 from boxbox.tune.storage import WORKER_ATTR, Storage, worker_tag
 
 FINISHED = ("COMPLETE", "PRUNED")
@@ -203,7 +203,7 @@ def _work(cfg: TuneConfig, study: Any, storage: Storage, objective: Callable[[An
             continue
         beating = _beating(storage, trial._trial_id, cfg.heartbeat_s)
         try:
-            done_here += _run_trial(study, trial, objective, stop)
+            done_here += _run_trial(study, trial, objective, stop, cfg.max_retry)
         except optuna.exceptions.UpdateFinishedTrialError:
             pass  # another worker found this one stale (no heartbeat for the grace period) and retried it
         finally:
@@ -211,8 +211,9 @@ def _work(cfg: TuneConfig, study: Any, storage: Storage, objective: Callable[[An
     return done_here
 
 
-def _run_trial(study: Any, trial: Any, objective: Callable[[Any], float], stop: StopFlag) -> int:
-    """Run one trial and tell the study how it ended; 1 if it finished (complete or pruned)."""
+def _run_trial(study: Any, trial: Any, objective: Callable[[Any], float], stop: StopFlag, max_retry: int = 3) -> int:
+    """Run one trial and tell the study how it ended; 1 if it finished (complete or pruned).  A
+    race lost to an outside kill fails the trial and queues it again (at most max_retry times)."""
     import optuna
 
     try:
@@ -224,6 +225,9 @@ def _run_trial(study: Any, trial: Any, objective: Callable[[Any], float], stop: 
         stop.event.set()
         _fail_and_requeue(study, trial, "interrupted")
         return 0
+    except RaceLost as exc:
+        _fail_and_requeue(study, trial, f"race lost: {exc}"[:300], max_retry)
+        return 0
     except optuna.exceptions.UpdateFinishedTrialError:
         raise
     except Exception as exc:  # a bug in a robot's code path we did not foresee: this trial only
@@ -234,17 +238,21 @@ def _run_trial(study: Any, trial: Any, objective: Callable[[Any], float], stop: 
     return 1
 
 
-def _fail_and_requeue(study: Any, trial: Any, why: str) -> None:
-    """The trial failed, its parameters queued again (the next worker, or a resumed study, runs them)."""
+def _fail_and_requeue(study: Any, trial: Any, why: str, max_retry: int | None = None) -> None:
+    """The trial failed, its parameters queued again (the next worker, or a resumed study, runs them)
+    unless it was already run again max_retry times."""
     import optuna
 
     trial.set_user_attr("stopped", why)
     tell(study, trial, state=optuna.trial.TrialState.FAIL)
     frozen = study._storage.get_trial(trial._trial_id)
+    history = [*frozen.system_attrs.get("retry_history", []), frozen.number]
+    if max_retry is not None and len(history) > max_retry:
+        return
     study.add_trial(optuna.trial.create_trial(state=optuna.trial.TrialState.WAITING, params=frozen.params,
                                               distributions=frozen.distributions,
                                               system_attrs={"failed_trial": frozen.number,
-                                                            "retry_history": [frozen.number]}))
+                                                            "retry_history": history}))
 
 
 # --- several local workers ------------------------------------------------------------------------
