@@ -125,10 +125,6 @@ class TutorialParams(RacecraftParams):
     lapped_own_side: bool = False  # a car we lap passed on our side of it (for a robot moving away from us; off)
     # pit
     pit_lookahead_m: float = 6.0
-    pit_mu: float = 0.4  # the seed's constant (used with pit_mu_source = "constant")
-    pit_mu_source: str = "surface"  # "surface": the pit lane's own friction; "constant": pit_mu
-    pit_brake_ahead_m: float = 200.0  # the seed's workaround (used with pit_entry_braking = "ahead")
-    pit_entry_braking: str = "computed"  # "computed" from the pit path, or the seed's "ahead"
     pit_brake_mu_scale: float = 0.65  # braking grip in the pit lane, relative to its surface x tyre friction
     pit_give_up_s: float = 10.0
     pit_stop_threshold_m: float = 0.1  # constant-decel stop: "close enough" to the box centre
@@ -165,7 +161,7 @@ BOUNDS = {
     "abs_slip_mps": Bound(0.1, 20.0, log=True), "tcl_slip_mps": Bound(0.1, 20.0, log=True),
     "tcl_slip_ratio": Bound(0.0, 0.5), "abs_hold_over_mps": Bound(0.0, 100.0), "abs_hold_share": Bound(0.0, 1.0),
     "counter_lock_accel": Bound(0.0, 1.0), "lock_accel": Bound(0.0, 1.0),
-    "pit_brake_mu_scale": Bound(0.1, 1.5), "pit_stop_grip_share": Bound(0.1, 1.0), "pit_mu": Bound(0.05, 2.0),
+    "pit_brake_mu_scale": Bound(0.1, 1.5), "pit_stop_grip_share": Bound(0.1, 1.0),
     "soft_gap_m": Bound(0.0, 10.0), "hazard_slip_deg": Bound(0.0, 90.0),
     "margin_m": Bound(0.1, 20.0), "close_brake": Bound(0.0, 1.0), "hold_line_grip_share": Bound(0.05, 2.0),
     "learn_gain": Bound(0.0, 1.0), "learn_margin_m": Bound(0.0, 3.0), "learn_steady_error_m": Bound(0.1, 5.0),
@@ -176,8 +172,7 @@ def bound_of(name: str) -> Bound:
     return BOUNDS.get(name, Bound())
 
 
-CHOICES = {"steering": ("line", "lookahead"), "brake_method": ("exact", "approx"), "track_limits": ("torcs", "strict"),
-           "pit_mu_source": ("surface", "constant"), "pit_entry_braking": ("computed", "ahead")}
+CHOICES = {"steering": ("line", "lookahead"), "brake_method": ("exact", "approx"), "track_limits": ("torcs", "strict")}
 
 
 def example_setting(name: str, default: bool | int | float | str, origin: str) -> str:
