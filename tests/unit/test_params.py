@@ -12,6 +12,7 @@ from boxbox.errors import UsageError
 from boxbox.robot.base import RaceOptions
 from boxbox.robot.opponents import OpponentParams
 from boxbox.robot.params import TutorialParams, load_params, parse_set, setup_files
+from boxbox.robot.pit import PitParams
 from boxbox.robot.tutorial import TutorialRobot
 
 CAR, TRACK = "car1-trb1", "e-track-2"
@@ -50,6 +51,9 @@ def test_defaults_agree_with_the_controllers_constants():
     assert (p.abs_slip_mps, p.abs_range_mps, p.tcl_slip_mps, p.tcl_range_mps) == \
         (slip.abs_slip_mps, slip.abs_range_mps, slip.tcl_slip_mps, slip.tcl_range_mps)
     assert p.pit_lookahead_m == pit_brake.PIT_LOOKAHEAD_M
+    pit = PitParams()
+    assert (p.pit_lookahead_m, p.pit_brake_mu_scale, p.pit_give_up_s, p.pit_stop_threshold_m, p.pit_stop_grip_share) \
+        == (pit.lookahead_m, pit.brake_mu_scale, pit.give_up_s, pit.stop_threshold_m, pit.stop_grip_share)
     opp = OpponentParams()
     assert (p.front_range_m, p.back_range_m, p.length_margin_m, p.side_margin_m, p.overtake_step_m) == \
         (opp.front_range_m, opp.back_range_m, opp.length_margin_m, opp.side_margin_m, opp.overtake_step_m)

@@ -17,6 +17,7 @@ from dataclasses import dataclass, fields
 from pathlib import Path
 
 from boxbox.errors import UsageError
+from boxbox.robot.pit import PitParams
 from boxbox.robot.racecraft import RacecraftParams
 
 SETUPS = Path(__file__).parent / "setups"
@@ -26,6 +27,9 @@ def setups_dir() -> Path:
     """$BOXBOX_SETUPS, else the setups folder next to the robot."""
     env = os.environ.get("BOXBOX_SETUPS")
     return Path(env) if env else SETUPS
+
+
+PIT_DEFAULTS = PitParams()  # the pit_* parameters' defaults
 
 
 @dataclass(frozen=True)
@@ -123,12 +127,12 @@ class TutorialParams(RacecraftParams):
     # crossing the road) where its slide takes it by the time we reach it (0: off; docs/racecraft.md's table)
     hazard_slip_deg: float = 0.0
     lapped_own_side: bool = False  # a car we lap passed on our side of it (for a robot moving away from us; off)
-    # pit
-    pit_lookahead_m: float = 6.0
-    pit_brake_mu_scale: float = 0.65  # braking grip in the pit lane, relative to its surface x tyre friction
-    pit_give_up_s: float = 10.0
-    pit_stop_threshold_m: float = 0.1  # constant-decel stop: "close enough" to the box centre
-    pit_stop_grip_share: float = 0.9  # constant-decel stop: deceleration as a share of the lane's grip
+    # pit: robot/pit.py's PitParams, the one home of their defaults and what each means
+    pit_lookahead_m: float = PIT_DEFAULTS.lookahead_m
+    pit_brake_mu_scale: float = PIT_DEFAULTS.brake_mu_scale
+    pit_give_up_s: float = PIT_DEFAULTS.give_up_s
+    pit_stop_threshold_m: float = PIT_DEFAULTS.stop_threshold_m
+    pit_stop_grip_share: float = PIT_DEFAULTS.stop_grip_share
     # learning
     learning: bool = True
     learn_gain: float = 1.0  # share of the spare margin turned into turn grip per lap (2 % a lap on a held line)

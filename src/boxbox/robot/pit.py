@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 from boxbox.control.braking import brake_distance
 from boxbox.control.carmodel import CarModel
-from boxbox.control.pit_brake import HOLD, STOP, PitBrakeFilter
+from boxbox.control.pit_brake import HOLD, PIT_LOOKAHEAD_M, STOP, PitBrakeFilter
 from boxbox.control.steering import steer_to_point
 from boxbox.control.stop import SpeedTracker
 from boxbox.model import Car, Controls, PitOrder, State, Track
@@ -50,9 +50,10 @@ MAX_GIVEN_UP = 2
 
 @dataclass(frozen=True)
 class PitParams:
-    """How the pit part drives (the tutorial robot's pit_* parameters; defaults for any robot)."""
+    """How the pit part drives: the defaults for any robot, and of the tutorial robot's pit_*
+    parameters (robot/params.py reads them here: change one here and both follow)."""
 
-    lookahead_m: float = 6.0  # steering aims this far (+ 0.2 s) ahead on the pit path
+    lookahead_m: float = PIT_LOOKAHEAD_M  # steering aims this far (+ 0.2 s) ahead on the pit path
     brake_mu_scale: float = 0.65  # braking grip in the lane, relative to its surface x tyre friction
     give_up_s: float = 10.0
     stop_threshold_m: float = 0.1  # constant-decel stop: close enough to the box centre
