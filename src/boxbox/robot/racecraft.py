@@ -34,7 +34,7 @@ from dataclasses import dataclass, replace
 from boxbox.control.traffic import pass_side, room
 from boxbox.model.constants import G_MPS2
 from boxbox.robot.behind import BehindParams, touch_brake
-from boxbox.robot.opponents import Nearby
+from boxbox.robot.opponents import Nearby, in_lane
 
 TURN_CURVATURE_1PM = 1.0 / 300.0  # the line curves more than this: a turn whose inside counts
 
@@ -203,8 +203,8 @@ class Racecraft:
         tutorial's overtaking passes only cars slower than us, so behind a stopped car we stopped too."""
         p = self.p
         for c in cars:
-            if 0.0 < c.dist_m < 3.0 * self.length_m and c.speed_mps < p.stopped_mps \
-                    and abs(c.lateral_m) < self.width_m + p.side_gap_m:
+            if c.ahead and c.dist_m < 3.0 * self.length_m and c.speed_mps < p.stopped_mps \
+                    and in_lane(c, self.width_m, p.side_gap_m):  # too close aside to pass at side_gap_m
                 chosen = pass_side(c.mid_m, self.width_m, c.width_m or self.width_m, p.side_gap_m, left, right,
                                    inside_sign)
                 return None if chosen is None else chosen[1]
