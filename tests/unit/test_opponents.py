@@ -8,13 +8,14 @@ import pytest
 
 from boxbox.model import Opponent, State
 from boxbox.model.state import CAR_STATE_DNF, CAR_STATE_FINISH, CAR_STATE_PIT
-from boxbox.robot.behind import collision_brake, hazard_brake, out_of_control
+from boxbox.robot.behind import BehindParams, collision_brake, hazard_brake, out_of_control
 from boxbox.robot.opponents import (
     Nearby,
     OpponentParams,
     in_lane,
     nearby,
     overtake_offset,
+    relate,
     side_steer,
     track_velocity_mps,
 )
@@ -41,7 +42,12 @@ def make_opp(**fields) -> Opponent:
 
 def near(dist_m, lateral_m=0.0, speed_mps=20.0, laps_ahead=0) -> Nearby:
     gap = dist_m - LENGTH_M if dist_m > 0 else dist_m + LENGTH_M
-    return Nearby(dist_m, gap, lateral_m, speed_mps, laps_ahead)
+    return related(Nearby(dist_m, gap, lateral_m, speed_mps, laps_ahead))
+
+
+def related(c: Nearby) -> Nearby:
+    """c with its relation to us (relate: the lanes by P's side margin and BehindParams' lane_m)."""
+    return relate([c], WIDTH_M, P.side_margin_m, BehindParams().lane_m)[0]
 
 
 def brakedist(v1, v2, mu=1.0):
@@ -180,7 +186,8 @@ HAZARD = OpponentParams(hazard_slip_deg=25.0)
 
 def sliding(dist_m, mid_m, speed_mps, across_mps, slip_deg=0.0, my_mid_m=0.0) -> Nearby:
     gap = dist_m - LENGTH_M
-    return Nearby(dist_m, gap, mid_m - my_mid_m, speed_mps, 0, WIDTH_M, mid_m, 2, across_mps, math.radians(slip_deg))
+    return related(Nearby(dist_m, gap, mid_m - my_mid_m, speed_mps, 0, WIDTH_M, mid_m, 2, across_mps,
+                          math.radians(slip_deg)))
 
 
 def test_out_of_control_is_a_big_slip_or_crossing_the_road():
@@ -197,7 +204,7 @@ def test_hazard_brake_for_a_car_sliding_into_our_lane_before_we_reach_it():
     car = sliding(80.0 + LENGTH_M, 20.0, 31.0, -14.0, slip_deg=40.0)
     assert hazard_brake(0.0, 85.0, 0.0, [car], WIDTH_M, HAZARD, brakedist) == 1.0
     # the fixed-gap filter sees it out of our lane: nothing until it is there
-    assert collision_brake(0.0, 85.0, [car], WIDTH_M, HAZARD, brakedist) == 0.0
+    assert collision_brake(0.0, 85.0, [car], HAZARD, brakedist) == 0.0
     # off: nothing
     assert hazard_brake(0.0, 85.0, 0.0, [car], WIDTH_M, P, brakedist) == 0.0
 
@@ -224,7 +231,7 @@ def test_hazard_brake_not_for_a_car_behind_or_faster_or_far_enough():
 # --- collision_brake ------------------------------------------------------------------------------
 
 def _brake(cars, speed=30.0, brake=0.0):
-    return collision_brake(brake, speed, cars, WIDTH_M, P, brakedist)
+    return collision_brake(brake, speed, cars, P, brakedist)
 
 
 def test_collision_brake_for_a_slower_car_ahead_within_braking_distance():
@@ -245,7 +252,7 @@ def test_collision_brake_uses_our_speed_then_theirs():
         calls.append((v1, v2))
         return brakedist(v1, v2)
 
-    assert collision_brake(0.0, 30.0, [near(LENGTH_M + 20.0, speed_mps=20.0)], WIDTH_M, P, spy) == 1.0
+    assert collision_brake(0.0, 30.0, [near(LENGTH_M + 20.0, speed_mps=20.0)], P, spy) == 1.0
     assert calls == [(30.0, 20.0)]
 
 
@@ -254,7 +261,7 @@ def test_collision_brake_margin_is_a_parameter():
     car = near(LENGTH_M + need + 5.0, speed_mps=20.0)
     assert _brake([car]) == 0.0
     wide = OpponentParams(length_margin_m=10.0)
-    assert collision_brake(0.0, 30.0, [car], WIDTH_M, wide, brakedist) == 1.0
+    assert collision_brake(0.0, 30.0, [car], wide, brakedist) == 1.0
 
 
 def test_collision_brake_when_almost_touching_a_slightly_slower_car():
@@ -275,7 +282,7 @@ def test_collision_brake_not_for_a_faster_car_or_one_behind():
     assert _brake([near(LENGTH_M + 2.0, speed_mps=35.0)]) == 0.0  # even closer than the length margin
     # with a braking distance that is never negative (0 when no braking is needed)
     nonneg = lambda v1, v2: max(0.0, brakedist(v1, v2))  # noqa: E731
-    assert collision_brake(0.0, 30.0, [near(LENGTH_M + 2.0, speed_mps=35.0)], WIDTH_M, P, nonneg) == 0.0
+    assert collision_brake(0.0, 30.0, [near(LENGTH_M + 2.0, speed_mps=35.0)], P, nonneg) == 0.0
     assert _brake([near(LENGTH_M + 5.0, speed_mps=30.0)]) == 0.0  # same speed
     assert _brake([near(-LENGTH_M - 2.0, speed_mps=10.0)]) == 0.0  # slower, but behind us
 
@@ -285,15 +292,15 @@ def test_collision_brake_soft_is_the_share_of_a_full_brake_the_gap_needs():
     # 30 -> 29.5 m/s needs (900 - 870.25) / (2 g) = 1.52 m; 4 m between bumpers leaves 3 m beyond the
     # soft gap: half a full brake slows us to its speed there
     need = brakedist(30.0, 29.5)
-    assert collision_brake(0.0, 30.0, [near(LENGTH_M + 4.0, speed_mps=29.5)], WIDTH_M, soft, brakedist) \
+    assert collision_brake(0.0, 30.0, [near(LENGTH_M + 4.0, speed_mps=29.5)], soft, brakedist) \
         == pytest.approx(need / 3.0)
     assert _brake([near(LENGTH_M + 4.0, speed_mps=29.5)]) == 1.0  # the tutorial's: full whenever it fires
     # within the soft gap, or with less room than the braking distance: full
-    assert collision_brake(0.0, 30.0, [near(LENGTH_M + 0.8, speed_mps=29.5)], WIDTH_M, soft, brakedist) == 1.0
-    assert collision_brake(0.0, 30.0, [near(LENGTH_M + 20.0, speed_mps=20.0)], WIDTH_M, soft, brakedist) == 1.0
+    assert collision_brake(0.0, 30.0, [near(LENGTH_M + 0.8, speed_mps=29.5)], soft, brakedist) == 1.0
+    assert collision_brake(0.0, 30.0, [near(LENGTH_M + 20.0, speed_mps=20.0)], soft, brakedist) == 1.0
     # never less than the brake it is given, and none where the tutorial's does not fire
-    assert collision_brake(0.7, 30.0, [near(LENGTH_M + 4.0, speed_mps=29.5)], WIDTH_M, soft, brakedist) == 0.7
-    assert collision_brake(0.0, 30.0, [near(LENGTH_M + 30.0, speed_mps=20.0)], WIDTH_M, soft, brakedist) == 0.0
+    assert collision_brake(0.7, 30.0, [near(LENGTH_M + 4.0, speed_mps=29.5)], soft, brakedist) == 0.7
+    assert collision_brake(0.0, 30.0, [near(LENGTH_M + 30.0, speed_mps=20.0)], soft, brakedist) == 0.0
 
 
 def test_in_lane_is_within_our_width_plus_the_side_margin():

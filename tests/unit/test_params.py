@@ -12,6 +12,7 @@ from boxbox.errors import UsageError
 from boxbox.robot.base import RaceOptions
 from boxbox.robot.opponents import OpponentParams
 from boxbox.robot.params import TutorialParams, load_params, parse_set, setup_files
+from boxbox.robot.pit import PitParams
 from boxbox.robot.tutorial import TutorialRobot
 
 CAR, TRACK = "car1-trb1", "e-track-2"
@@ -41,8 +42,6 @@ def test_defaults_are_the_tutorial_values():
     assert (p.tcl_slip_mps, p.tcl_range_mps) == (2.0, 10.0)
     assert (p.stuck_angle_deg, p.stuck_speed_mps, p.stuck_offset_m, p.stuck_time_s) == (30.0, 5.0, 3.0, 2.0)
     assert p.pit_lookahead_m == 6.0
-    assert p.pit_mu == 0.4
-    assert p.pit_brake_ahead_m == 200.0
 
 
 def test_defaults_agree_with_the_controllers_constants():
@@ -52,8 +51,9 @@ def test_defaults_agree_with_the_controllers_constants():
     assert (p.abs_slip_mps, p.abs_range_mps, p.tcl_slip_mps, p.tcl_range_mps) == \
         (slip.abs_slip_mps, slip.abs_range_mps, slip.tcl_slip_mps, slip.tcl_range_mps)
     assert p.pit_lookahead_m == pit_brake.PIT_LOOKAHEAD_M
-    assert p.pit_mu == pit_brake.PIT_MU
-    assert p.pit_brake_ahead_m == pit_brake.PIT_BRAKE_AHEAD_M
+    pit = PitParams()
+    assert (p.pit_lookahead_m, p.pit_brake_mu_scale, p.pit_give_up_s, p.pit_stop_threshold_m, p.pit_stop_grip_share) \
+        == (pit.lookahead_m, pit.brake_mu_scale, pit.give_up_s, pit.stop_threshold_m, pit.stop_grip_share)
     opp = OpponentParams()
     assert (p.front_range_m, p.back_range_m, p.length_margin_m, p.side_margin_m, p.overtake_step_m) == \
         (opp.front_range_m, opp.back_range_m, opp.length_margin_m, opp.side_margin_m, opp.overtake_step_m)
@@ -157,7 +157,7 @@ def test_wrong_type_in_a_file_names_the_file(setups):
 
 
 @pytest.mark.parametrize("key, value", [
-    ("steering", "wobbly"), ("brake_method", "guess"), ("pit_mu_source", "air"), ("pit_entry_braking", "late"),
+    ("steering", "wobbly"), ("brake_method", "guess"), ("track_limits", "loose"),
 ])
 def test_invalid_choice_is_a_usage_error(setups, key, value):
     with pytest.raises(UsageError) as err:
@@ -169,8 +169,7 @@ def test_invalid_choice_is_a_usage_error(setups, key, value):
 
 
 @pytest.mark.parametrize("key, value", [
-    ("steering", "lookahead"), ("brake_method", "approx"), ("pit_mu_source", "constant"),
-    ("pit_entry_braking", "ahead"),
+    ("steering", "lookahead"), ("brake_method", "approx"), ("track_limits", "strict"),
 ])
 def test_valid_choices(setups, key, value):
     p, _ = load_params(CAR, TRACK, {key: value})

@@ -11,7 +11,7 @@ import pytest
 from boxbox.control.offset_room import offset_room_ahead
 from boxbox.control.traffic import pass_side, room
 from boxbox.robot.opponent_lines import OpponentLines
-from boxbox.robot.opponents import Nearby
+from boxbox.robot.opponents import Nearby, relate
 from boxbox.robot.racecraft import Racecraft, RacecraftParams
 
 G = 9.81
@@ -36,7 +36,8 @@ def test_pass_side_takes_the_inside_with_room_else_the_wider_side():
 
 def _car(dist_m, mid_m, speed_mps, my_mid_m=0.0, laps_ahead=0):
     gap = dist_m - 4.5 if dist_m > 0 else dist_m + 4.5
-    return Nearby(dist_m, gap, mid_m - my_mid_m, speed_mps, laps_ahead, 2.0, mid_m)
+    # with its relation to a 2 m wide us: the lanes by OpponentParams' and RacecraftParams' defaults
+    return relate([Nearby(dist_m, gap, mid_m - my_mid_m, speed_mps, laps_ahead, 2.0, mid_m)], 2.0, 1.0, 1.0)[0]
 
 
 def _craft(**kw):

@@ -6,16 +6,15 @@ metres along the track from the pit entry, negative (metres to go) while approac
 maps distances from the start line (see robot.pitpath.PitPath.signed_coord).  The braking distance
 is injected: brakedist(v_from_mps, v_to_mps, mu) -> metres.
 
-Seed behaviour (the defaults) and the three fixes, each selectable:
-  1. pit_mu_source: "constant" = friction under the car * PIT_MU (seed); "surface" = the pit lane's
-     own friction (e.g. PitPath.surface_friction times tyre mu) * surface_mu_scale.
-  2. entry_mode: "ahead" = within PIT_BRAKE_AHEAD_M of the box brake whenever a stop from the current
-     speed needs more room than is left (seed workaround); "computed" = brake only as needed to meet
-     the speeds the pit path allows (entry_constraints, e.g. PitPath.entry_speed_constraints), the
-     speed limit at its start and a stop at the box.
-  3. give_up: pushed past the box by more than give_up_past_m, or standing near the box uncaptured
-     for longer than give_up_timeout_s -> stop holding the brakes, report gave_up (retry next lap).
-stop_mode "constant-decel" replaces the seed's bang-bang final stop by control.stop.Stop.
+Three fixes over the tutorial's filter (docs/pits.md: the tutorial's choices, retired, and their figures):
+  1. the braking grip is the pit lane's own friction (e.g. PitPath.surface_friction times tyre mu)
+     * surface_mu_scale, not a constant times the friction under the car;
+  2. the entry is braked for only as needed to meet the speeds the pit path allows (entry_constraints,
+     e.g. PitPath.entry_speed_constraints), the speed limit at its start and a stop at the box;
+  3. pushed past the box by more than half a box length + GIVE_UP_MARGIN_M, or standing near the box
+     uncaptured for longer than give_up_timeout_s -> stop holding the brakes, report gave_up (retry
+     next lap).
+stop_mode "constant-decel" replaces the tutorial's bang-bang final stop by control.stop.Stop.
 
 Per drive step: floats only.
 """
@@ -30,8 +29,7 @@ from boxbox.control.stop import SpeedTracker, Stop, StopDriver, StopStatus
 from boxbox.model.constants import G_MPS2
 
 PIT_LOOKAHEAD_M = 6.0  # steering lookahead on the pit path: the turn into the box is tight
-PIT_BRAKE_AHEAD_M = 200.0  # seed: start the stop check this far before the box
-PIT_MU = 0.4  # seed: friction factor for all pit braking (pit surfaces were not analysed)
+GIVE_UP_MARGIN_M = 2.0  # pushed this far past the box's end: the stop is given up
 
 TORCS_CAPTURE_SPEED_MPS = 1.0  # the race engine captures a car slower than this in its box
 
@@ -62,25 +60,18 @@ class PitBrakeFilter:
     brakedist: (v_from_mps, v_to_mps, mu) -> metres.
     limit_start_m, box_m, limit_end_m: speed limit start, own box centre, speed limit end.
     speed_limit_mps: the speed to hold (already with a margin below the rule).
-    pit_mu: the pit lane's own friction (used with pit_mu_source="surface").
+    pit_mu: the pit lane's own friction (surface friction times tyre mu); surface_mu_scale: the share
+    of it the pit rules brake with.
     stop_max_decel_mps2: deceleration of the constant-decel stop (default 0.5 * pit_mu * g).
     `mu` is the total friction (surface friction times tyre mu) as brakedist expects it.
     """
 
     def __init__(self, brakedist: BrakeDist, *, limit_start_m: float, box_m: float, limit_end_m: float,
-                 speed_limit_mps: float, box_length_m: float = 15.0,
-                 pit_mu_source: str = "constant", pit_mu: float = 1.0, surface_mu_scale: float = 0.9,
-                 pit_mu_factor: float = PIT_MU,
-                 entry_mode: str = "ahead", brake_ahead_m: float = PIT_BRAKE_AHEAD_M,
-                 entry_constraints: Sequence[tuple[float, float]] = (),
+                 speed_limit_mps: float, box_length_m: float = 15.0, pit_mu: float = 1.0,
+                 surface_mu_scale: float = 0.9, entry_constraints: Sequence[tuple[float, float]] = (),
                  stop_mode: str = "bang-bang", stop_threshold_m: float = 0.5,
                  stop_max_decel_mps2: float | None = None, tracker: SpeedTracker | None = None,
-                 give_up: bool = False, give_up_past_m: float | None = None, give_up_near_m: float | None = None,
-                 give_up_timeout_s: float = 5.0, give_up_margin_m: float = 2.0) -> None:
-        if pit_mu_source not in ("constant", "surface"):
-            raise ValueError(f"pit_mu_source must be 'constant' or 'surface', got {pit_mu_source!r}")
-        if entry_mode not in ("ahead", "computed"):
-            raise ValueError(f"entry_mode must be 'ahead' or 'computed', got {entry_mode!r}")
+                 give_up_timeout_s: float = 5.0) -> None:
         if stop_mode not in ("bang-bang", "constant-decel"):
             raise ValueError(f"stop_mode must be 'bang-bang' or 'constant-decel', got {stop_mode!r}")
         if not limit_start_m <= box_m + box_length_m or not box_m <= limit_end_m:
@@ -91,25 +82,20 @@ class PitBrakeFilter:
         self.limit_end_m = limit_end_m
         self.speed_limit_mps = speed_limit_mps
         self.box_length_m = box_length_m
-        self.pit_mu_source = pit_mu_source
         self.pit_mu = pit_mu
         self.surface_mu_scale = surface_mu_scale
-        self.pit_mu_factor = pit_mu_factor
-        self.entry_mode = entry_mode
-        self.brake_ahead_m = brake_ahead_m
+        self.mu = pit_mu * surface_mu_scale  # the braking grip of every pit rule
         # only constraints before the box matter; in path order, so the nearest binding one is reported
         self.entry_constraints = tuple(sorted((float(s), float(v)) for s, v in entry_constraints if s < box_m))
         self.stop_mode = stop_mode
         self.stop_threshold_m = stop_threshold_m
-        # constant-decel stop: half the pit lane's grip, whatever the mu source (the seed's 0.4 on top
-        # of 0.5 would start the stop almost a kilometre early at race speed)
+        # constant-decel stop: half the pit lane's grip unless told
         decel = 0.5 * pit_mu * G_MPS2 if stop_max_decel_mps2 is None else stop_max_decel_mps2
         self.stop = Stop(decel)
         self.tracker = tracker if tracker is not None else SpeedTracker()
         self.stop_driver = StopDriver(self.stop, self.tracker)
-        self.give_up = give_up
-        self.give_up_past_m = box_length_m / 2.0 + give_up_margin_m if give_up_past_m is None else give_up_past_m
-        self.give_up_near_m = box_length_m / 2.0 if give_up_near_m is None else give_up_near_m
+        self.give_up_past_m = box_length_m / 2.0 + GIVE_UP_MARGIN_M
+        self.give_up_near_m = box_length_m / 2.0
         self.give_up_timeout_s = give_up_timeout_s
         self.gave_up = False
         self.standing_s = 0.0
@@ -120,18 +106,13 @@ class PitBrakeFilter:
         self.standing_s = 0.0
         self.stop_driver.reset()
 
-    def _mu(self, surface_mu: float) -> float:
-        if self.pit_mu_source == "surface":
-            return self.pit_mu * self.surface_mu_scale
-        return surface_mu * self.pit_mu_factor
-
     def filter(self, brake: float, speed_mps: float, s_m: float, stop_wanted: bool, on_path: bool,
-               surface_mu: float = 1.0, in_pit: bool = False, dt_s: float = 0.02) -> PitBrakeResult:
+               in_pit: bool = False, dt_s: float = 0.02) -> PitBrakeResult:
         """Brake for this step.
 
         brake: the robot's own brake; speed_mps: current speed; s_m: position (negative before the
         entry); stop_wanted: a stop is planned and not yet done; on_path: the car drives the pit path;
-        surface_mu: friction under the car (the seed's mu); in_pit: captured by the race engine
+        in_pit: captured by the race engine
         (State.in_pit; pass it, or the give-up timeout counts the standing time of the stop itself);
         dt_s: time since the last call (for the give-up timeout).
         With stop_mode "constant-decel" the robot should also track target_speed_mps with its
@@ -150,52 +131,44 @@ class PitBrakeFilter:
                 if in_pit:  # captured: keep still while the crew works
                     self.standing_s = 0.0
                     return PitBrakeResult(1.0, HOLD, 0.0)
-                if self.give_up and self._check_give_up(speed_mps, s_m, dt_s):
+                if self._check_give_up(speed_mps, s_m, dt_s):
                     self.gave_up = True
                     self.stop_driver.reset()
                 else:
-                    return self._to_box(brake, speed_mps, s_m, surface_mu, True)
+                    return self._to_box(brake, speed_mps, s_m, True)
             elif s_m < 0.0:
-                return self._to_box(brake, speed_mps, s_m, surface_mu, False)
+                return self._to_box(brake, speed_mps, s_m, False)
 
         if not on_path:
             return PitBrakeResult(brake, FREE)
-        # leaving (or given up): hold the limit until its end, as the seed does on the way out
+        # leaving (or given up): hold the limit until its end, as the tutorial's filter does on the way out
         phase = GAVE_UP if self.gave_up else EXIT
         limit = self.speed_limit_mps
         if s_m < self.limit_end_m:
             return PitBrakeResult(1.0 if speed_mps > limit else brake, phase, limit, self.gave_up)
         return PitBrakeResult(brake, phase, None, self.gave_up)
 
-    def _to_box(self, brake: float, v: float, s: float, surface_mu: float, on_path: bool) -> PitBrakeResult:
+    def _to_box(self, brake: float, v: float, s: float, on_path: bool) -> PitBrakeResult:
         """A stop wanted, approaching the entry (on_path False, s < 0) or on the pit path.
 
-        The rules that want full brakes are checked first (any of them wins, as in the seed);
-        then the constant-deceleration stop, if selected."""
-        mu = self._mu(surface_mu)
+        The rules that want full brakes are checked first (any of them wins, as in the tutorial's
+        filter); then the constant-deceleration stop, if selected."""
+        mu = self.mu
         bd = self.brakedist
         limit = self.speed_limit_mps
-        computed = self.entry_mode == "computed"
         full = ""
         target: float | None = None
-        if not computed:
-            # seed workaround, only before the pit path: stop check from PIT_BRAKE_AHEAD_M on
-            if not on_path:
-                left = self.box_m - s
-                if left < self.brake_ahead_m and bd(v, 0.0, mu) > left:
-                    full, target = ENTRY, 0.0
-        else:
-            for s_c, v_c in self.entry_constraints:
-                if s_c > s and v > v_c and bd(v, v_c, mu) > s_c - s:
-                    full, target = ENTRY, v_c
-                    break
-        if not full and (on_path or computed):
+        for s_c, v_c in self.entry_constraints:
+            if s_c > s and v > v_c and bd(v, v_c, mu) > s_c - s:
+                full, target = ENTRY, v_c
+                break
+        if not full:
             if s < self.limit_start_m:
                 if v > limit and bd(v, limit, mu) > self.limit_start_m - s:
                     full, target = LIMIT, limit
             elif v > limit:
                 full, target = LIMIT, limit
-        if not full and self.stop_mode == "bang-bang" and (on_path or computed):
+        if not full and self.stop_mode == "bang-bang":
             if s >= self.box_m:  # at or past the centre: stand on the brakes
                 full, target = HOLD, 0.0
             elif bd(v, 0.0, mu) > self.box_m - s:
@@ -226,5 +199,5 @@ class PitBrakeFilter:
         return self.standing_s > self.give_up_timeout_s
 
 
-__all__ = ["EXIT", "ENTRY", "FREE", "GAVE_UP", "HOLD", "LANE", "LIMIT", "PIT_BRAKE_AHEAD_M", "PIT_LOOKAHEAD_M",
-           "PIT_MU", "STOP", "BrakeDist", "PitBrakeFilter", "PitBrakeResult"]
+__all__ = ["EXIT", "ENTRY", "FREE", "GAVE_UP", "GIVE_UP_MARGIN_M", "HOLD", "LANE", "LIMIT", "PIT_LOOKAHEAD_M",
+           "STOP", "BrakeDist", "PitBrakeFilter", "PitBrakeResult"]

@@ -46,11 +46,9 @@ class PitStop:
         self.path = PitPath(track, car)
         self.car = car
         model = CarModel.from_car(car, car.tank_l / 2.0)
-        self.tyre_mu = model.mu
         self.filter = pit_brake_filter(self.path, model, GYM_PIT_PARAMS, "constant-decel")
         self.gearbox = GearBox(car)
         self.curvature = track.curvature().tolist()
-        self.friction = track.seg["friction"].tolist()
         self.wheelbase_m = car.steering_wheelbase_m
         self.reset()
 
@@ -100,7 +98,7 @@ class PitStop:
         pos = path.signed_coord(s.dist_from_start_m)
         on_path = pos >= 0.0
         seg = int(s.seg_id)
-        r = self.filter.filter(0.0, v, pos, self.requested, on_path, self.friction[seg] * self.tyre_mu, s.in_pit)
+        r = self.filter.filter(0.0, v, pos, self.requested, on_path, s.in_pit)
         if r.gave_up:
             self.requested = False  # asked again by the agent, or not
         self.phase = r.phase

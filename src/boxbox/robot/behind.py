@@ -7,7 +7,8 @@ chain calls them in turn once a step with the cars near: robot/tutorial/traffic.
   our lane is within our braking distance to its speed plus OpponentParams.length_margin_m;
 - `hazard_brake`: a full brake for a car out of control ahead whose slide crosses our lane before
   we reach it (off: hazard_slip_deg 0).
-"In our lane" is robot/opponents.py's `in_lane`, one predicate with each rule's margin.
+"Ahead" and "in our lane" are the flags robot/opponents.py's `relate` sets on each car once a step
+(`in_lane`, one predicate, with each rule's margin).
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from boxbox.robot.opponents import Nearby, OpponentParams, in_lane
+from boxbox.robot.opponents import Nearby, OpponentParams
 
 
 @dataclass(frozen=True)
@@ -34,13 +35,14 @@ class BehindParams:
     lane_m: float = 1.0  # a car ahead overlapping our width plus this is in our lane (brake for it)
 
 
-def touch_brake(v: float, cars: list[Nearby], width_m: float, p: BehindParams) -> float:
-    """The brake for the closest car ahead in our lane (its side within p.lane_m of ours) closer
+def touch_brake(v: float, cars: list[Nearby], p: BehindParams) -> float:
+    """The brake for the closest car ahead in our lane (its side within p.lane_m of ours: the cars'
+    sides_in_lane, from `relate` with p.lane_m) closer
     than p.margin_m bumper to bumper: p.close_brake touching, less as the gap grows, none for a car
     faster than us by more than p.close_opening_mps (it pulls away)."""
     want = 0.0
     for c in cars:
-        if c.dist_m <= 0.0 or not in_lane(c, width_m, p.lane_m, half_widths=True):
+        if not (c.ahead and c.sides_in_lane):
             continue
         if c.gap_m < p.margin_m and c.speed_mps <= v + p.close_opening_mps:
             want = max(want, p.close_brake * (1.0 - max(0.0, c.gap_m) / p.margin_m))
@@ -53,13 +55,13 @@ def gap_too_short(need_m: float, gap_m: float, p: OpponentParams) -> bool:
     return need_m + p.length_margin_m > gap_m or gap_m < p.length_margin_m
 
 
-def collision_brake(brake: float, speed_mps: float, cars: list[Nearby], width_m: float, p: OpponentParams,
-                    brakedist) -> float:
-    """Full brake when the gap to a slower car in our lane is within our braking distance (with
+def collision_brake(brake: float, speed_mps: float, cars: list[Nearby], p: OpponentParams, brakedist) -> float:
+    """Full brake when the gap to a slower car in our lane (in_our_lane, from `relate` with
+    p.side_margin_m) is within our braking distance (with
     p.soft_gap_m: the share of a full brake that slows us to its speed within the gap beyond that)."""
     want = 0.0
     for c in cars:
-        if c.dist_m > 0 and c.speed_mps < speed_mps and in_lane(c, width_m, p.side_margin_m):
+        if c.ahead and c.speed_mps < speed_mps and c.in_our_lane:
             need = brakedist(speed_mps, c.speed_mps)
             if gap_too_short(need, c.gap_m, p):
                 if p.soft_gap_m <= 0.0:
@@ -92,7 +94,7 @@ def hazard_brake(brake: float, speed_mps: float, my_mid_m: float, cars: list[Nea
         return brake
     lane_m = width_m + p.side_margin_m
     for c in cars:
-        if c.dist_m <= 0.0 or not out_of_control(c, p):
+        if not c.ahead or not out_of_control(c, p):
             continue
         along = math.sqrt(max(0.0, c.speed_mps * c.speed_mps - c.across_mps * c.across_mps))
         if speed_mps <= along:

@@ -1,5 +1,6 @@
-"""Opponents: who is where relative to us (`nearby`, `in_lane`), and the tutorial's filters that
-steer for them (the brakes for a car ahead are robot/behind.py's).
+"""Opponents: who is where relative to us (`nearby`, then `relate`: each car's relation to us as
+flags, once a step, that every filter reads), and the tutorial's filters that steer for them (the
+brakes for a car ahead are robot/behind.py's).
 
 - side collision steering filter: steer away from a car alongside;
 - overtaking: move the line sideways towards the free side of a slower car ahead;
@@ -11,7 +12,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from boxbox.model.state import CAR_STATE_OUT, Opponent, State
 
@@ -34,6 +35,16 @@ class Nearby:
     # heading (rad, its slip): from nearby() with the track's heading, else 0
     across_mps: float = 0.0
     slip_rad: float = 0.0
+    # its relation to us, flags every filter reads (bt's opponent states): ahead and lapping when made,
+    # the lanes set once a step by relate() (they move with racecraft's prediction of lateral_m)
+    ahead: bool = field(init=False, default=False)  # dist_m > 0
+    lapping: bool = field(init=False, default=False)  # it is lapping us (laps_ahead > 0)
+    in_our_lane: bool = field(init=False, default=False)  # the tutorial's lane: centre within our width + side margin
+    sides_in_lane: bool = field(init=False, default=False)  # racecraft's lane: its side within lane_m of ours
+
+    def __post_init__(self) -> None:
+        self.ahead = self.dist_m > 0.0
+        self.lapping = self.laps_ahead > 0
 
 
 @dataclass(frozen=True)
@@ -119,6 +130,16 @@ def in_lane(c: Nearby, width_m: float, margin_m: float, half_widths: bool = Fals
     return abs(c.lateral_m) < reach_m + margin_m
 
 
+def relate(cars: list[Nearby], width_m: float, side_margin_m: float, lane_m: float) -> list[Nearby]:
+    """Set whether each car is in our lane by either definition (`in_lane` with side_margin_m, the
+    tutorial's, and with lane_m and half widths, racecraft's), once a step on the cars as the
+    filters see them (after racecraft's prediction); the cars, changed in place."""
+    for c in cars:
+        c.in_our_lane = in_lane(c, width_m, side_margin_m)
+        c.sides_in_lane = in_lane(c, width_m, lane_m, half_widths=True)
+    return cars
+
+
 def side_steer(steer: float, cars: list[Nearby], length_m: float, width_m: float, steer_lock_rad: float,
                p: OpponentParams, gain_rad_per_m: float = 0.1) -> float:
     """Steer away from a car alongside that is closer than the side margin (gain_rad_per_m of
@@ -151,7 +172,7 @@ def overtake_offset(offset_m: float, my_speed_mps: float, my_to_middle_m: float,
     target = None
     slower_than = max(my_speed_mps, alone_mps - p.draft_mps) if p.draft_mps > 0.0 else my_speed_mps
     for c in cars:
-        if c.dist_m > 0 and c.gap_m < max(2.0 * length_m, (my_speed_mps - c.speed_mps) * 2.0) \
+        if c.ahead and c.gap_m < max(2.0 * length_m, (my_speed_mps - c.speed_mps) * 2.0) \
                 and c.speed_mps < slower_than:
             # pass on the side with more room: its position is my_to_middle + lateral
             other = my_to_middle_m + c.lateral_m
@@ -159,7 +180,7 @@ def overtake_offset(offset_m: float, my_speed_mps: float, my_to_middle_m: float,
             if _too_close_to_cross(c, my_speed_mps, p) or (p.lapped_own_side and c.laps_ahead < 0):
                 target = half_width_m if c.lateral_m < 0 else -half_width_m
             break
-        if c.laps_ahead > 0 and -4.0 * length_m < c.dist_m < 0:
+        if c.lapping and -4.0 * length_m < c.dist_m < 0:
             other = my_to_middle_m + c.lateral_m
             target = -half_width_m if other > 0 else half_width_m
     if target is None:

@@ -17,6 +17,7 @@ from dataclasses import dataclass, fields
 from pathlib import Path
 
 from boxbox.errors import UsageError
+from boxbox.robot.pit import PitParams
 from boxbox.robot.racecraft import RacecraftParams
 
 SETUPS = Path(__file__).parent / "setups"
@@ -26,6 +27,9 @@ def setups_dir() -> Path:
     """$BOXBOX_SETUPS, else the setups folder next to the robot."""
     env = os.environ.get("BOXBOX_SETUPS")
     return Path(env) if env else SETUPS
+
+
+PIT_DEFAULTS = PitParams()  # the pit_* parameters' defaults
 
 
 @dataclass(frozen=True)
@@ -123,16 +127,12 @@ class TutorialParams(RacecraftParams):
     # crossing the road) where its slide takes it by the time we reach it (0: off; docs/racecraft.md's table)
     hazard_slip_deg: float = 0.0
     lapped_own_side: bool = False  # a car we lap passed on our side of it (for a robot moving away from us; off)
-    # pit
-    pit_lookahead_m: float = 6.0
-    pit_mu: float = 0.4  # the seed's constant (used with pit_mu_source = "constant")
-    pit_mu_source: str = "surface"  # "surface": the pit lane's own friction; "constant": pit_mu
-    pit_brake_ahead_m: float = 200.0  # the seed's workaround (used with pit_entry_braking = "ahead")
-    pit_entry_braking: str = "computed"  # "computed" from the pit path, or the seed's "ahead"
-    pit_brake_mu_scale: float = 0.65  # braking grip in the pit lane, relative to its surface x tyre friction
-    pit_give_up_s: float = 10.0
-    pit_stop_threshold_m: float = 0.1  # constant-decel stop: "close enough" to the box centre
-    pit_stop_grip_share: float = 0.9  # constant-decel stop: deceleration as a share of the lane's grip
+    # pit: robot/pit.py's PitParams, the one home of their defaults and what each means
+    pit_lookahead_m: float = PIT_DEFAULTS.lookahead_m
+    pit_brake_mu_scale: float = PIT_DEFAULTS.brake_mu_scale
+    pit_give_up_s: float = PIT_DEFAULTS.give_up_s
+    pit_stop_threshold_m: float = PIT_DEFAULTS.stop_threshold_m
+    pit_stop_grip_share: float = PIT_DEFAULTS.stop_grip_share
     # learning
     learning: bool = True
     learn_gain: float = 1.0  # share of the spare margin turned into turn grip per lap (2 % a lap on a held line)
@@ -165,7 +165,7 @@ BOUNDS = {
     "abs_slip_mps": Bound(0.1, 20.0, log=True), "tcl_slip_mps": Bound(0.1, 20.0, log=True),
     "tcl_slip_ratio": Bound(0.0, 0.5), "abs_hold_over_mps": Bound(0.0, 100.0), "abs_hold_share": Bound(0.0, 1.0),
     "counter_lock_accel": Bound(0.0, 1.0), "lock_accel": Bound(0.0, 1.0),
-    "pit_brake_mu_scale": Bound(0.1, 1.5), "pit_stop_grip_share": Bound(0.1, 1.0), "pit_mu": Bound(0.05, 2.0),
+    "pit_brake_mu_scale": Bound(0.1, 1.5), "pit_stop_grip_share": Bound(0.1, 1.0),
     "soft_gap_m": Bound(0.0, 10.0), "hazard_slip_deg": Bound(0.0, 90.0),
     "margin_m": Bound(0.1, 20.0), "close_brake": Bound(0.0, 1.0), "hold_line_grip_share": Bound(0.05, 2.0),
     "learn_gain": Bound(0.0, 1.0), "learn_margin_m": Bound(0.0, 3.0), "learn_steady_error_m": Bound(0.1, 5.0),
@@ -176,8 +176,7 @@ def bound_of(name: str) -> Bound:
     return BOUNDS.get(name, Bound())
 
 
-CHOICES = {"steering": ("line", "lookahead"), "brake_method": ("exact", "approx"), "track_limits": ("torcs", "strict"),
-           "pit_mu_source": ("surface", "constant"), "pit_entry_braking": ("computed", "ahead")}
+CHOICES = {"steering": ("line", "lookahead"), "brake_method": ("exact", "approx"), "track_limits": ("torcs", "strict")}
 
 
 def example_setting(name: str, default: bool | int | float | str, origin: str) -> str:

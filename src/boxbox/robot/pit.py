@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 from boxbox.control.braking import brake_distance
 from boxbox.control.carmodel import CarModel
-from boxbox.control.pit_brake import HOLD, STOP, PitBrakeFilter
+from boxbox.control.pit_brake import HOLD, PIT_LOOKAHEAD_M, STOP, PitBrakeFilter
 from boxbox.control.steering import steer_to_point
 from boxbox.control.stop import SpeedTracker
 from boxbox.model import Car, Controls, PitOrder, State, Track
@@ -50,14 +50,11 @@ MAX_GIVEN_UP = 2
 
 @dataclass(frozen=True)
 class PitParams:
-    """How the pit part drives (the tutorial robot's pit_* parameters; defaults for any robot)."""
+    """How the pit part drives: the defaults for any robot, and of the tutorial robot's pit_*
+    parameters (robot/params.py reads them here: change one here and both follow)."""
 
-    lookahead_m: float = 6.0  # steering aims this far (+ 0.2 s) ahead on the pit path
-    mu_source: str = "surface"  # braking grip from the lane's own friction, or the constant `mu`
-    mu: float = 0.4
+    lookahead_m: float = PIT_LOOKAHEAD_M  # steering aims this far (+ 0.2 s) ahead on the pit path
     brake_mu_scale: float = 0.65  # braking grip in the lane, relative to its surface x tyre friction
-    entry_braking: str = "computed"  # "computed" from the pit path, or the seed's fixed "ahead"
-    brake_ahead_m: float = 200.0
     give_up_s: float = 10.0
     stop_threshold_m: float = 0.1  # constant-decel stop: close enough to the box centre
     stop_grip_share: float = 0.9  # constant-decel stop: deceleration as a share of the lane's grip
@@ -73,12 +70,11 @@ def pit_brake_filter(path: PitPath, model: CarModel, p: PitParams, stop_mode: st
         lambda v1, v2, mu: brake_distance(v1, v2, mu, model, p.brake_method),
         limit_start_m=path.limit_start_m, box_m=path.box_m, limit_end_m=path.limit_end_m,
         speed_limit_mps=path.speed_limit_mps, box_length_m=path.box_length_m,
-        pit_mu_source=p.mu_source, pit_mu=lane_mu, pit_mu_factor=p.mu, surface_mu_scale=p.brake_mu_scale,
-        entry_mode="computed" if p.entry_braking == "computed" else "ahead",
-        brake_ahead_m=p.brake_ahead_m, entry_constraints=path.entry_speed_constraints(lane_mu * 0.9),
+        pit_mu=lane_mu, surface_mu_scale=p.brake_mu_scale,
+        entry_constraints=path.entry_speed_constraints(lane_mu * 0.9),
         stop_mode=stop_mode, stop_threshold_m=p.stop_threshold_m,
         stop_max_decel_mps2=p.stop_grip_share * lane_mu * G_MPS2,
-        give_up=True, give_up_timeout_s=p.give_up_s,
+        give_up_timeout_s=p.give_up_s,
         # full brake on the lane's surface decelerates by about mu g (clutch open: no engine braking)
         tracker=SpeedTracker(full_brake_mps2=lane_mu * G_MPS2, drag_k_per_m=model.cw / model.mass_kg))
 
@@ -148,7 +144,6 @@ class PitStops:
         self._mid_xy = list(zip(mid.x_m.tolist(), mid.y_m.tolist(), strict=True))
         self._normals = [(-math.sin(h), math.cos(h)) for h in mid.heading_rad.tolist()]
         self._box_from_start_m = track.dist_of(car.pit_seg, car.pit_to_start)
-        self._seg_friction = track.seg["friction"].tolist()
 
     # --- each drive step --------------------------------------------------------------------------
     def filter(self, s: State, c: Controls) -> Controls:
@@ -176,7 +171,7 @@ class PitStops:
             self.phase = None
             return brake, accel, steer
         r = self.brake_filter.filter(brake, v, pos, self.wanted, on_path and (self.wanted or self.event is not None),
-                                     self._seg_friction[int(s.seg_id)] * self.model.mu, s.in_pit)
+                                     s.in_pit)
         if r.gave_up and self.wanted:
             # pushed past the box (or not captured): drive on at the limit, try again next lap
             self.given_up += 1

@@ -194,7 +194,7 @@ class Racecraft:
         if not base_offset_m:
             return 0.0
         reach = self.p.commit_lengths * self.length_m
-        if any(0.0 < c.dist_m < reach and c.laps_ahead <= 0 for c in cars):
+        if any(c.ahead and c.dist_m < reach and not c.lapping for c in cars):
             return math.copysign(1.0, base_offset_m)
         return 0.0
 
@@ -203,8 +203,8 @@ class Racecraft:
         tutorial's overtaking passes only cars slower than us, so behind a stopped car we stopped too."""
         p = self.p
         for c in cars:
-            if 0.0 < c.dist_m < 3.0 * self.length_m and c.speed_mps < p.stopped_mps \
-                    and abs(c.lateral_m) < self.width_m + p.side_gap_m:
+            if c.ahead and c.dist_m < 3.0 * self.length_m and c.speed_mps < p.stopped_mps \
+                    and in_lane(c, self.width_m, p.side_gap_m):  # too close aside to pass at side_gap_m
                 chosen = pass_side(c.mid_m, self.width_m, c.width_m or self.width_m, p.side_gap_m, left, right,
                                    inside_sign)
                 return None if chosen is None else chosen[1]
@@ -212,11 +212,10 @@ class Racecraft:
 
     def stopped_ahead(self, cars: list[Nearby], reach_lengths: float = 3.0) -> Nearby | None:
         """The nearest stopped car ahead (or alongside) within reach_lengths car lengths and
-        overlapping our lane, or None."""
+        overlapping our lane (sides_in_lane), or None."""
         p = self.p
         near = [c for c in cars if -self.length_m < c.dist_m < reach_lengths * self.length_m
-                and c.speed_mps < p.stopped_mps
-                and in_lane(c, self.width_m, p.lane_m, half_widths=True)]
+                and c.speed_mps < p.stopped_mps and c.sides_in_lane]
         return min(near, key=lambda c: c.dist_m, default=None)
 
     def blocking(self, v: float, cars: list[Nearby]) -> Nearby | None:
@@ -240,7 +239,7 @@ class Racecraft:
     def brake(self, now_s: float, brake: float, v: float, cars: list[Nearby]) -> float:
         """brake, raised by robot/behind.py's touch_brake for a car touching ahead (the step is then
         shaped by traffic: spoiled for the learner)."""
-        want = touch_brake(v, cars, self.width_m, self.p)
+        want = touch_brake(v, cars, self.p)
         if want <= 0.0:
             return brake
         self.mark_spoiled(now_s)

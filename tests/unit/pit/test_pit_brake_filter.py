@@ -1,4 +1,4 @@
-"""control.pit_brake: the seed's phases, the three fixes and the constant-deceleration stop."""
+"""control.pit_brake: the tutorial's phases, its three fixes and the constant-deceleration stop."""
 
 from __future__ import annotations
 
@@ -12,9 +12,7 @@ from boxbox.control.pit_brake import (
     HOLD,
     LANE,
     LIMIT,
-    PIT_BRAKE_AHEAD_M,
     PIT_LOOKAHEAD_M,
-    PIT_MU,
     STOP,
     PitBrakeFilter,
 )
@@ -31,8 +29,11 @@ def bd(v1: float, v2: float, mu: float) -> float:
     return (v1 * v1 - v2 * v2) / (2.0 * mu * G)
 
 
+SLOW_MU = 0.4  # the braking grip of the lane the tests brake on: a lane of 1.0 braked with 0.4 of it
+
+
 def make(**kw) -> PitBrakeFilter:
-    return PitBrakeFilter(bd, **{**GEOM, **kw})
+    return PitBrakeFilter(bd, **{**GEOM, "pit_mu": 1.0, "surface_mu_scale": SLOW_MU, **kw})
 
 
 def first_brake_s(f: PitBrakeFilter, v: float, s_from: float, s_to: float, on_path, **kw) -> float:
@@ -46,13 +47,13 @@ def first_brake_s(f: PitBrakeFilter, v: float, s_from: float, s_to: float, on_pa
 
 
 def drive(f: PitBrakeFilter, v: float, s: float, true_mu: float = 1.0, s_end: float = 160.0,
-          cruise_mps: float = 60.0, t_max: float = 120.0, mu_under: float = 1.0):
+          cruise_mps: float = 60.0, t_max: float = 120.0):
     """Crude car: brake gives brake * true_mu * g of deceleration; without brake it holds or reaches
     the filter's target (or cruise speed) at 3 m/s/s.  Logs (s, v, result) each step."""
     log = []
     t = 0.0
     while t < t_max and s < s_end:
-        r = f.filter(0.0, v, s, True, s >= 0.0, surface_mu=mu_under)
+        r = f.filter(0.0, v, s, True, s >= 0.0)
         log.append((s, v, r))
         if r.phase == HOLD and v == 0.0:
             break
@@ -67,7 +68,7 @@ def drive(f: PitBrakeFilter, v: float, s: float, true_mu: float = 1.0, s_end: fl
 
 
 def test_constants():
-    assert (PIT_LOOKAHEAD_M, PIT_BRAKE_AHEAD_M, PIT_MU) == (6.0, 200.0, 0.4)
+    assert PIT_LOOKAHEAD_M == 6.0
 
 
 def test_free_when_no_stop_or_off_path():
@@ -78,19 +79,7 @@ def test_free_when_no_stop_or_off_path():
     assert f.filter(0.3, 60.0, 120.0, True, False).phase == FREE
 
 
-def test_seed_entry_brakes_within_200_m_of_the_box_only():
-    f = make()
-    # 190 m before the box at 60 m/s: a stop needs 3600 / (2 * 0.4 g) = 459 m > 190 -> full brake
-    r = f.filter(0.0, 60.0, GEOM["box_m"] - 190.0, True, False)
-    assert (r.brake, r.phase) == (1.0, ENTRY)
-    # 210 m before: outside PIT_BRAKE_AHEAD, even though it could not stop any more
-    r = f.filter(0.2, 60.0, GEOM["box_m"] - 210.0, True, False)
-    assert (r.brake, r.phase) == (0.2, FREE)
-    # slow enough to stop in the room left: no brake
-    assert f.filter(0.0, 10.0, -40.0, True, False).brake == 0.0
-
-
-def test_seed_brake_to_limit_before_zone():
+def test_brake_to_limit_before_zone():
     f = make()
     # 50 m before the limit: 40 -> 24.5 needs (1600 - 600.25) / 7.848 = 127 m > 50
     r = f.filter(0.0, 40.0, 50.0, True, True)
@@ -100,7 +89,7 @@ def test_seed_brake_to_limit_before_zone():
     assert (r.brake, r.phase) == (0.1, LANE)
 
 
-def test_seed_hold_limit_in_zone():
+def test_hold_limit_in_zone():
     f = make()
     r = f.filter(0.0, LIMIT_MPS + 0.5, 105.0, True, True)
     assert (r.brake, r.phase) == (1.0, LIMIT)
@@ -108,10 +97,10 @@ def test_seed_hold_limit_in_zone():
     assert (r.brake, r.phase) == (1.0, STOP)
 
 
-def test_seed_stop_bang_bang_and_hold():
+def test_stop_bang_bang_and_hold():
     f = make()
     v = 20.0
-    need = bd(v, 0.0, 0.4)  # 51 m with the seed's mu
+    need = bd(v, 0.0, SLOW_MU)  # 51 m
     r = f.filter(0.0, v, GEOM["box_m"] - need + 1.0, True, True)
     assert (r.brake, r.phase, r.target_speed_mps) == (1.0, STOP, 0.0)
     r = f.filter(0.0, v, GEOM["box_m"] - need - 1.0, True, True)
@@ -122,14 +111,6 @@ def test_seed_stop_bang_bang_and_hold():
     # captured by the race engine: hold
     r = f.filter(0.0, 0.0, 149.0, True, True, in_pit=True)
     assert (r.brake, r.phase) == (1.0, HOLD)
-
-
-def test_seed_uses_mu_under_the_car_times_pit_mu():
-    f = make()
-    v = 20.0
-    s = GEOM["box_m"] - bd(v, 0.0, 0.4 * 0.5) + 1.0  # room enough for mu 0.4 but not for 0.2
-    assert f.filter(0.0, v, s, True, True, surface_mu=1.0).phase == LANE
-    assert f.filter(0.0, v, s, True, True, surface_mu=0.5).phase == STOP
 
 
 def test_exit_holds_limit_until_its_end():
@@ -144,31 +125,20 @@ def test_exit_holds_limit_until_its_end():
 
 # --- fix 1: mu from the pit lane's own surface ------------------------------------------------
 
-def test_surface_mu_moves_the_stop_braking_point():
+def test_the_lane_grip_moves_the_stop_braking_point():
     v = 24.0
     on = lambda s: True  # noqa: E731
-    seed = first_brake_s(make(), v, 0.0, 160.0, on, surface_mu=1.0)
-    surf = first_brake_s(make(pit_mu_source="surface", pit_mu=1.0, surface_mu_scale=0.9), v, 0.0, 160.0, on)
-    assert seed == pytest.approx(150.0 - bd(v, 0.0, 0.4), abs=0.15)  # 73 m before the box
-    assert surf == pytest.approx(150.0 - bd(v, 0.0, 0.9), abs=0.15)  # 33 m before the box
-    assert surf > seed + 30.0
-    # a slippery pit lane brakes earlier than the seed's guess
-    slick = first_brake_s(make(pit_mu_source="surface", pit_mu=0.3, surface_mu_scale=1.0), v, 0.0, 160.0, on)
-    assert slick < seed
-
-
-def test_surface_mu_ignores_the_friction_under_the_car():
-    f = make(pit_mu_source="surface", pit_mu=1.0)
-    s = 150.0 - bd(20.0, 0.0, 0.9) - 1.0
-    assert f.filter(0.0, 20.0, s, True, True, surface_mu=1.0).phase == LANE
-    assert f.filter(0.0, 20.0, s, True, True, surface_mu=0.1).phase == LANE
+    slow = first_brake_s(make(), v, 0.0, 160.0, on)
+    grippy = first_brake_s(make(surface_mu_scale=0.9), v, 0.0, 160.0, on)
+    assert slow == pytest.approx(150.0 - bd(v, 0.0, SLOW_MU), abs=0.15)  # 73 m before the box
+    assert grippy == pytest.approx(150.0 - bd(v, 0.0, 0.9), abs=0.15)  # 33 m before the box
+    assert grippy > slow + 30.0
+    # a slippery pit lane brakes earlier
+    slick = first_brake_s(make(pit_mu=0.3, surface_mu_scale=1.0), v, 0.0, 160.0, on)
+    assert slick < slow
 
 
 def test_bad_options_rejected():
-    with pytest.raises(ValueError):
-        make(pit_mu_source="guess")
-    with pytest.raises(ValueError):
-        make(entry_mode="late")
     with pytest.raises(ValueError):
         make(stop_mode="crash")
 
@@ -178,29 +148,19 @@ def test_bad_options_rejected():
 ENTRY_CONSTRAINT = [(0.0, 30.0)]  # the path's curve into the pit lane allows 30 m/s at the entry
 
 
-def test_computed_entry_braking_point_vs_200_m():
+def test_computed_entry_braking_point():
     v = 60.0
     off = lambda s: s >= 0.0  # noqa: E731
-    seed = first_brake_s(make(pit_mu_source="surface", pit_mu=1.0), v, -400.0, 0.0, off)
-    comp = first_brake_s(make(pit_mu_source="surface", pit_mu=1.0, entry_mode="computed",
-                              entry_constraints=ENTRY_CONSTRAINT), v, -400.0, 0.0, off)
-    assert seed == pytest.approx(150.0 - 200.0, abs=0.15)  # the seed waits for PIT_BRAKE_AHEAD
+    f = make(surface_mu_scale=0.9, entry_constraints=ENTRY_CONSTRAINT)
+    comp = first_brake_s(f, v, -400.0, 0.0, off)
     assert comp == pytest.approx(-bd(v, 30.0, 0.9), abs=0.15)  # 153 m before the entry
-    r = make(pit_mu_source="surface", pit_mu=1.0, entry_mode="computed",
-             entry_constraints=ENTRY_CONSTRAINT).filter(0.0, v, comp + 0.1, True, False)
+    r = make(surface_mu_scale=0.9, entry_constraints=ENTRY_CONSTRAINT).filter(0.0, v, comp + 0.1, True, False)
     assert (r.phase, r.target_speed_mps) == (ENTRY, 30.0)
 
 
 def test_computed_entry_meets_the_entry_speed_and_stops_at_the_box():
-    common = dict(pit_mu_source="surface", pit_mu=1.0)
-    seed_log = drive(make(**common), 60.0, -600.0)
-    comp_log = drive(make(**common, entry_mode="computed", entry_constraints=ENTRY_CONSTRAINT), 60.0, -600.0)
-
-    def speed_at(log, s0):
-        return next(v for s, v, _ in log if s >= s0)
-
-    assert speed_at(seed_log, 0.0) > 45.0  # the seed enters far too fast for the curve
-    assert speed_at(comp_log, 0.0) <= 30.5
+    comp_log = drive(make(surface_mu_scale=0.9, entry_constraints=ENTRY_CONSTRAINT), 60.0, -600.0)
+    assert next(v for s, v, _ in comp_log if s >= 0.0) <= 30.5
     for s, v, _ in comp_log:
         if s >= 100.0:
             assert v <= LIMIT_MPS + 0.3  # no speeding in the limit zone
@@ -210,22 +170,15 @@ def test_computed_entry_meets_the_entry_speed_and_stops_at_the_box():
 
 
 def test_computed_mode_does_not_brake_without_need():
-    f = make(entry_mode="computed", entry_constraints=ENTRY_CONSTRAINT, pit_mu_source="surface")
+    f = make(entry_constraints=ENTRY_CONSTRAINT, surface_mu_scale=0.9)
     assert f.filter(0.0, 25.0, -10.0, True, False).phase == FREE
     assert f.filter(0.0, 60.0, -1000.0, True, False).phase == FREE
 
 
 # --- fix 3: give up when pushed past the box or left standing uncaptured ----------------------
 
-def test_seed_holds_forever_when_pushed_past():
-    f = make()
-    for _ in range(1000):
-        r = f.filter(0.0, 0.0, 150.0 + 20.0, True, True)
-    assert (r.brake, r.phase, r.gave_up) == (1.0, HOLD, False)
-
-
 def test_gives_up_when_pushed_past_the_box():
-    f = make(give_up=True)
+    f = make()
     assert f.give_up_past_m == pytest.approx(15.0 / 2.0 + 2.0)
     r = f.filter(0.0, 0.0, 150.0 + 9.0, True, True)  # within the distance: hold
     assert (r.brake, r.phase, r.gave_up) == (1.0, HOLD, False)
@@ -238,24 +191,24 @@ def test_gives_up_when_pushed_past_the_box():
     assert (r.brake, r.phase, r.gave_up) == (1.0, GAVE_UP, True)
     # off the path the attempt is over: next lap the approach brakes again
     assert f.filter(0.0, 60.0, -100.0, True, False).gave_up is False
-    assert f.filter(0.0, 60.0, -40.0, True, False).phase == ENTRY
+    assert f.filter(0.0, 60.0, -40.0, True, False).brake == 1.0
 
 
 def test_gives_up_after_standing_uncaptured():
-    f = make(give_up=True, give_up_timeout_s=3.0)
+    f = make(give_up_timeout_s=3.0)
     steps = 0
     while steps < 1000:
         r = f.filter(0.0, 0.0, 146.0, True, True, dt_s=DT)  # 4 m short, standing: never captured
         if r.gave_up:
             break
-        assert (r.brake, r.phase) == (0.0, LANE)  # the seed would creep on here, brakes released
+        assert (r.brake, r.phase) == (0.0, LANE)  # brakes released: the car may creep on
         steps += 1
     assert steps * DT == pytest.approx(3.0, abs=2 * DT)
     assert r.phase == GAVE_UP
 
 
 def test_capture_and_moving_reset_the_timeout():
-    f = make(give_up=True, give_up_timeout_s=1.0)
+    f = make(give_up_timeout_s=1.0)
     for _ in range(40):
         f.filter(0.0, 0.0, 146.0, True, True)
     f.filter(0.0, 0.0, 146.0, True, True, in_pit=True)  # captured: the timer restarts
@@ -267,7 +220,7 @@ def test_capture_and_moving_reset_the_timeout():
 
 
 def test_stop_no_longer_wanted_resets_give_up():
-    f = make(give_up=True)
+    f = make()
     assert f.filter(0.0, 0.0, 170.0, True, True).gave_up
     assert f.filter(0.0, 0.0, 170.0, False, True).gave_up is False
     assert f.gave_up is False
@@ -277,7 +230,7 @@ def test_stop_no_longer_wanted_resets_give_up():
 
 def test_constant_decel_stop_comes_to_rest_at_the_box():
     tracker = SpeedTracker(full_accel_mps2=5.0, full_brake_mps2=10.0)
-    f = make(stop_mode="constant-decel", pit_mu_source="surface", pit_mu=1.0, tracker=tracker)
+    f = make(stop_mode="constant-decel", surface_mu_scale=0.9, tracker=tracker)
     assert f.stop.max_decel_mps2 == pytest.approx(0.5 * 1.0 * G)
     s, v = 0.0, LIMIT_MPS
     phases, decels = [], []
@@ -301,7 +254,7 @@ def test_constant_decel_stop_comes_to_rest_at_the_box():
 
 
 def test_constant_decel_on_approach_latches_before_the_entry():
-    f = make(stop_mode="constant-decel", entry_mode="computed", pit_mu_source="surface", pit_mu=1.0)
+    f = make(stop_mode="constant-decel", surface_mu_scale=0.9)
     # 60 m/s, 4.9 m/s/s: the stop needs 367 m, so it starts before the entry
     r = f.filter(0.0, 60.0, 150.0 - 370.0, True, False)
     assert r.phase == FREE and not f.stop.stopping

@@ -156,12 +156,11 @@ def test_filter_on_e_track_2_geometry_stops_at_the_box():
 
     f = PitBrakeFilter(bd, limit_start_m=p.limit_start_m, box_m=p.box_m, limit_end_m=p.limit_end_m,
                        speed_limit_mps=p.speed_limit_mps, box_length_m=p.box_length_m,
-                       pit_mu_source="surface", pit_mu=mu, entry_mode="computed",
-                       entry_constraints=p.entry_speed_constraints(mu), stop_mode="constant-decel")
+                       pit_mu=mu, entry_constraints=p.entry_speed_constraints(mu), stop_mode="constant-decel")
     d, v = p.entry_from_start_m - 800.0, 65.0
     for _ in range(5000):
         s = p.signed_coord(d)
-        r = f.filter(0.0, v, s, True, p.is_on_path(d), surface_mu=1.04)
+        r = f.filter(0.0, v, s, True, p.is_on_path(d))
         if r.phase == "hold":
             break
         if s >= p.limit_start_m:

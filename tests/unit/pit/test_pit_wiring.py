@@ -25,7 +25,6 @@ def test_the_gym_stops_with_its_own_set_through_the_same_wiring():
     assert f.stop.max_decel_mps2 == pytest.approx(0.5 * lane_mu * G_MPS2)
     assert (f.stop_mode, f.stop_threshold_m, f.give_up_timeout_s, f.surface_mu_scale) == (
         "constant-decel", 0.5, 5.0, 0.9)
-    assert (f.pit_mu_source, f.entry_mode, f.give_up) == ("surface", "computed", True)
     assert GYM_PIT_PARAMS.lookahead_m == 4.0
 
 

@@ -202,11 +202,9 @@ class TrackPlan(Robot):
                 return (line.offset_at(d + step) - line.offset_at(d - step)) / (2.0 * step)
 
             entry_slope, exit_slope = slope(entry_m), slope(exit_m)
-        params = PitParams(lookahead_m=p.pit_lookahead_m, mu_source=p.pit_mu_source, mu=p.pit_mu,
-                           brake_mu_scale=p.pit_brake_mu_scale, entry_braking=p.pit_entry_braking,
-                           brake_ahead_m=p.pit_brake_ahead_m, give_up_s=p.pit_give_up_s,
-                           stop_threshold_m=p.pit_stop_threshold_m, stop_grip_share=p.pit_stop_grip_share,
-                           brake_method=p.brake_method)
+        params = PitParams(lookahead_m=p.pit_lookahead_m, brake_mu_scale=p.pit_brake_mu_scale,
+                           give_up_s=p.pit_give_up_s, stop_threshold_m=p.pit_stop_threshold_m,
+                           stop_grip_share=p.pit_stop_grip_share, brake_method=p.brake_method)
         self.pits = PitStops(track, car, self.options, params, self.tyre_model, entry_offset_m, exit_offset_m,
                              entry_slope, exit_slope, self._damage_lap_cost_s(car),
                              self._lap_fuel_l(track, car) * (1.0 + MODEL_MARGIN))

@@ -14,7 +14,7 @@ from boxbox.model import State
 from boxbox.model.constants import DRIVE_STEP_S
 from boxbox.robot.base import Robot
 from boxbox.robot.behind import collision_brake, hazard_brake
-from boxbox.robot.opponents import Nearby, OpponentParams, in_lane, nearby, overtake_offset, side_steer
+from boxbox.robot.opponents import Nearby, OpponentParams, nearby, overtake_offset, relate, side_steer
 from boxbox.robot.params import TutorialParams
 from boxbox.robot.pit import PitStops
 from boxbox.robot.racecraft import TURN_CURVATURE_1PM, Racecraft
@@ -66,7 +66,8 @@ class Traffic(Robot):
             if s.opponents and not math.isnan(s.dist_from_start_m) else []
         self.wreck = None
         if cars:
-            cars = self.craft.predict(s.sim_time_s, cars)
+            cars = relate(self.craft.predict(s.sim_time_s, cars), self.car.width_m, self.opp.side_margin_m,
+                          self.craft.p.lane_m)
             self._back_from_wreck(s, v, cars)
             self.wreck = self._wreck_ahead(s, cars)
             dist = s.dist_from_start_m
@@ -97,7 +98,7 @@ class Traffic(Robot):
         if not self._alone_mps or (self.params.draft_last_lap and s.laps < s.total_laps):
             return 0.0
         reach_m = FOLLOW_LENGTHS * self.car.length_m
-        ahead = [c for c in cars if 0.0 < c.dist_m < reach_m and in_lane(c, self.car.width_m, self.opp.side_margin_m)]
+        ahead = [c for c in cars if c.ahead and c.dist_m < reach_m and c.in_our_lane]
         index = min(ahead, key=lambda c: c.dist_m).index if ahead else -1
         if index != self._following:
             self._following, self._following_since_s = index, s.sim_time_s
@@ -167,5 +168,5 @@ class Traffic(Robot):
         if self.wreck is not None:  # driven round at walking pace
             cars = [c for c in cars if c.index != self.wreck.index]
         brake = self.craft.brake(self._now_s, brake, v, cars)
-        brake = collision_brake(brake, v, cars, self.car.width_m, self.opp, self._brakedist)
+        brake = collision_brake(brake, v, cars, self.opp, self._brakedist)
         return hazard_brake(brake, v, self._my_mid_m, cars, self.car.width_m, self.opp, self._brakedist)
