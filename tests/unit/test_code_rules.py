@@ -38,7 +38,6 @@ OVER_THE_CAP = {
     "report/race_report.py": 649,  # the race report: its sections
     "bench/bench.py": 567,  # the solo bench: the race matrix, its cache, its tables
     "tune/study.py": 528,  # the tuning study: the search, its trials, its report
-    "torcs/launch.py": 537,  # the race launch: the run dir, the processes
 }
 
 
