@@ -11,7 +11,8 @@ import math
 from pathlib import Path
 from typing import Any
 
-from boxbox.report.race_report import CSS, _figure, _img, _num, _table
+from boxbox.report.figures import _figure, _img
+from boxbox.report.race_report import CSS, _num, _table
 from boxbox.tune.objective import PENALTY_S_PER_LAP, RESULT_ATTR, TuneConfig
 from boxbox.tune.pick import PickRule
 
