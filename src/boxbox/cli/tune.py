@@ -290,7 +290,7 @@ def bench_tune(robot, tracks, param_names, laps, trials, storage_trials, storage
     from boxbox.robot.loader import load_robot_class
     from boxbox.robot.tunable import param_space
     from boxbox.torcs import checks
-    from boxbox.tune.bench import run_bench, summary_rows
+    from boxbox.tune.bench_tune import run_bench, summary_rows
     from boxbox.tune.objective import TuneConfig
     from boxbox.tune.postgres import TempServer
     from boxbox.tune.space import distributions
