@@ -114,7 +114,7 @@ def fig_slice(study: Any, name: str, penalty_s: float):
 
 def build_report(study: Any, cfg: TuneConfig, pick: PickRule | None = None) -> str:
     from boxbox.report.tables import fmt_time
-    from boxbox.tune.study import progress, pruning_savings
+    from boxbox.tune.study_figures import progress, pruning_savings
 
     penalty = PENALTY_S_PER_LAP * cfg.laps
     p = progress(study)
