@@ -11,8 +11,13 @@ on the lines above it, one a line):
                                           document's commands run in (`--robot NAME.py:Class`)
 A skip or parse-only marker without a reason fails the block's test.
 
-The python blocks of a document run in order in one namespace, like a notebook (a block may use
-what an earlier one defined). Commands run with bash, each document's in a folder of its own that
+A python block that stands alone (every name it reads it imports or defines) is what a user saves
+as a script: it runs as one, `python FILE.py` in its document's folder, so that what only a script
+meets (a vector env's worker processes importing the script again) is met. Every python block,
+skipped ones too, must compile, and one that starts worker processes (SubprocVecEnv,
+AsyncVectorEnv, multiprocessing) must start them under `if __name__ == "__main__":`. The other
+python blocks of a document (and the robot files) run in order in one namespace, like a notebook
+(a block may use what an earlier one defined). Commands run with bash, each document's in a folder of its own that
 holds the document's example files, `./boxbox` (this checkout's command, also first on PATH as
 `boxbox`) and an empty `docs/`. HOME is a folder of its own too: its ~/.cache/boxbox links the real
 cache's set-up (headers, bridge, overlay, cached tracks) but has its own runs, learned data and
@@ -26,6 +31,8 @@ and made each stop it asked for; and a robot the docs describe does what their p
 
 from __future__ import annotations
 
+import ast
+import builtins
 import json
 import os
 import re
@@ -122,6 +129,48 @@ def marker_problem(block: Block) -> str | None:
     if len(block.markers) > 1:
         return f"{block.id}: one doctest marker a block"
     return None
+
+
+# --- python blocks as scripts ----------------------------------------------------------------------
+
+# what starts worker processes, which (with spawn or forkserver, SubprocVecEnv's default) import the
+# script again: without its `if __name__ == "__main__":` each worker would start its own
+WORKER_PROCESSES = re.compile(r"SubprocVecEnv|AsyncVectorEnv|vectorization_mode\s*=\s*[\"']async|multiprocessing"
+                              r"|ProcessPoolExecutor")
+
+
+def free_names(text: str) -> set[str]:
+    """The names a python block reads but neither imports nor defines (nor are builtins): what it
+    takes from its document's earlier blocks."""
+    bound, read = set(), set()
+    for node in ast.walk(ast.parse(text)):
+        if isinstance(node, ast.Name):
+            (read if isinstance(node.ctx, ast.Load) else bound).add(node.id)
+        elif isinstance(node, ast.arg):
+            bound.add(node.arg)
+        elif isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef | ast.ClassDef):
+            bound.add(node.name)
+        elif isinstance(node, ast.alias):
+            bound.add((node.asname or node.name).split(".")[0])
+        elif isinstance(node, ast.ExceptHandler) and node.name:
+            bound.add(node.name)
+    return read - bound - set(dir(builtins))
+
+
+def is_script(block: Block) -> bool:
+    """A python block a user saves and runs as a script: it stands alone (a robot file is a module)."""
+    return block.lang == "python" and block.example is None and not free_names(block.text)
+
+
+def _main_guard(node: ast.stmt) -> bool:
+    return isinstance(node, ast.If) and ast.unparse(node.test).replace("'", '"') == '__name__ == "__main__"'
+
+
+def unguarded_workers(text: str) -> list[int]:
+    """The lines of top-level statements that start worker processes outside the main guard."""
+    return [node.lineno for node in ast.parse(text).body
+            if not (_main_guard(node) or isinstance(node, ast.Import | ast.ImportFrom | ast.FunctionDef | ast.ClassDef))
+            and WORKER_PROCESSES.search(ast.get_source_segment(text, node) or "")]
 
 
 # --- what the docs say their robots do -------------------------------------------------------------
@@ -312,8 +361,25 @@ def _run_once(block: Block, ws: Workspace) -> BaseException | None:
     return ws.ran[block.line]
 
 
+def run_script(block: Block, ws: Workspace) -> None:
+    """The block saved as a file in its document's folder and run with python, as a user runs it."""
+    path = ws.folder / f"{block.doc.stem}_{block.line}.py"
+    path.write_text(block.text)
+    before, start_s = ws.run_dirs(), time.monotonic()
+    proc = subprocess.run([sys.executable, path.name], cwd=ws.folder, env=ws.env, capture_output=True, text=True,
+                          timeout=COMMAND_TIMEOUT_S, stdin=subprocess.DEVNULL)
+    print(f"{time.monotonic() - start_s:6.1f} s  {block.id} as a script")
+    assert proc.returncode == 0, (f"{block.id}, run as a script ({path.name}): exit {proc.returncode}:\n"
+                                  f"{proc.stdout[-3000:]}{proc.stderr[-3000:]}")
+    for result in new_results(ws, before):
+        check_race(result, block.id)
+
+
 def run_python(block: Block, ws: Workspace) -> None:
-    """This block, after the document's python blocks before it, like a notebook."""
+    """A script on its own; another block after the document's python blocks before it, like a notebook."""
+    if is_script(block):
+        run_script(block, ws)
+        return
     for b in parse_blocks(block.doc, block.doc.read_text()):
         if b.lang == "python" and b.line < block.line and not b.markers and (exc := _run_once(b, ws)):
             pytest.fail(f"{block.id}: the earlier block {b.id} failed: {exc!r}")
@@ -334,6 +400,16 @@ def test_doc_block(block: Block, request) -> None:
         run_python(block, ws)
     else:
         run_commands(block, ws, parse="parse-only" in kinds)
+
+
+def test_every_python_block_compiles_and_starts_its_workers_under_the_main_guard() -> None:
+    """Skipped blocks too: what a block that trains for long would do as a script is checked here."""
+    for block in all_blocks():
+        if block.lang == "python":
+            compile(block.text, block.id, "exec")
+            lines = [block.line + n for n in unguarded_workers(block.text)]
+            assert not lines, f"{block.id}: line(s) {lines} start worker processes outside " \
+                              "`if __name__ == \"__main__\":` (each worker imports the script again)"
 
 
 def test_every_claimed_robot_is_raced_by_its_doc() -> None:
@@ -413,3 +489,29 @@ def test_a_failing_claim_fails() -> None:
         check_race({"laps": 3, "error": None, "drivers": [{**driver, "laps": 2}]}, "x")
     check_race({"laps": 3, "error": None, "drivers": [{**driver, "pit_events": [{"stop_time": 2.0,
                                                                                   "stop_error_m": 0.2}]}]}, "x")
+
+
+UNGUARDED = """import multiprocessing
+import sys
+
+worker = multiprocessing.get_context("spawn").Process(target=print, args=("worker",))
+worker.start()
+worker.join()
+sys.exit(worker.exitcode)
+"""
+
+
+def test_a_script_block_runs_as_a_script_and_its_guard_is_checked(tmp_path) -> None:
+    """A block that starts a worker without the main guard works in the notebook namespace but fails
+    as the script a user saves; the guard check names it, and the guarded block runs."""
+    guarded = UNGUARDED.replace("worker = ", 'if __name__ == "__main__":\n    worker = ').replace(
+        "\nworker.", "\n    worker.").replace("\nsys.exit", "\n    sys.exit")
+    ws = Workspace(tmp_path, tmp_path, dict(os.environ))
+    bad, good = (Block(ROOT / "docs" / "sample.md", line, "python", text) for line, text in ((1, UNGUARDED),
+                                                                                          (20, guarded)))
+    assert is_script(bad) and is_script(good) and not free_names(UNGUARDED)
+    assert unguarded_workers(UNGUARDED) == [4] and unguarded_workers(guarded) == []
+    with pytest.raises(AssertionError, match="run as a script"):
+        run_script(bad, ws)
+    run_script(good, ws)
+    assert free_names("result = boxbox.race(robots=[MyRobot])") == {"boxbox", "MyRobot"}

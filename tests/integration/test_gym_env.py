@@ -182,7 +182,7 @@ def test_torcs_killed_mid_episode_is_reported_and_reset_recovers(overlay):
     pid = env.unwrapped.torcs_pid
     os.kill(pid, signal.SIGKILL)
     obs, reward, terminated, truncated, info = env.step(middle_driver(obs))
-    assert terminated and info["termination"] == "fault"
+    assert truncated and not terminated and info["termination"] == "fault"  # no MDP state: not terminal
     assert "TORCS was killed by SIGKILL" in info["fault"]
     assert env.observation_space.contains(obs) and reward == 0.0
     obs, _ = env.reset()
@@ -190,6 +190,29 @@ def test_torcs_killed_mid_episode_is_reported_and_reset_recovers(overlay):
     for _ in range(50):
         obs, reward, terminated, truncated, info = env.step(middle_driver(obs))
     assert not terminated and reward > 0
+    env.close()
+
+
+def test_a_hung_torcs_truncates_the_step_after_step_timeout_s(overlay):
+    env = gymnasium.make(ID, track="g-track-1", step_timeout_s=1.0, spares=0)
+    obs, _ = env.reset(seed=0)
+    for _ in range(20):
+        obs, *_ = env.step(middle_driver(obs))
+    pid = env.unwrapped.torcs_pid
+    os.kill(pid, signal.SIGSTOP)  # hung: alive, silent
+    try:
+        start = time.monotonic()
+        obs, reward, terminated, truncated, info = env.step(middle_driver(obs))
+        waited_s = time.monotonic() - start
+    finally:
+        os.kill(pid, signal.SIGCONT)
+    assert 1.0 <= waited_s < 3.0, waited_s
+    assert truncated and not terminated and info["termination"] == "fault"
+    assert "did not answer within 1 s" in info["fault"] and env.observation_space.contains(obs)
+    obs, _ = env.reset()  # the hung TORCS killed, a new one races
+    assert env.unwrapped.torcs_pid != pid and not psutil.pid_exists(pid)
+    obs, reward, terminated, truncated, info = env.step(middle_driver(obs))
+    assert not (terminated or truncated)
     env.close()
 
 
@@ -209,7 +232,7 @@ def test_vector_envs_survive_a_crashed_sub_env(overlay, kind):
         venv.step(a)
     os.kill(pids[1], signal.SIGKILL)
     obs, rewards, terminated, truncated, infos = venv.step(actions[20])
-    assert list(terminated) == [False, True]
+    assert list(terminated) == [False, False] and list(truncated) == [False, True]
     assert infos["termination"][1] == "fault" and "SIGKILL" in infos["fault"][1]
     for a in actions[21:]:  # the crashed sub-env is reset (a new TORCS) and steps on
         obs, rewards, terminated, truncated, infos = venv.step(a)

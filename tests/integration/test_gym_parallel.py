@@ -126,6 +126,31 @@ def test_step_before_reset_and_bad_options_are_refused(overlay):
     env.close()
 
 
+@pytest.mark.parametrize("how", ["killed", "hung"])
+def test_a_torcs_killed_or_hung_truncates_every_car(overlay, how):
+    env = boxbox.gym.parallel_env(cars=2, track="g-track-1", step_timeout_s=1.0)
+    obs, _ = env.reset(seed=0)
+    for _ in range(10):
+        obs, *_ = env.step({agent: middle(obs[agent], 20.0) for agent in env.agents})
+    pid = env.torcs_pid
+    os.kill(pid, signal.SIGKILL if how == "killed" else signal.SIGSTOP)
+    try:
+        start = time.monotonic()
+        obs, rewards, terminations, truncations, infos = env.step({a: middle(obs[a], 20.0) for a in env.agents})
+        waited_s = time.monotonic() - start
+    finally:
+        if how == "hung":
+            os.kill(pid, signal.SIGCONT)
+    assert truncations == {"car_0": True, "car_1": True} and terminations == {"car_0": False, "car_1": False}
+    assert all(info["termination"] == "fault" for info in infos.values()) and env.agents == []
+    fault = infos["car_0"]["fault"]
+    assert ("SIGKILL" in fault) if how == "killed" else ("did not answer within 1 s" in fault and waited_s < 3.0)
+    env.reset()
+    assert env.torcs_pid != pid and env.agents == ["car_0", "car_1"]
+    env.close()
+    assert not psutil.pid_exists(pid)
+
+
 def test_killing_the_process_leaves_no_torcs(overlay):
     code = ("import boxbox.gym, sys\n"
             "env = boxbox.gym.parallel_env(cars=2, track='g-track-1')\n"

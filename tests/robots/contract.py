@@ -105,7 +105,7 @@ class KillsTorcs(Recorder):
 
 
 class Interrupts(Recorder):
-    """Presses Ctrl-C: SIGINT to the launcher (the robot host's parent), once."""
+    """Signals its parent: SIGINT to the launcher (the robot host's parent), once: a fault of its own."""
 
     sent = False
 

@@ -17,7 +17,7 @@ from boxbox.model import State
 from boxbox.model.state import CAR_STATE_PIT
 from boxbox.model.track import LEFT
 from boxbox.robot import params as params_mod
-from boxbox.torcs import host
+from boxbox.torcs import carwatch, host
 from boxbox.torcs.rundir import RunDir
 
 
@@ -29,10 +29,10 @@ def state(**kw) -> State:
     return State(**values)
 
 
-def slot_on(track_name: str) -> host.Slot:
+def slot_on(track_name: str) -> carwatch.Slot:
     track, car = trackdata.load(track_name)
-    slot = host.Slot(robot=None, spec="x", name="x 1", car=car, track=track)
-    slot.pit_zone = host.pit_zone(track)
+    slot = carwatch.Slot(robot=None, spec="x", name="x 1", car=car, track=track)
+    slot.pit_zone = carwatch.pit_zone(track)
     return slot
 
 
@@ -40,14 +40,14 @@ def test_stuck_and_off_track_steps_are_counted():
     slot = slot_on(trackdata.TRACKS[0])
     no_pit = next(i for i in range(len(slot.track.seg["type"])) if not (slot.pit_zone and slot.pit_zone[i]))
     for _ in range(10):
-        host.watch_step(slot, state(seg_id=no_pit))  # driving normally
+        carwatch.watch_step(slot, state(seg_id=no_pit))  # driving normally
     for _ in range(50):
-        host.watch_step(slot, state(seg_id=no_pit, speed_x_mps=0.2))  # stuck, on the track
-    host.watch_step(slot, state(seg_id=no_pit))
+        carwatch.watch_step(slot, state(seg_id=no_pit, speed_x_mps=0.2))  # stuck, on the track
+    carwatch.watch_step(slot, state(seg_id=no_pit))
     for _ in range(20):
-        host.watch_step(slot, state(seg_id=no_pit, speed_x_mps=0.0, to_right_m=-1.0))  # stuck in the gravel
+        carwatch.watch_step(slot, state(seg_id=no_pit, speed_x_mps=0.0, to_right_m=-1.0))  # stuck in the gravel
     assert (slot.stuck_steps, slot.longest_stuck_steps, slot.off_track_steps) == (70, 50, 20)
-    assert host.incidents(slot) == {"stuck_s": 1.4, "longest_stuck_s": 1.0, "off_track_s": 0.4}
+    assert carwatch.incidents(slot) == {"stuck_s": 1.4, "longest_stuck_s": 1.0, "off_track_s": 0.4}
 
 
 def test_the_pit_is_neither_stuck_nor_off_track():
@@ -57,26 +57,26 @@ def test_the_pit_is_neither_stuck_nor_off_track():
     side = {"to_left_m": -3.0} if pit.side == LEFT else {"to_right_m": -3.0}
     other = {"to_right_m": -3.0} if pit.side == LEFT else {"to_left_m": -3.0}
     for _ in range(30):
-        host.watch_step(slot, state(seg_id=pit.start_seg, speed_x_mps=0.0, car_state=CAR_STATE_PIT))  # in the box
-        host.watch_step(slot, state(seg_id=pit.start_seg, speed_x_mps=0.5, **side))  # the pit lane
+        carwatch.watch_step(slot, state(seg_id=pit.start_seg, speed_x_mps=0.0, car_state=CAR_STATE_PIT))  # in the box
+        carwatch.watch_step(slot, state(seg_id=pit.start_seg, speed_x_mps=0.5, **side))  # the pit lane
     assert (slot.stuck_steps, slot.off_track_steps) == (0, 0)
-    host.watch_step(slot, state(seg_id=pit.start_seg, **other))  # off on the other side: off the track
+    carwatch.watch_step(slot, state(seg_id=pit.start_seg, **other))  # off on the other side: off the track
     assert slot.off_track_steps == 1
 
 
 def test_before_the_start_nothing_is_stuck():
     slot = slot_on(trackdata.TRACKS[0])
-    host.watch_step(slot, state(sim_time_s=-0.5, speed_x_mps=0.0))
+    carwatch.watch_step(slot, state(sim_time_s=-0.5, speed_x_mps=0.0))
     assert slot.stuck_steps == 0
 
 
 def test_step_times_stay_bounded_and_representative():
-    slot = host.Slot(robot=None, spec="x", name="x 1")
-    n = 5 * host.MAX_STEP_SAMPLES
+    slot = carwatch.Slot(robot=None, spec="x", name="x 1")
+    n = 5 * carwatch.MAX_STEP_SAMPLES
     for i in range(n):
-        host.record_step_time(slot, i)
+        carwatch.record_step_time(slot, i)
     assert slot.steps_timed == n
-    assert len(slot.step_ns) < host.MAX_STEP_SAMPLES
+    assert len(slot.step_ns) < carwatch.MAX_STEP_SAMPLES
     median = sorted(slot.step_ns)[len(slot.step_ns) // 2]
     assert abs(median - n / 2) < n * 0.01
 
@@ -298,7 +298,7 @@ def test_a_missed_stop_gets_its_reason(speeds, offsets, reason, detail):
 
     name = next(t for t in trackdata.TRACKS if trackdata.load(t)[0].pit is not None)
     track, car = trackdata.load(name)
-    watch = PitWatch(track, car, host.pit_zone(track))
+    watch = PitWatch(track, car, carwatch.pit_zone(track))
     drive_through(watch, pit_states(track, car, speeds, -3.0, offsets), track)
     [missed] = watch.finish()
     assert missed["lap"] == 2 and missed["reason"] == reason and detail in missed["detail"], missed
@@ -309,10 +309,10 @@ def test_a_stop_on_the_track_side_never_entered_and_a_made_stop_is_no_miss():
 
     name = next(t for t in trackdata.TRACKS if trackdata.load(t)[0].pit is not None)
     track, car = trackdata.load(name)
-    watch = PitWatch(track, car, host.pit_zone(track))
+    watch = PitWatch(track, car, carwatch.pit_zone(track))
     drive_through(watch, pit_states(track, car, [30.0] * 3, 4.0, [-10, 0, 10]), track)  # on the track
     assert [m["reason"] for m in watch.finish()] == ["never entered the pit lane"]
-    made = PitWatch(track, car, host.pit_zone(track))
+    made = PitWatch(track, car, carwatch.pit_zone(track))
     lane = pit_states(track, car, [5.0, 0.5], -3.0, [-5, 0])
     captured = lane[-1]._replace(car_state=float(CAR_STATE_PIT))
     drive_through(made, [*lane, captured], track)
@@ -324,7 +324,7 @@ def test_asking_on_the_way_out_of_a_stop_is_no_miss_but_next_lap_counts():
 
     name = next(t for t in trackdata.TRACKS if trackdata.load(t)[0].pit is not None)
     track, car = trackdata.load(name)
-    watch = PitWatch(track, car, host.pit_zone(track))
+    watch = PitWatch(track, car, carwatch.pit_zone(track))
     lane = pit_states(track, car, [5.0, 0.5], -3.0, [-5, 0])
     watch.step(lane[0], True)
     watch.step(lane[1]._replace(car_state=float(CAR_STATE_PIT)), True)  # captured
@@ -342,7 +342,7 @@ def test_the_stall_limit_covers_the_longest_call_and_a_heartbeat():
     assert model.stall_limit_s() < model.wall_limit_s(1, 2000.0, 1, 10) / 10
 
 
-# --- TORCS losing every car (torcs/host.py every_car_lost, _check_breakdown) --------------------
+# --- TORCS losing every car (torcs/carwatch.py every_car_lost, torcs/host.py _check_breakdown) --------------------
 
 NAN = float("nan")
 
@@ -359,23 +359,23 @@ def with_opponents(s: State, *opps) -> State:
 def test_every_car_lost_only_when_ours_and_every_racing_car_have_no_position():
     from boxbox.model.state import CAR_STATE_OUT
     lost = state(x_m=NAN)
-    assert host.every_car_lost(with_opponents(lost, opponent(NAN), opponent(NAN)))
+    assert carwatch.every_car_lost(with_opponents(lost, opponent(NAN), opponent(NAN)))
     # a car in its pit, or out of the race, is not simulated: its finite position does not count
-    assert host.every_car_lost(with_opponents(lost, opponent(NAN), opponent(5.0, CAR_STATE_PIT),
+    assert carwatch.every_car_lost(with_opponents(lost, opponent(NAN), opponent(5.0, CAR_STATE_PIT),
                                               opponent(7.0, CAR_STATE_OUT)))
-    assert not host.every_car_lost(with_opponents(lost, opponent(NAN), opponent(5.0)))  # one still racing
-    assert not host.every_car_lost(with_opponents(state(x_m=3.0), opponent(NAN)))  # ours is there
+    assert not carwatch.every_car_lost(with_opponents(lost, opponent(NAN), opponent(5.0)))  # one still racing
+    assert not carwatch.every_car_lost(with_opponents(state(x_m=3.0), opponent(NAN)))  # ours is there
 
 
 def test_a_breakdown_stops_the_race_after_a_second_of_every_car_lost():
-    slot = host.Slot(robot=None, spec="x", name="x 1")
+    slot = carwatch.Slot(robot=None, spec="x", name="x 1")
     for t in (467.2, 467.6, 468.1):
         host.Host._check_breakdown(slot, with_opponents(state(x_m=NAN, sim_time_s=t), opponent(NAN)))
     with pytest.raises(host.RobotFault) as raised:
         host.Host._check_breakdown(slot, with_opponents(state(x_m=NAN, sim_time_s=468.3), opponent(NAN)))
     assert raised.value.kind == "sim-breakdown" and "broke down at 467.2 s" in str(raised.value)
     # a car found again resets the clock
-    slot2 = host.Slot(robot=None, spec="x", name="x 1")
+    slot2 = carwatch.Slot(robot=None, spec="x", name="x 1")
     host.Host._check_breakdown(slot2, with_opponents(state(x_m=NAN, sim_time_s=1.0), opponent(NAN)))
     host.Host._check_breakdown(slot2, with_opponents(state(x_m=NAN, sim_time_s=1.5), opponent(4.0)))
     host.Host._check_breakdown(slot2, with_opponents(state(x_m=NAN, sim_time_s=2.2), opponent(NAN)))

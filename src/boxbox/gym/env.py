@@ -22,6 +22,7 @@ from boxbox import validate
 from boxbox.errors import RaceError, UsageError
 from boxbox.gym import reward as rw
 from boxbox.gym.assists import ASSISTS, Assists, check_assists
+from boxbox.gym.cores import usable_cpus
 from boxbox.gym.episodes import (
     Episode,
     Episodes,
@@ -30,9 +31,10 @@ from boxbox.gym.episodes import (
     stream_seed,
 )
 from boxbox.gym.pitstop import PitStop
+from boxbox.gym.race import MAX_STEP_TIMEOUT_S, STEP_TIMEOUT_S_DEFAULT, RaceOrder, Started, TorcsGone
 from boxbox.gym.render import Drawing, check_pixel_size, check_render_mode, pixel_space, render_fps
 from boxbox.gym.sensors import SCR_TRACK_ANGLES_DEG, TrackEdges, opponent_sectors
-from boxbox.gym.session import RaceOrder, Session, Started, TorcsGone, usable_cpus
+from boxbox.gym.session import Session
 from boxbox.gym.spaces import ACTION_RANGES, DEFAULT_ACTIONS, ActionReader, ObservationLayout, Observer, action_space
 from boxbox.gym.spare import MAX_SPARES
 from boxbox.model import Car, PitOrder, State, Track
@@ -73,18 +75,24 @@ def race_config(track: str, car: str, opponents, laps: int, skill_level: str | S
 
 
 def checked_actions(actions: Any, assists: Any) -> tuple[tuple[str, ...], tuple[str, ...]]:
-    """The action columns (each at most once, at least one) and the assists, checked together."""
-    names = validate.names(actions, "actions", unique=False, name="actions")
-    for name in names:
-        validate.choice(name, tuple(ACTION_RANGES), name="actions")
-    if not names or len(set(names)) != len(names):
-        validate.fail(f"{tuple(names)!r}: choose each action at most once, at least one, from "
-                      f"{', '.join(ACTION_RANGES)}.", "actions")
-    helpers = validate.names(assists, "assists", name="assists")
-    for name in helpers:
-        validate.choice(name, ASSISTS, name="assists")
-    check_assists(tuple(helpers), tuple(names))
-    return tuple(names), tuple(helpers)
+    """The action columns (each at most once, at least one) and the assists (each at most once),
+    checked together."""
+    names = _chosen(actions, tuple(ACTION_RANGES), "actions", at_least_one=True)
+    helpers = _chosen(assists, ASSISTS, "assists", at_least_one=False)
+    check_assists(helpers, names)
+    return names, helpers
+
+
+def _chosen(value: Any, choices: tuple[str, ...], name: str, *, at_least_one: bool) -> tuple[str, ...]:
+    """Names from `choices`, each at most once (a repeat is refused, not dropped: it says the
+    caller meant something else)."""
+    names = validate.names(value, name, unique=False, name=name)
+    for one in names:
+        validate.choice(one, choices, name=name)
+    if len(set(names)) != len(names) or (at_least_one and not names):
+        validate.fail(f"{tuple(names)!r}: choose each of the {name} at most once"
+                      f"{', at least one' if at_least_one else ''}, from {', '.join(choices)}.", name)
+    return tuple(names)
 
 
 def checked_fuel(initial_fuel_l: Any, pit_fuel_l: Any, pit_repair: Any) -> tuple[float | None, ...]:
@@ -102,6 +110,18 @@ def checked_cpu(cpu: Any) -> int | None:
     if core not in usable_cpus():
         validate.fail(f"{core} is not a core this process may use; choose one of {sorted(usable_cpus())}.", "cpu")
     return core
+
+
+def checked_step_timeout_s(step_timeout_s: Any) -> float:
+    """How long a step waits for TORCS before a silent TORCS is a fault (seconds, above 0)."""
+    return validate.finite_number(step_timeout_s, 0, MAX_STEP_TIMEOUT_S, lo_open=True, name="step_timeout_s")
+
+
+def step_ends(reason: str | None) -> tuple[bool, bool]:
+    """(terminated, truncated) for why a car's episode ended: a fault (TORCS died or hung) is no
+    state of the MDP, so it truncates (a learner bootstraps from the last observation) where the
+    race's own endings terminate."""
+    return reason is not None and reason != rw.FAULT, reason == rw.FAULT
 
 
 def checked_reward(reward_fn: Any, reward_weights: Any) -> tuple[rw.RewardFn | None, rw.RewardWeights]:
@@ -127,8 +147,8 @@ class TorcsEnv(gymnasium.Env):
                  skill_level: str | SkillLevel = "semi-pro", grid_position: int | str | None = None,
                  initial_fuel_l: float | None = None, pit_fuel_l: float | None = None, pit_repair: float | None = None,
                  cpu: int | None = None, render_mode: str | None = None, pixels: bool = False,
-                 pixel_size: tuple[int, int] = (96, 96), spares: int = DEFAULT_SPARES,
-                 sensor_noise: bool = False) -> None:
+                 pixel_size: tuple[int, int] | None = None, spares: int = DEFAULT_SPARES,
+                 sensor_noise: bool = False, step_timeout_s: float = STEP_TIMEOUT_S_DEFAULT) -> None:
         # every option checked before anything is set up (validate.py: the command line's checks)
         self.actions, self.assist_names = checked_actions(actions, assists)
         self.action_repeat = validate.whole_number(action_repeat, 1, MAX_ACTION_REPEAT, name="action_repeat")
@@ -137,6 +157,7 @@ class TorcsEnv(gymnasium.Env):
         self.watch = rw.Watch(rw.Limits(max_damage, off_track_s, stuck_s))
         _, self.pit_fuel_l, self.pit_repair = checked_fuel(None, pit_fuel_l, pit_repair)
         self.cpu = checked_cpu(cpu)
+        self.step_timeout_s = checked_step_timeout_s(step_timeout_s)
         self.spares = validate.whole_number(spares, 0, MAX_SPARES, name="spares")
         self.sensor_noise = validate.flag(sensor_noise, name="sensor_noise")
         flat = validate.flag(flat, name="flat")
@@ -144,7 +165,7 @@ class TorcsEnv(gymnasium.Env):
         self.render_mode = check_render_mode(render_mode)
         self.metadata = {**self.metadata, "render_fps": render_fps(self.action_repeat)}
         self.pixels = validate.flag(pixels, name="pixels")
-        self.drawing = Drawing(check_pixel_size(pixel_size) if self.pixels else None)
+        self.drawing = Drawing(check_pixel_size(pixel_size, self.pixels))
         self.episodes = Episodes(laps, track=track, car=car, opponents=opponents, grid_position=grid_position,
                                  skill_level=skill_level, initial_fuel_l=initial_fuel_l)
         self._stream: EpisodeStream | None = None  # the episodes drawn from the seed, from the first reset
@@ -179,7 +200,8 @@ class TorcsEnv(gymnasium.Env):
         order = self._order(episode)  # an unknown track given to reset() is refused here, before TORCS
         upcoming = [self._order(e) for e in self._stream.peek(self.spares)]
         if self.session is None:
-            self.session = Session(setup.ensure_ready(), cpu=self.cpu, on_pit=self._pit_order, spares=self.spares)
+            self.session = Session(setup.ensure_ready(), cpu=self.cpu, on_pit=self._pit_order, spares=self.spares,
+                                   step_timeout_s=self.step_timeout_s)
         self.ended = None
         with self.session.pin:
             started = self._start(order, upcoming)
@@ -207,7 +229,7 @@ class TorcsEnv(gymnasium.Env):
         info = {"state": s, "progress_m": progress, "termination": reason, "fault": fault}
         if self.pit is not None:
             info["pit"] = self.pit.phase
-        return self._observation(), total, reason is not None, False, info
+        return self._observation(), total, *step_ends(reason), info
 
     def _drive(self, steer: float, throttle: float, brake: float, clutch: float,
                gear: int) -> tuple[State, float, float, str | None, str | None]:

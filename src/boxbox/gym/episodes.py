@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from boxbox import validate
+from boxbox.errors import UsageError
 from boxbox.model.skill import SkillLevel
 from boxbox.torcs import setup
 from boxbox.torcs.checks import check_grid_position, check_race
@@ -128,11 +129,38 @@ def _fuel(value: Any) -> float | None:
     return None if value is None else validate.finite_number(value, 0, MAX_FUEL_L, name="initial_fuel_l")
 
 
+def _field(value: Any) -> tuple[str, ...]:
+    """One field of opponents; a list of fields (a list of lists) is told to wrap them in OneOf."""
+    try:
+        return tuple(validate.opponent_list(value, name="opponents"))
+    except UsageError as exc:
+        if several("opponents", value):
+            fields = ", ".join(map(repr, value))
+            raise UsageError(f"{exc} A list of fields is one field here; to draw one of them per episode, wrap "
+                             f"them in OneOf (boxbox.gym.episodes): opponents=OneOf({fields:.60})") from None
+        raise
+
+
+def several(key: str, value: Any) -> bool:
+    """Whether `value` gives several candidates for the option `key` (drawn per episode)."""
+    if isinstance(value, OneOf | Uniform | Mapping):
+        return True
+    if key == "opponents":
+        return isinstance(value, list | tuple) and any(isinstance(v, list | tuple | range) and not _pair(v)
+                                                       for v in value)
+    return isinstance(value, list | tuple | range)
+
+
+def _pair(value: Any) -> bool:
+    """('bt', 2): one opponent as a pair, not a field."""
+    return len(value) == 2 and isinstance(value[0], str) and not isinstance(value[1], str | list | tuple)
+
+
 # the single-value check of each option (the env's checks, validate.py's words)
 CHECKS: dict[str, Callable[[Any], Any]] = {
     "track": lambda v: validate.text(v, "track name", "g-track-1", name="track"),
     "car": lambda v: validate.text(v, "car name", "car1-trb1", name="car"),
-    "opponents": lambda v: tuple(validate.opponent_list(v, name="opponents")),
+    "opponents": _field,
     "grid_position": lambda v: validate.grid_position(v, name="grid_position"),
     "skill_level": _level,
     "initial_fuel_l": _fuel,

@@ -14,14 +14,14 @@ from __future__ import annotations
 import copy
 from pathlib import Path
 
+from boxbox.gym.race import SETUP_ANSWER_TIMEOUT_S, STEP_TIMEOUT_S_DEFAULT, Race, RaceOrder, Shared, TorcsGone
+from boxbox.gym.session import Session
 from boxbox.model import Car, PitOrder, State, Track
 from boxbox.model.state import CAR_STATE_NO_SIMU
 from boxbox.torcs import wire
-from boxbox.torcs.host import complete_car
 from boxbox.torcs.launch import RaceConfig
+from boxbox.torcs.messages import decode_state, pack_controls
 from boxbox.torcs.setup import Overlay
-
-from boxbox.gym.session import ANSWER_TIMEOUT_S, HSIZE, Race, RaceOrder, Session, Shared, TorcsGone  # isort: skip
 
 Controls = tuple[float, float, float, float, int, bool]  # steer, accel, brake, clutch, gear, pit
 PARKED: Controls = (0.0, 0.0, 1.0, 0.0, 1, False)  # what a car whose episode ended is given: it brakes
@@ -31,8 +31,8 @@ class MultiSession(Session):
     """The parallel env's races, one at a time (no spares): each a `MultiRace`."""
 
     def __init__(self, cfg: RaceConfig, overlay: Overlay, cpu: int | None = None,
-                 initial_fuel_l: float | None = None) -> None:
-        super().__init__(overlay, cpu=cpu)
+                 initial_fuel_l: float | None = None, step_timeout_s: float = STEP_TIMEOUT_S_DEFAULT) -> None:
+        super().__init__(overlay, cpu=cpu, step_timeout_s=step_timeout_s)
         self.cfg = cfg
         self.order = RaceOrder("multi", cfg, initial_fuel_l)  # every reset: the same race
         self.multi: MultiRace | None = None  # the race running (`race` too, which stop() and close() kill)
@@ -53,7 +53,8 @@ class MultiSession(Session):
 
     def _new_race(self, order: RaceOrder, spare: bool = False) -> MultiRace:
         self._count += 1
-        return MultiRace(order, self.overlay, self.shared, self.dir / f"r{self._count}", self.cpu)
+        return MultiRace(order, self.overlay, self.shared, self.dir / f"r{self._count}", self.cpu,
+                         self.step_timeout_s)
 
 
 class MultiRace(Race):
@@ -62,8 +63,9 @@ class MultiRace(Race):
 
     torcs_env = {"BOXBOX_BATCH_DRIVE": "1"}
 
-    def __init__(self, order: RaceOrder, overlay: Overlay, shared: Shared, folder: Path, cpu: int) -> None:
-        super().__init__(order, overlay, shared, folder, cpu)
+    def __init__(self, order: RaceOrder, overlay: Overlay, shared: Shared, folder: Path, cpu: int,
+                 step_timeout_s: float = STEP_TIMEOUT_S_DEFAULT) -> None:
+        super().__init__(order, overlay, shared, folder, cpu, step_timeout_s)
         self.n_cars = len(order.cfg.robots)
         self.cars: list[Car] = []  # each Python car's constants (its own pit, its own car index)
         self.pending: list[tuple[int, int]] = []  # (robot, step) of the DRIVEs awaiting an answer
@@ -75,27 +77,16 @@ class MultiRace(Race):
         self._spawn()
         self.conn = self._accept(block=True)
         assert self.conn is not None
-        self.conn.settimeout(ANSWER_TIMEOUT_S)
-        chunks: dict[int, list[bytes]] = {}
+        self.conn.settimeout(SETUP_ANSWER_TIMEOUT_S)
         self.cars = [None] * self.n_cars  # type: ignore[list-item]
         while True:
             n = self._recv()
             kind, robot, step, count = wire.HEADER.unpack_from(self._buf, 0)
             if kind == wire.DRIVE:
                 assert self._base is not None and all(car is not None for car in self.cars)
+                self.conn.settimeout(self.step_timeout_s)
                 return self._base[0], self.cars, self._batch(robot, step, count)
-            if kind == wire.HELLO:
-                self._reply(wire.HELLO, robot, step, wire.HELLO_REC, (wire.PROTOCOL_VERSION, 0.0, 0.0))
-            elif kind == wire.NEW_TRACK:
-                chunks.setdefault(robot, []).append(bytes(self._buf[HSIZE:n]))
-                if step + 1 == count:
-                    self.cars[robot] = self._decode(b"".join(chunks.pop(robot)))
-                    fuel = -1.0 if self.order.initial_fuel_l is None else float(self.order.initial_fuel_l)
-                    self._reply(wire.FUEL, robot, step, wire.FUEL_REC, (fuel, float("nan"), float("nan")))
-            elif kind == wire.NEW_RACE:
-                complete_car(self.cars[robot], bytes(self._buf[HSIZE:n]))
-                self._reply(wire.ACK, robot, step)
-            else:
+            if not self._answer_setup(kind, robot, step, count, n):
                 raise TorcsGone(f"TORCS sent message kind {kind} before the race started")
 
     def drive_all(self, controls: dict[int, Controls]) -> dict[int, State] | None:
@@ -103,12 +94,9 @@ class MultiRace(Race):
         by robot, or None when the race has ended."""
         if self.conn is None or self.ended:
             return None
-        out = self._out
         for robot, step in self.pending:
-            wire.HEADER.pack_into(out, 0, wire.CONTROLS, robot, step, 0)
-            steer, accel, brake, clutch, gear, pit = controls.get(robot, PARKED)
-            wire.CONTROLS_REC.pack_into(out, HSIZE, steer, accel, brake, clutch, gear, 1.0 if pit else 0.0)
-            self._send(out)
+            pack_controls(self._out, 0, robot, step, *controls.get(robot, PARKED))
+            self._send(self._controls)
         self.pending = []
         while True:
             if not self._recv_in_race():
@@ -126,7 +114,7 @@ class MultiRace(Race):
     # --- pieces --------------------------------------------------------------------------------
     def _batch(self, robot: int, step: int, count: int) -> dict[int, State]:
         """The batch whose first DRIVE is in the buffer: every DRIVE of it, by robot."""
-        first = self._state(count)
+        first = decode_state(self._buf, count)
         states = {robot: first}
         self.pending = [(robot, step)]
         for other in self._driven_after(robot, first):
@@ -135,7 +123,7 @@ class MultiRace(Race):
             if kind != wire.DRIVE or r != other:
                 raise TorcsGone(f"TORCS sent message kind {kind} for car {r} in the middle of a batch (car {other} "
                                 "was due)")
-            states[r] = self._state(count)
+            states[r] = decode_state(self._buf, count)
             self.pending.append((r, step))
         return states
 
@@ -145,7 +133,10 @@ class MultiRace(Race):
         return [j for j in range(robot + 1, self.n_cars)
                 if not by_index.get(self.cars[j].car_index, CAR_STATE_NO_SIMU) & CAR_STATE_NO_SIMU]
 
-    def _decode(self, blob: bytes) -> Car:
-        """The track (decoded once per session) and a car of its own for a robot."""
+    def _car_known(self, robot: int, blob: bytes) -> None:
+        """NEW_TRACK's whole bytes: the track (decoded once per session) and a car of its own for the robot."""
         self._base = self._decoded(blob)
-        return copy.deepcopy(self._base[1])
+        self.cars[robot] = copy.deepcopy(self._base[1])
+
+    def _car(self, robot: int) -> Car:
+        return self.cars[robot]

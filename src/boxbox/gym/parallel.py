@@ -27,16 +27,44 @@ from boxbox import validate
 from boxbox.errors import RaceError, UsageError
 from boxbox.gym import reward as rw
 from boxbox.gym.assists import Assists
-from boxbox.gym.env import MAX_ACTION_REPEAT, NeedsReset, checked_actions, checked_cpu, checked_reward, race_config
+from boxbox.gym.env import (
+    MAX_ACTION_REPEAT,
+    NeedsReset,
+    checked_actions,
+    checked_cpu,
+    checked_reward,
+    checked_step_timeout_s,
+    race_config,
+    step_ends,
+)
+from boxbox.gym.episodes import several
 from boxbox.gym.multisession import Controls, MultiSession
+from boxbox.gym.race import STEP_TIMEOUT_S_DEFAULT, TorcsGone
 from boxbox.gym.render import CAR_COLOURS, Drawing, check_pixel_size, check_render_mode, pixel_space, render_fps
 from boxbox.gym.sensors import SCR_TRACK_ANGLES_DEG, TrackEdges, opponent_sectors
-from boxbox.gym.session import TorcsGone
 from boxbox.gym.spaces import DEFAULT_ACTIONS, ActionReader, ObservationLayout, Observer, action_space
 from boxbox.model import Car, State, Track
 from boxbox.model.skill import SkillLevel
 from boxbox.torcs import setup
 from boxbox.torcs.paths import MAX_PYTHON_CARS
+
+# TorcsEnv's options the parallel env does not take yet (each reset starts the same race afresh)
+SINGLE_ENV_ONLY = ("grid_position", "pit_fuel_l", "pit_repair", "spares", "sensor_noise")
+ONE_RACE = ("track", "car", "opponents", "skill_level", "initial_fuel_l")  # one value each, not drawn
+
+
+def refuse_single_env_options(given: dict[str, Any], unknown: dict[str, Any]) -> None:
+    """A varied option or one of the single env's own is one line saying what to do; an option no
+    env takes is Python's TypeError, as for any function."""
+    for key, value in given.items():
+        if several(key, value):
+            validate.fail(f"{value!r:.60}: the parallel env races the same race at each reset; give one value "
+                          "(varied episodes are boxbox/TORCS-v0's).", key)
+    for key in unknown:
+        if key in SINGLE_ENV_ONLY:
+            validate.fail("the parallel env does not take it yet; leave it out (or drive one car per "
+                          "boxbox/TORCS-v0 env, which takes it).", key)
+        raise TypeError(f"parallel_env() got an unexpected keyword argument {key!r}")
 
 
 class Racer:
@@ -70,7 +98,10 @@ class TorcsParallelEnv(ParallelEnv):
                  max_damage: float | None = None, off_track_s: float | None = 2.0, stuck_s: float | None = 5.0,
                  skill_level: str | SkillLevel = "semi-pro", initial_fuel_l: float | None = None,
                  cpu: int | None = None, render_mode: str | None = None, pixels: bool = False,
-                 pixel_size: tuple[int, int] = (96, 96)) -> None:
+                 pixel_size: tuple[int, int] | None = None, step_timeout_s: float = STEP_TIMEOUT_S_DEFAULT,
+                 **single_env_only: Any) -> None:
+        refuse_single_env_options(dict(zip(ONE_RACE, (track, car, opponents, skill_level, initial_fuel_l),
+                                           strict=True)), single_env_only)
         n = validate.whole_number(cars, 1, MAX_PYTHON_CARS, name="cars")
         self.actions, self.assist_names = checked_actions(actions, assists)
         if "pit" in self.actions:
@@ -82,11 +113,12 @@ class TorcsParallelEnv(ParallelEnv):
         self.initial_fuel_l = (None if initial_fuel_l is None else
                                validate.finite_number(initial_fuel_l, 0, 1000.0, name="initial_fuel_l"))
         self.cpu = checked_cpu(cpu)
+        self.step_timeout_s = checked_step_timeout_s(step_timeout_s)
         flat = validate.flag(flat, name="flat")
         self.render_mode = check_render_mode(render_mode)
         self.metadata = {**self.metadata, "render_fps": render_fps(self.action_repeat)}
         self.pixels = validate.flag(pixels, name="pixels")
-        self.drawing = Drawing(check_pixel_size(pixel_size) if self.pixels else None)
+        self.drawing = Drawing(check_pixel_size(pixel_size, self.pixels))
         self.cfg = race_config(track, car, opponents, laps, skill_level, cars=n)
         self.layout = ObservationLayout.make(len(self.angles_deg))
         self.observer = Observer(self.layout, flat)
@@ -117,7 +149,7 @@ class TorcsParallelEnv(ParallelEnv):
         is deterministic; PettingZoo's own test passes options it does not know)."""
         if self.session is None:
             self.session = MultiSession(self.cfg, setup.ensure_ready(), cpu=self.cpu,
-                                        initial_fuel_l=self.initial_fuel_l)
+                                        initial_fuel_l=self.initial_fuel_l, step_timeout_s=self.step_timeout_s)
         with self.session.pin:
             states = self._start()
         self.agents = list(self.possible_agents)
@@ -143,11 +175,12 @@ class TorcsParallelEnv(ParallelEnv):
         with self.session.pin:
             totals, progress, reasons, fault = self._drive(live)
         obs = {name: self._observation(name) for name in live}
-        terminations = {name: reasons[name] is not None for name in live}
+        ends = {name: step_ends(reasons[name]) for name in live}
         infos = {name: {"state": self.racers[name].state, "progress_m": progress[name],
                         "termination": reasons[name], "fault": fault} for name in live}
         self.agents = [name for name in live if reasons[name] is None]
-        return obs, totals, terminations, dict.fromkeys(live, False), infos
+        return (obs, totals, {name: end[0] for name, end in ends.items()},
+                {name: end[1] for name, end in ends.items()}, infos)
 
     def render(self) -> np.ndarray | None:
         """With render_mode="rgb_array", the race from above: each learning car in its own colour

@@ -320,6 +320,7 @@ class CarView:
 # --- what an env draws ---------------------------------------------------------------------------
 RENDER_MODES = ["rgb_array"]
 MAX_PIXELS = 1024  # a side of the pixel observation, at most
+DEFAULT_PIXEL_SIZE = (96, 96)  # (height, width), as Gymnasium's CarRacing observes
 
 
 def check_render_mode(render_mode: Any) -> str | None:
@@ -328,8 +329,16 @@ def check_render_mode(render_mode: Any) -> str | None:
     return validate.choice(render_mode, RENDER_MODES, name="render_mode")
 
 
-def check_pixel_size(pixel_size: Any) -> tuple[int, int]:
-    """(height, width) of the pixel observation, each 8 to MAX_PIXELS."""
+def check_pixel_size(pixel_size: Any, pixels: bool) -> tuple[int, int] | None:
+    """(height, width) of the pixel observation with `pixels` (None: DEFAULT_PIXEL_SIZE), each 8 to
+    MAX_PIXELS; None without pixels, where a size given would be ignored, so it is refused."""
+    if not pixels:
+        if pixel_size is not None:
+            validate.fail(f"{pixel_size!r:.60} sizes the pixel observation, which is off; set pixels=True to "
+                          "observe the car's view, or leave pixel_size out.", "pixel_size")
+        return None
+    if pixel_size is None:
+        return DEFAULT_PIXEL_SIZE
     values = validate.items(pixel_size, "pixel sizes", name="pixel_size")
     if len(values) != 2:
         validate.fail(f"{pixel_size!r:.60} is not (height, width); give two whole numbers, e.g. (96, 96).",

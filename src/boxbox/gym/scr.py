@@ -41,6 +41,10 @@ from boxbox.gym.sensors import SCR_TRACK_ANGLES_DEG
 from boxbox.model import State, Track
 
 IDENTIFIED, RESTART, SHUTDOWN = b"***identified***", b"***restart***", b"***shutdown***"
+# the answer to an identification while another client races (not in SCR's protocol, which has one
+# client): an SCR client identifies again at once on any answer other than IDENTIFIED, where its
+# silence would count down to snakeoil's `pkill torcs` after about 7 s
+WAIT = b"***wait*** another client is racing; identify again: this one takes over once that one is silent for"
 MPS_TO_KMH = 3.6
 RADPS_TO_RPM = 60.0 / (2.0 * math.pi)
 FOCUS_SPREAD_DEG = (-2.0, -1.0, 0.0, 1.0, 2.0)  # SCR's five focus rays around the focus direction
@@ -193,7 +197,7 @@ class ScrServer:
         self.stopping = False
         self.heard_at = 0.0  # time.monotonic() of the client's last message
         self.malformed = 0  # messages ignored as malformed
-        self.waiting: set[tuple] = set()  # clients told to wait for the race's client to go silent
+        self.waiting: set[tuple] = set()  # clients told to wait for the race's client to go silent (logged once)
 
     def serve(self, races: int | None = 1) -> int:
         """Serve races (None: until stopped); the number of races that ended."""
@@ -300,9 +304,9 @@ class ScrServer:
                 self.client = None  # it identifies again
                 return False
             race.focus_deg = action.focus_deg
-            obs, _, terminated, _, info = self.env.step(action.vector())
+            obs, _, terminated, truncated, info = self.env.step(action.vector())
             race.dist_raced_m += info["progress_m"]
-            if terminated:
+            if terminated or truncated:  # truncated: TORCS failed (a fault)
                 self.log(f"race over ({info['termination']}" + (f": {info['fault']})" if info["fault"] else ")"))
                 self._send(SHUTDOWN)
                 self.client = None
@@ -337,23 +341,26 @@ class ScrServer:
 
     def _other(self, message: bytes, addr: tuple) -> Takeover | None:
         """A message from another address in a race: its identification takes over once the race's
-        client has been silent for client_timeout_s; until then it is told to wait (once)."""
+        client has been silent for client_timeout_s; until then it is told to wait (WAIT, logged once)."""
         angles = parse_init(message)
         if angles is None:
             self._ignore(message, addr, "not from the race's client")
             return None
         if self._silent_s() >= self.client_timeout_s:
             return Takeover(addr, angles)
+        self._send(WAIT + f" {self.client_timeout_s:g} s".encode(), addr)  # each time: the client asks again
         if addr not in self.waiting:
             self.waiting.add(addr)
             self.log(f"client {_who(addr)} identifies while another races; it takes over if that one is "
                      f"silent for {self.client_timeout_s:g} s")
         return None
 
-    def _send(self, data: bytes) -> None:
-        if self.client is not None:
+    def _send(self, data: bytes, addr: tuple | None = None) -> None:
+        """Send to `addr`, by default the race's client (none: nothing is sent)."""
+        to = self.client if addr is None else addr
+        if to is not None:
             try:
-                self.sock.sendto(data, self.client)
+                self.sock.sendto(data, to)
             except OSError:
                 pass  # a client that went away: noticed when it stays silent
 

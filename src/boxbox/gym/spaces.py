@@ -1,40 +1,94 @@
 """The env's observation and action spaces, every field with its unit.
 
-Observations are a `Dict` of float32 `Box`es (`OBSERVATION_FIELDS`), or the same numbers as one
-flat `Box` in the order `gymnasium.spaces.flatten` gives the `Dict` (its keys sorted by name).
+Observations are a `Dict` of float32 `Box`es, or the same numbers as one flat `Box` in the order
+`gymnasium.spaces.flatten` gives the `Dict` (its keys sorted by name).  Each observation is one
+entry of `OBSERVATIONS` (key, bounds, unit, meaning, where its numbers come from): the space, the
+vector and docs/gym.md's table are made from it.
 Actions are one `Box`, its columns named by the env's `actions` option (`ACTION_RANGES`).
 """
 
 from __future__ import annotations
 
 import math
+import operator
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 from gymnasium import spaces
 
 from boxbox.errors import UsageError
-from boxbox.gym.sensors import OFF_TRACK, OPPONENT_SECTORS, RANGE_M
+from boxbox.gym.sensors import OFF_TRACK, OPPONENT_SECTORS, RANGE_M, SCR_TRACK_ANGLES_DEG
 from boxbox.model import State
 
 RADPS_TO_RPM = 60.0 / (2.0 * math.pi)
 
-# name: (low, high, what it is); sizes other than 1 are given in `layout`.  The bounds are finite
-# (learners scale by them) and generous; a value beyond them is clipped.
-OBSERVATION_FIELDS: dict[str, tuple[float, float, str]] = {
-    "angle_rad": (-math.pi, math.pi, "the track axis's direction minus the car's heading (+: track to the left)"),
-    "damage": (0.0, 20_000.0, "TORCS's damage points (the car is out at 10000)"),
-    "dist_from_start_m": (0.0, 100_000.0, "distance along the track from the start line"),
-    "engine_rpm": (0.0, 30_000.0, "engine speed, revolutions per minute"),
-    "fuel_l": (0.0, 1_000.0, "fuel in the tank, litres"),
-    "gear": (-1.0, 10.0, "gear engaged: -1 reverse, 0 neutral, 1.. forward"),
-    "lap": (0.0, 1_000.0, "the lap being driven (TORCS counts 0 before the first crossing of the line)"),
-    "opponents_m": (0.0, RANGE_M, "nearest opponent per 10-degree sector, clockwise from straight behind"),
-    "speed_mps": (-150.0, 150.0, "speed along the car's axis and across it (+ left), m/s"),
-    "track_edges_m": (OFF_TRACK, RANGE_M, "range finders to the track edges at the sensor angles; -1 off the track"),
-    "track_pos": (-50.0, 50.0, "offset from the track axis as a fraction of the half width: +1 left edge, -1 right"),
-    "wheel_spin_radps": (-2_000.0, 2_000.0, "wheel spin, rad/s: front right, front left, rear right, rear left"),
-}
+@dataclass(frozen=True)
+class Observation:
+    """One observation: its key, bounds, unit, what it is (docs/gym.md's table is made of these) and
+    where its numbers come from: `state`, fields of the drive step's State, in order; `compute`, a
+    number computed from the State; or `sensor`, the range finders ("edges") or the opponent
+    sectors ("opponents") gym/sensors.py computes."""
+
+    name: str
+    low: float
+    high: float
+    unit: str
+    doc: str
+    state: tuple[str, ...] = ()
+    compute: Callable[[State], float] | None = None
+    sensor: str | None = None
+    size: int = 1  # the sensors' own sizes (the range finders: one per angle of the env)
+
+    def meaning(self) -> str:
+        """The docs table's 'unit and meaning' cell."""
+        return self.doc.replace("UNIT", self.unit)
+
+
+def engine_rpm(s: State) -> float:
+    return s.rpm * RADPS_TO_RPM
+
+
+def track_pos(s: State) -> float:
+    width = s.to_left_m + s.to_right_m
+    return s.to_middle_m / (0.5 * width) if width > 0.0 else 0.0
+
+
+# The observations, by key (the Dict's keys; the flat vector's order is theirs sorted).  The bounds
+# are finite (learners scale by them) and generous; a value beyond them is clipped.
+OBSERVATIONS: dict[str, Observation] = {o.name: o for o in (
+    Observation("angle_rad", -math.pi, math.pi, "rad", "the track axis's direction minus the car's heading, UNIT "
+                "(+: the track runs to the car's left)", state=("angle_rad",)),
+    Observation("damage", 0.0, 20_000.0, "points", "TORCS's damage UNIT (the car is out at 10000)", state=("damage",)),
+    Observation("dist_from_start_m", 0.0, 100_000.0, "m", "distance along the track from the start line, UNIT",
+                state=("dist_from_start_m",)),
+    Observation("engine_rpm", 0.0, 30_000.0, "revolutions per minute", "engine speed, UNIT", compute=engine_rpm),
+    Observation("fuel_l", 0.0, 1_000.0, "litres", "fuel in the tank, UNIT", state=("fuel_l",)),
+    Observation("gear", -1.0, 10.0, "", "-1 reverse, 0 neutral, 1.. forward", state=("gear",)),
+    Observation("lap", 0.0, 1_000.0, "", "the lap being driven (0 on the grid behind the line, 1 after the first "
+                "crossing)", state=("laps",)),
+    Observation("opponents_m", 0.0, RANGE_M, "m", f"nearest opponent (centre to centre, UNIT) per 10-degree sector, "
+                f"clockwise from straight behind; {RANGE_M:g} when none within {RANGE_M:g} UNIT", sensor="opponents",
+                size=OPPONENT_SECTORS),
+    Observation("speed_mps", -150.0, 150.0, "m/s", "speed along the car's axis and across it (+ left), UNIT",
+                state=("speed_x_mps", "speed_y_mps")),
+    Observation("track_edges_m", OFF_TRACK, RANGE_M, "m", "range finders from the car's centre to the track edges, "
+                "UNIT, at `track_sensor_angles_deg` (SCR's default: -90, -75, -60, -45, -30, -20, -15, -10, -5, 0, 5, "
+                f"... 90; negative to the left); {RANGE_M:g} beyond range; all {OFF_TRACK:g} with the car's centre off "
+                "the track", sensor="edges", size=len(SCR_TRACK_ANGLES_DEG)),
+    Observation("track_pos", -50.0, 50.0, "", "offset from the track axis as a fraction of the half width: +1 the "
+                "left edge, -1 the right", compute=track_pos),
+    Observation("wheel_spin_radps", -2_000.0, 2_000.0, "rad/s", "wheel spin, UNIT: front right, front left, rear "
+                "right, rear left", state=("spin_fr_rps", "spin_fl_rps", "spin_rr_rps", "spin_rl_rps")),
+)}
+
+
+def docs_table() -> str:
+    """docs/gym.md's table of the observations (a test holds the docs to it)."""
+    rows = ["| key | size | unit and meaning |", "|---|---|---|"]
+    rows += [f"| `{o.name}` | {len(o.state) or o.size} | {o.meaning()} |" for o in OBSERVATIONS.values()]
+    return "\n".join(rows) + "\n"
+
 
 # action name: (low, high)
 ACTION_RANGES: dict[str, tuple[float, float]] = {
@@ -46,7 +100,6 @@ ACTION_RANGES: dict[str, tuple[float, float]] = {
     "pit": (0.0, 1.0),  # >= 0.5: make a pit stop at the next pit entry (the env drives it)
 }
 DEFAULT_ACTIONS = ("steer", "throttle", "brake")
-SCALAR_FIELDS = ("angle_rad", "damage", "dist_from_start_m", "engine_rpm", "fuel_l", "gear", "lap", "track_pos")
 
 
 @dataclass(frozen=True)
@@ -57,9 +110,8 @@ class ObservationLayout:
 
     @classmethod
     def make(cls, n_track_sensors: int) -> ObservationLayout:
-        sizes = {name: 1 for name in OBSERVATION_FIELDS}
-        sizes.update(opponents_m=OPPONENT_SECTORS, speed_mps=2, track_edges_m=n_track_sensors, wheel_spin_radps=4)
-        return cls(sizes)
+        return cls({o.name: n_track_sensors if o.sensor == "edges" else len(o.state) or o.size
+                    for o in OBSERVATIONS.values()})
 
     @property
     def slices(self) -> dict[str, slice]:
@@ -77,7 +129,7 @@ class ObservationLayout:
         return self.slices[name].start
 
     def dict_space(self) -> spaces.Dict:
-        return spaces.Dict({name: spaces.Box(OBSERVATION_FIELDS[name][0], OBSERVATION_FIELDS[name][1],
+        return spaces.Dict({name: spaces.Box(OBSERVATIONS[name].low, OBSERVATIONS[name].high,
                                              shape=(self.sizes[name],), dtype=np.float32)
                             for name in sorted(self.sizes)})
 
@@ -86,28 +138,28 @@ class ObservationLayout:
 
 
 class Observer:
-    """Builds one step's observation as a fresh float32 vector (and, for the Dict form, its views)."""
+    """Builds one step's observation as a fresh float32 vector (and, for the Dict form, its views),
+    each number where OBSERVATIONS and the layout put it."""
 
     def __init__(self, layout: ObservationLayout, flat: bool) -> None:
         self.layout, self.flat = layout, flat
         sl = layout.slices
         self.size = layout.size
-        self.scalar_at = np.array([sl[name].start for name in SCALAR_FIELDS] + [sl["speed_mps"].start,
-                                  sl["speed_mps"].start + 1] + list(range(sl["wheel_spin_radps"].start,
-                                                                          sl["wheel_spin_radps"].stop)))
-        self.edges = sl["track_edges_m"]
-        self.opponents = sl["opponents_m"]
+        read = [o for o in OBSERVATIONS.values() if o.state]
+        computed = [o for o in OBSERVATIONS.values() if o.compute is not None]
+        self.read_state = operator.attrgetter(*(f for o in read for f in o.state))  # one call for every field
+        self.computes = tuple(o.compute for o in computed if o.compute is not None)
+        self.scalar_at = np.array([i for o in read for i in range(sl[o.name].start, sl[o.name].stop)] +
+                                  [sl[o.name].start for o in computed])
+        sensors = {o.sensor: sl[o.name] for o in OBSERVATIONS.values() if o.sensor}
+        self.edges, self.opponents = sensors["edges"], sensors["opponents"]
         self.items = list(sl.items())
         space = layout.flat_space()
         self.low, self.high = space.low, space.high
 
     def vector(self, s: State, edges: np.ndarray, opponents: np.ndarray) -> np.ndarray:
-        width = s.to_left_m + s.to_right_m
-        track_pos = s.to_middle_m / (0.5 * width) if width > 0.0 else 0.0
         out = np.empty(self.size, dtype=np.float32)
-        out[self.scalar_at] = (s.angle_rad, s.damage, s.dist_from_start_m, s.rpm * RADPS_TO_RPM, s.fuel_l, s.gear,
-                               s.laps, track_pos, s.speed_x_mps, s.speed_y_mps,
-                               s.spin_fr_rps, s.spin_fl_rps, s.spin_rr_rps, s.spin_rl_rps)
+        out[self.scalar_at] = self.read_state(s) + tuple([compute(s) for compute in self.computes])
         out[self.edges] = edges
         out[self.opponents] = opponents
         np.minimum(out, self.high, out=out)  # np.clip's wrapper costs 3 us more a step than the two ufuncs

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 
-from boxbox.gym.session import Race, RaceOrder, Started, TorcsGone
+from boxbox.gym.race import Race, RaceOrder, Started, TorcsGone
 
 MAX_SPARES = 8
 

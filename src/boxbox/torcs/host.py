@@ -19,67 +19,37 @@ import signal
 import socket
 import sys
 import traceback
-from array import array
-from dataclasses import dataclass, field
 from pathlib import Path
 from time import perf_counter_ns
 
-import numpy as np
-
-from boxbox.model import Car, CarSetup, Controls, Opponent, PitLane, PitOrder, State, Track
-from boxbox.model.state import CAR_STATE_NO_SIMU, CAR_STATE_OUT, CAR_STATE_PIT
-from boxbox.model.track import LEFT
-from boxbox.robot.base import RaceOptions, Robot
+from boxbox.model import Car, CarSetup, Controls, Opponent, PitOrder, State, Track
+from boxbox.robot.base import RaceOptions
 from boxbox.robot.loader import load_robot_class
-from boxbox.torcs import wire
+from boxbox.torcs import messages, wire
+from boxbox.torcs.carwatch import (
+    Slot,
+    car_json,
+    every_car_lost,
+    pit_zone,
+    record_step_time,
+    watch_step,
+)
 from boxbox.torcs.faults import Fault, FaultKind, RobotCall
 from boxbox.torcs.hostlink import HostLink
+from boxbox.torcs.messages import HSIZE, OPPONENTS_AT, decode_state, decode_track, pack_controls
 from boxbox.torcs.pitwatch import PitWatch
 from boxbox.torcs.recording import RaceRecorder, write_recording
 from boxbox.torcs.rundir import RunDir
 from boxbox.torcs.telemetry import NO_NEAR, SPILL_BYTES, Recorder, nearest_car, write_telemetry
-from boxbox.torcs.timing import HEARTBEAT_S, MIN_SPEED_MPS, STEP_S, TimeModel
+from boxbox.torcs.timing import HEARTBEAT_S, MIN_SPEED_MPS, TimeModel
 
-STATE_SIZE = wire.STATE_REC.size
-OPP_SIZE = wire.OPPONENT_REC.size
-STUCK_SPEED_MPS = 1.0  # slower than this outside the pit counts as stuck
 BREAKDOWN_S = 1.0  # simulated time TORCS may have lost every car before the race is stopped
-MAX_STEP_SAMPLES = 1 << 16  # step times kept per car: every step up to this, then every 2nd, 4th...
 # set in a child a robot forks (os.fork): back in the host's code it must end at once, never answer
 # the bridge or send the launcher a summary (see forked_child)
 _FORKED = [False]
 
 
-@dataclass
-class Slot:
-    """One Python car: its robot and what the host tracks for it."""
-
-    robot: Robot
-    spec: str
-    name: str
-    car: Car | None = None
-    track: Track | None = None
-    max_gear: int = 6
-    laps_seen: int = 0
-    lap_times: list[float] = field(default_factory=list)
-    step_ns: array = field(default_factory=lambda: array("q"))  # a sample of the step times (see record_step_time)
-    steps_timed: int = 0
-    step_stride: int = 1
-    chunks: list[bytes] = field(default_factory=list)
-    last_state: State | None = None
-    # incidents, in drive steps (see watch_step)
-    stuck_steps: int = 0
-    stuck_run: int = 0
-    longest_stuck_steps: int = 0
-    off_track_steps: int = 0
-    pit_zone: bytes = b""  # 1 per segment between pit entry and exit
-    pit_watch: PitWatch = field(default_factory=lambda: PitWatch(None, None, b""))  # replaced at NEW_RACE
-    recorder: Recorder | None = None  # telemetry (None: not recorded)
-    rec: Recorder | None = None  # the recorder while recording (the drive step's check), else None
-    start_fuel_l: float | None = None
-    started: bool = False  # on_track has returned: the robot is in the race
-    ended: bool = False  # on_race_end has been called (once, however the race ended)
-    lost_since_s: float | None = None  # when TORCS lost every car still racing (every_car_lost)
+HEARTBEAT_NS = int(HEARTBEAT_S * 1e9)
 
 
 class CallAbandoned(BaseException):
@@ -120,32 +90,6 @@ class RobotFault(Exception):
         return cls("exception", f"{type(exc).__name__}: {exc} ({context})", tb)
 
 
-def decode_track(blob: bytes, name: str, category: str) -> tuple[Track, Car]:
-    t = dict(zip(wire.TRACK_FIELDS, wire.TRACK_REC.unpack_from(blob, 0), strict=True))
-    n = int(t["n_segments"])
-    off = wire.TRACK_REC.size
-    seg_rows = np.frombuffer(blob, dtype="<f8", count=n * len(wire.SEGMENT_FIELDS), offset=off)
-    seg_rows = seg_rows.reshape(n, len(wire.SEGMENT_FIELDS))
-    seg = {f: seg_rows[:, i].copy() for i, f in enumerate(wire.SEGMENT_FIELDS)}
-    seg["type"] = seg["type"].astype(int)
-    seg["race_info"] = seg["race_info"].astype(int)
-    off += wire.SEGMENT_REC.size * n
-    handle = dict(zip(wire.HANDLE_FIELDS, wire.HANDLE_REC.unpack_from(blob, off), strict=True))
-    pit = None
-    if int(t["pit_type"]) != 0 and t["pit_entry_seg"] >= 0:
-        pit = PitLane(side=int(t["pit_side"]), entry_seg=int(t["pit_entry_seg"]), start_seg=int(t["pit_start_seg"]),
-                      end_seg=int(t["pit_end_seg"]), exit_seg=int(t["pit_exit_seg"]), width_m=t["pit_width_m"],
-                      box_length_m=t["pit_box_length_m"], speed_limit_mps=t["pit_speed_limit_mps"],
-                      count=int(t["pit_count"]))
-    track = Track(name=name, category=category, length_m=t["length_m"], width_m=t["width_m"], seg=seg, pit=pit)
-    handle["drivetrain"] = int(handle["drivetrain"])
-    points = int(handle.pop("torque_points"))
-    rpm = [handle.pop(f"torque_rpm_{i}") for i in range(wire.MAX_TORQUE_POINTS)]
-    torque = [handle.pop(f"torque_nm_{i}") for i in range(wire.MAX_TORQUE_POINTS)]
-    handle["torque_curve_radps"], handle["torque_curve_nm"] = tuple(rpm[:points]), tuple(torque[:points])
-    return track, Car(**handle)
-
-
 def check_start_fuel(fuel, car: Car) -> None:
     """initial_fuel_l's answer: None or litres that fit in the tank (TORCS would cut more to the
     tank's size without a word: a robot that asks for more has its sums wrong, and is told)."""
@@ -158,100 +102,12 @@ def check_start_fuel(fuel, car: Car) -> None:
                                           f"({car.tank_l:g} l): return at most car.tank_l, or None for the car's own")
 
 
-def setup_values(setup: CarSetup) -> tuple[float, float]:
-    """The setup as the FUEL record carries it: NaN for the car's own value."""
-    return tuple(math.nan if v is None else float(v)  # type: ignore[return-value]
-                 for v in (setup.front_wing_angle_rad, setup.rear_wing_angle_rad))
-
-
 def apply_setup(car: Car, setup: CarSetup) -> None:
     """The car as the robot set it up (what on_track and drive then see)."""
     if setup.front_wing_angle_rad is not None:
         car.front_wing_angle_rad = float(setup.front_wing_angle_rad)
     if setup.rear_wing_angle_rad is not None:
         car.rear_wing_angle_rad = float(setup.rear_wing_angle_rad)
-
-
-def complete_car(car: Car, payload: bytes) -> None:
-    r = dict(zip(wire.CAR_FIELDS, wire.CAR_REC.unpack_from(payload, 0), strict=True))
-    ints = {"car_index", "gear_count", "gear_offset", "pit_seg", "start_rank", "race_laps", "skill_level"}
-    for key, value in r.items():
-        if key.startswith("gear_ratio_"):
-            continue
-        setattr(car, key, int(value) if key in ints else value)
-    car.gear_ratios = tuple(r[f"gear_ratio_{i}"] for i in range(wire.MAX_GEARS))
-
-
-def pit_zone(track: Track | None) -> bytes:
-    """1 for each segment from the pit entry to the pit exit (where the pit lane runs beside the track)."""
-    if track is None or track.pit is None:
-        return b""
-    n = track.n_segments
-    zone = bytearray(n)
-    entry, exit_ = track.pit.entry_seg % n, track.pit.exit_seg % n
-    i = entry
-    for _ in range(n):
-        zone[i] = 1
-        if i == exit_:
-            break
-        i = (i + 1) % n
-    return bytes(zone)
-
-
-def watch_step(slot: Slot, state: State) -> None:
-    """Count a drive step stuck (slower than 1 m/s) or off the track (the car's centre beyond an
-    edge), outside the pit: captured in the box, or in the pit lane beside the pit zone, is neither."""
-    if int(state.car_state) & (CAR_STATE_PIT | CAR_STATE_OUT):
-        slot.stuck_run = 0
-        return
-    left, right = state.to_left_m, state.to_right_m
-    if left < 0.0 or right < 0.0:
-        seg = int(state.seg_id)
-        pit = slot.track.pit if slot.track is not None else None
-        if pit is not None and slot.pit_zone and 0 <= seg < len(slot.pit_zone) and slot.pit_zone[seg] and \
-                (left < 0.0 if pit.side == LEFT else right < 0.0):
-            slot.stuck_run = 0
-            return  # in the pit lane
-        slot.off_track_steps += 1
-    if math.hypot(state.speed_x_mps, state.speed_y_mps) < STUCK_SPEED_MPS and state.sim_time_s > 0.0:
-        slot.stuck_steps += 1
-        slot.stuck_run += 1
-        if slot.stuck_run > slot.longest_stuck_steps:
-            slot.longest_stuck_steps = slot.stuck_run
-    else:
-        slot.stuck_run = 0
-
-
-def every_car_lost(state: State) -> bool:
-    """Whether TORCS has lost our car and every other car still racing (not in its pit, not out):
-    all their positions NaN.  TORCS's physics has been seen to do this to every car in one step
-    (docs/reliability.md); no car can finish after it, and TORCS goes on simulating them for good."""
-    if state.x_m == state.x_m:
-        return False
-    return all(o.x_m != o.x_m for o in state.opponents if not int(o.car_state) & CAR_STATE_NO_SIMU)
-
-
-def record_step_time(slot: Slot, ns: int) -> None:
-    """Keep the step times in bounded memory: all of them up to MAX_STEP_SAMPLES, then an evenly
-    spaced sample over the whole race (thinned by half, stride doubled, whenever it fills up)."""
-    slot.steps_timed += 1
-    if slot.steps_timed % slot.step_stride == 0:
-        slot.step_ns.append(ns)
-        if len(slot.step_ns) >= MAX_STEP_SAMPLES:
-            del slot.step_ns[1::2]
-            slot.step_stride *= 2
-
-
-def incidents(slot: Slot) -> dict:
-    return {"stuck_s": round(slot.stuck_steps * STEP_S, 2),
-            "longest_stuck_s": round(slot.longest_stuck_steps * STEP_S, 2),
-            "off_track_s": round(slot.off_track_steps * STEP_S, 2)}
-
-
-LAPS_AT = wire.STATE_FIELDS.index("laps")
-SIM_TIME_AT = wire.STATE_FIELDS.index("sim_time_s")
-X_AT, Y_AT, YAW_AT = (wire.STATE_FIELDS.index(f) for f in ("x_m", "y_m", "yaw_rad"))
-HEARTBEAT_NS = int(HEARTBEAT_S * 1e9)
 
 
 class Host:
@@ -281,18 +137,13 @@ class Host:
         self.fault: Fault | None = None
         self._beat_due_ns = 0  # perf_counter_ns after which the next heartbeat is sent
         self.buf = bytearray(wire.MAX_MESSAGE_BYTES + 64)
-        self.out = bytearray(wire.HEADER.size + 64)
+        self.out = bytearray(messages.REPLY_BYTES)
         # every car, 10 times a second, for `boxbox replay` (torcs/recording.py)
         self.race_rec = RaceRecorder(self.buf, self.run_dir.recording_spool) if spec.get("telemetry", True) else None
 
     # --- replies and faults ----------------------------------------------------------------
     def _reply(self, conn: socket.socket, kind: int, robot: int, step: int, rec=None, values=(), flags=0) -> None:
-        wire.HEADER.pack_into(self.out, 0, kind, robot, step, flags)
-        n = wire.HEADER.size
-        if rec is not None:
-            rec.pack_into(self.out, n, *values)
-            n += rec.size
-        conn.send(memoryview(self.out)[:n])
+        conn.send(messages.pack_reply(self.out, kind, robot, step, rec, values, flags))
 
     def _fail(self, conn, robot: int, step: int, where: RobotCall, fault: RobotFault, reply_kind: int) -> None:
         """Record the fault (the first one of the race) and tell the bridge: it brakes the car and
@@ -362,13 +213,11 @@ class Host:
         per car: locals are the cheapest lookups). The CONTROLS reply is packed into the receive
         buffer right after the state record (over the opponents, decoded by then), so telemetry
         records a step with one copy (state, reply header, controls) and the nearest other car."""
-        buf, slots, hsize = self.buf, self.slots, wire.HEADER.size
-        state_rec, opp_rec = wire.STATE_REC.unpack_from, wire.OPPONENT_REC.unpack_from
-        make_state, make_opp = State._make, Opponent._make
-        pack_header, pack_controls = wire.HEADER.pack_into, wire.CONTROLS_REC.pack_into
-        reply_at = hsize + STATE_SIZE
-        reply_view = memoryview(buf)[reply_at: reply_at + hsize + wire.CONTROLS_REC.size]
-        row_view = memoryview(buf)[hsize: reply_at + hsize + wire.CONTROLS_REC.size]
+        buf, slots = self.buf, self.slots
+        decode, pack = decode_state, pack_controls
+        reply_at = OPPONENTS_AT
+        reply_view = memoryview(buf)[reply_at: reply_at + HSIZE + wire.CONTROLS_REC.size]
+        row_view = memoryview(buf)[HSIZE: reply_at + HSIZE + wire.CONTROLS_REC.size]
         robot_controls = self._robot_controls
         near, no_near = nearest_car, NO_NEAR
         race_rec = self.race_rec
@@ -376,19 +225,16 @@ class Host:
         def drive(robot: int, step: int, count: int) -> None:
             t0 = perf_counter_ns()
             slot = slots[robot]
-            vals = state_rec(buf, hsize)
+            state = decode(buf, count)
             if t0 > self._beat_due_ns:  # the launcher's stall watch (torcs/timing.py)
                 self._beat_due_ns = t0 + HEARTBEAT_NS
-                self.link.send("alive", sim_time_s=vals[SIM_TIME_AT])
+                self.link.send("alive", sim_time_s=state.sim_time_s)
+            opps = state.opponents
             if count:
-                opps = tuple([make_opp(opp_rec(buf, reply_at + i * OPP_SIZE)) for i in range(count)])
                 self._track_other_laps(opps)
-            else:
-                opps = ()
-            state = make_state(vals + (opps,))
             slot.last_state = state
             watch_step(slot, state)
-            if vals[LAPS_AT] != slot.laps_seen:
+            if state.laps != slot.laps_seen:
                 self._lap(slot, state)
             try:
                 c = robot_controls(slot, state, step)
@@ -396,17 +242,15 @@ class Host:
                 self._fail(conn, robot, step, "drive", fault, wire.CONTROLS)
                 return
             if race_rec is not None:  # before the reply is packed over the opponents
-                race_rec.step(robot, vals[SIM_TIME_AT], count, c)
-            pack_header(buf, reply_at, wire.CONTROLS, robot, step, 0)
-            pack_controls(buf, reply_at + hsize, c.steer, c.accel, c.brake, c.clutch, c.gear,
-                          1.0 if c.pit_request else 0.0)
+                race_rec.step(robot, state.sim_time_s, count, c)
+            pack(buf, reply_at, robot, step, c.steer, c.accel, c.brake, c.clutch, c.gear, c.pit_request)
             conn.send(reply_view)
             if c.pit_request or slot.pit_watch.active:
                 slot.pit_watch.step(state, c.pit_request)
             rec = slot.rec
             if rec is not None:
                 rec.rows += row_view
-                rec.rows += near(vals[X_AT], vals[Y_AT], vals[YAW_AT], opps) if opps else no_near
+                rec.rows += near(state.x_m, state.y_m, state.yaw_rad, opps) if opps else no_near
                 if rec.tel is not None:
                     rec.add_signals(state)
                 if len(rec.rows) >= SPILL_BYTES and not rec.spill():
@@ -457,11 +301,9 @@ class Host:
     # --- the other messages ----------------------------------------------------------------
     def _new_track(self, conn, robot: int, step: int, count: int, n: int) -> None:
         slot = self.slots[robot]
-        slot.chunks.append(bytes(self.buf[wire.HEADER.size:n]))
-        if step + 1 < count:
+        blob = slot.chunks.add(self.buf, n, step, count)
+        if blob is None:
             return  # more chunks follow
-        blob = b"".join(slot.chunks)
-        slot.chunks = []
         try:
             slot.track, slot.car = decode_track(blob, self.spec["track"], self.spec["category"])
             slot.car.name = self.spec["car"]
@@ -480,8 +322,7 @@ class Host:
             self._fail(conn, robot, step, "initial_fuel_l", fault, wire.FUEL)
             return
         apply_setup(slot.car, setup)
-        self._reply(conn, wire.FUEL, robot, step, wire.FUEL_REC, (-1.0 if fuel is None else float(fuel),
-                                                                   *setup_values(setup)))
+        self._reply(conn, wire.FUEL, robot, step, wire.FUEL_REC, messages.fuel_reply(fuel, setup))
 
     def _offset_fuel(self, fuel: float | None, car: Car) -> float | None:
         """The robot's start fuel (None: the car's own) plus the race's fuel_offset_l; as much less
@@ -501,7 +342,7 @@ class Host:
     def _new_race(self, conn, robot: int, step: int, count: int, n: int) -> None:
         slot = self.slots[robot]
         assert slot.car is not None, "NEW_RACE before NEW_TRACK"
-        complete_car(slot.car, bytes(self.buf[wire.HEADER.size:n]))
+        messages.complete_car(slot.car, bytes(self.buf[HSIZE:n]))
         slot.max_gear = slot.car.max_gear
         slot.pit_zone = pit_zone(slot.track)
         slot.pit_watch = PitWatch(slot.track, slot.car, slot.pit_zone)
@@ -521,9 +362,9 @@ class Host:
 
     def _pit_cmd(self, conn, robot: int, step: int, count: int, n: int) -> None:
         slot = self.slots[robot]
-        state = State._make(wire.STATE_REC.unpack_from(self.buf, wire.HEADER.size) + ((),))
+        state = decode_state(self.buf, 0)  # PIT_CMD: a STATE, no opponents
         if slot.rec is not None:  # the stop itself: TORCS drives no car it holds in the pit
-            slot.rec.add(bytes(self.buf[wire.HEADER.size: wire.HEADER.size + STATE_SIZE]), state)
+            slot.rec.add(bytes(self.buf[HSIZE: OPPONENTS_AT]), state)
         slot.pit_watch.step(state, True)
         try:
             order = self._call("pit_stop", slot.robot.pit_stop, state)
@@ -552,9 +393,7 @@ class Host:
 
     def _message_state(self, n: int) -> State | None:
         """The STATE record a message of n bytes carries, if it carries one."""
-        if n < wire.HEADER.size + STATE_SIZE:
-            return None
-        return State._make(wire.STATE_REC.unpack_from(self.buf, wire.HEADER.size) + ((),))
+        return messages.message_state(self.buf, n)
 
     def _race_end(self, slot: Slot, state: State | None) -> RobotFault | None:
         """The robot's on_race_end, once per race, for a robot that took part (its on_track
@@ -633,27 +472,6 @@ class Host:
             for rec in recorders:
                 rec.remove_spool()
         return lost
-
-
-def car_json(index: int, slot: Slot, final: bool, pit_laps: tuple[int, ...] = ()) -> dict:
-    """One Python car's figures; the step times and the robot's report only at the end (final),
-    when also the stops the race asked for (pit_laps) and the robot never did are missed stops."""
-    ns = sorted(slot.step_ns) if final else []
-    report: dict = {}
-    if final and slot.car is not None:
-        try:
-            report = slot.robot.race_report()
-            json.dumps(report)
-        except Exception as exc:  # a report must never lose the race's results
-            report = {"report_error": f"{type(exc).__name__}: {exc}"}
-    return {"robot_index": index, "robot": slot.spec, "name": slot.name,
-            "car_index": slot.car.car_index if slot.car else None,
-            "lap_times": slot.lap_times, "steps": slot.steps_timed, "start_fuel_l": slot.start_fuel_l,
-            "step_us_median": ns[len(ns) // 2] / 1000 if ns else None,
-            "step_us_p99": ns[min(len(ns) - 1, int(len(ns) * 0.99))] / 1000 if ns else None,
-            "missed_pit_stops": slot.pit_watch.finish() + slot.pit_watch.unasked(pit_laps, slot.laps_seen) if final
-            else list(slot.pit_watch.missed),
-            "report": report, **incidents(slot)}
 
 
 def report_fault(run_dir: RunDir, link: HostLink, fault: Fault) -> None:

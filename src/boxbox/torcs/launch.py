@@ -326,12 +326,20 @@ class RaceLaunch:
         result.drivers = merge_drivers(self._torcs_entries(), host, cfg.names, cfg.car, self._opponent_drivers(),
                                        self.laps_seen)
         result.limits = self._limits()
-        result.error = f"{INTERRUPTED} (run dir {self.run_dir})" if self.stop.stopped else self._diagnosis()
+        result.error = self._stopped_by() if self.stop.stopped else self._diagnosis()
         if self._killed_from_outside() and result.error:
             first, nl, rest = result.error.partition("\n")
             result.error = f"{HOST_KILLED}; race again: {first}" + nl + rest
         self._save(result)
         return result
+
+    def _stopped_by(self) -> str:
+        """Why a stop signal ended the race: an interruption, or a robot that signalled its parent."""
+        pids = {p.pid for p in (self.host, self.torcs) if p is not None}
+        if self.stop.from_race(pids):
+            return (f"a robot sent {self.stop.names()} to boxbox (the robot host's parent process), which stops "
+                    f"a race: a robot may not signal boxbox; the results so far are kept (run dir {self.run_dir})")
+        return f"{INTERRUPTED} (run dir {self.run_dir})"
 
     def _killed_from_outside(self) -> bool:
         """The host died of SIGKILL by itself (the launcher had not killed it), with no fault said,

@@ -26,6 +26,8 @@ from pathlib import Path
 
 import psutil
 
+from boxbox.torcs.signals import STOP_SIGNALS
+
 PR_SET_PDEATHSIG = 1
 PR_SET_CHILD_SUBREAPER = 36
 PR_GET_CHILD_SUBREAPER = 37
@@ -37,6 +39,7 @@ def child_setup(cpu: int | None, address_space_bytes: int | None = None) -> Call
     host) keep within its address space (RLIMIT_AS: past it an allocation fails, a MemoryError in
     Python, instead of the machine running out of memory and the OOM killer choosing a victim)."""
     def setup() -> None:
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, STOP_SIGNALS)  # blocked in the launcher (torcs/signals.py)
         _libc.prctl(PR_SET_PDEATHSIG, signal.SIGKILL)
         if cpu is not None:
             os.sched_setaffinity(0, {cpu})
@@ -115,7 +118,7 @@ def _host_child(spec_path: Path, log_fd: int, setup: Callable[[], None]) -> None
         os.setsid()
         _libc.prctl(PR_SET_CHILD_SUBREAPER, 1)  # what the robot starts stays below the host (end_descendants)
         signal.set_wakeup_fd(-1)  # the launcher's stop signals are not the host's
-        for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+        for sig in STOP_SIGNALS:
             signal.signal(sig, signal.SIG_DFL)
         setup()
         null = os.open(os.devnull, os.O_RDONLY)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import gymnasium
 import numpy as np
@@ -10,7 +11,7 @@ import pytest
 
 from boxbox.errors import UsageError
 from boxbox.gym import reward as rw
-from boxbox.gym.spaces import OBSERVATION_FIELDS, ActionReader, ObservationLayout, Observer, action_space
+from boxbox.gym.spaces import OBSERVATIONS, ActionReader, ObservationLayout, Observer, action_space, docs_table
 from boxbox.model import State
 
 S0 = State(*([0.0] * 42))
@@ -22,7 +23,7 @@ def state(**fields) -> State:
 
 def test_the_flat_vector_is_gymnasiums_flattening_of_the_dict():
     layout = ObservationLayout.make(n_track_sensors=19)
-    assert set(layout.sizes) == set(OBSERVATION_FIELDS)
+    assert set(layout.sizes) == set(OBSERVATIONS)
     dict_space, flat_space = layout.dict_space(), layout.flat_space()
     obs = Observer(layout, flat=False)
     s = state(angle_rad=0.1, damage=12.0, dist_from_start_m=345.0, rpm=500.0, fuel_l=40.0, gear=3.0, laps=2.0,
@@ -36,6 +37,24 @@ def test_the_flat_vector_is_gymnasiums_flattening_of_the_dict():
     assert d["engine_rpm"][0] == pytest.approx(500.0 * 60 / (2 * math.pi), rel=1e-6)
     assert list(d["wheel_spin_radps"]) == [1.0, 2.0, 3.0, 4.0] and list(d["speed_mps"]) == [30.0, -1.0]
     assert d["lap"][0] == 2.0 and d["gear"][0] == 3.0 and list(d["track_edges_m"]) == list(range(19))
+
+
+def test_each_observation_is_where_its_entry_says_and_the_docs_table_is_made_from_the_entries():
+    layout = ObservationLayout.make(n_track_sensors=5)
+    obs = Observer(layout, flat=False)
+    s = state(angle_rad=0.1, damage=12.0, dist_from_start_m=345.0, fuel_l=40.0, gear=3.0, laps=2.0,
+              speed_x_mps=30.0, speed_y_mps=-1.0, spin_fr_rps=1.0, spin_fl_rps=2.0, spin_rr_rps=3.0, spin_rl_rps=4.0)
+    d = obs.observation(obs.vector(s, np.arange(5.0), np.arange(36.0)))
+    for entry in OBSERVATIONS.values():
+        if entry.state:
+            want = [getattr(s, field) for field in entry.state]
+        elif entry.compute is not None:
+            want = [entry.compute(s)]
+        else:
+            want = list(range(5 if entry.sensor == "edges" else 36))
+        assert list(d[entry.name]) == pytest.approx(want, rel=1e-6), entry.name
+    doc = (Path(__file__).resolve().parents[3] / "docs" / "gym.md").read_text()
+    assert docs_table() in doc  # regenerate docs/gym.md's table with print(docs_table())
 
 
 def test_values_beyond_the_bounds_are_clipped_into_the_space():

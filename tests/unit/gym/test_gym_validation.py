@@ -27,7 +27,7 @@ ANYTHING = st.recursive(SCALARS, lambda inner: st.one_of(st.lists(inner, max_siz
 OPTIONS = ["track", "car", "opponents", "laps", "action_repeat", "actions", "assists", "flat",
            "track_sensor_angles_deg", "reward_fn", "reward_weights", "max_damage", "off_track_s", "stuck_s",
            "skill_level", "grid_position", "initial_fuel_l", "pit_fuel_l", "pit_repair", "cpu", "render_mode", "pixels",
-           "pixel_size"]
+           "pixel_size", "spares", "sensor_noise", "step_timeout_s"]
 
 
 class SetUp(Exception):
@@ -82,6 +82,60 @@ def test_the_options_of_issue_48_are_refused_in_one_line(no_setup):
     assert env_module.checked_actions("steer, throttle", "gears") == (("steer", "throttle"), ("gears",))
     assert made(stuck_s=None, off_track_s=None, max_damage=5000, initial_fuel_l=0, opponents="bt:2,berniw:3",
                 track_sensor_angles_deg=(-45, 0, 45), grid_position="last") is None
+
+
+def test_options_that_were_accepted_and_ignored_are_refused_with_what_to_do(no_setup):
+    cases = [
+        ({"pixel_size": (7, 7)}, "sizes the pixel observation, which is off; set pixels=True"),
+        ({"pixel_size": 96}, "sizes the pixel observation, which is off; set pixels=True"),
+        ({"assists": ("gears", "gears")}, "'assists': ('gears', 'gears'): choose each of the assists at most once"),
+        ({"assists": "abs,abs", "actions": ("steer", "throttle", "brake", "gear")}, "at most once"),
+        ({"opponents": [[], ["bt:1"]]}, "wrap them in OneOf (boxbox.gym.episodes): opponents=OneOf([], ['bt:1'])"),
+        ({"step_timeout_s": 0}, "Invalid value for 'step_timeout_s': 0.0 is not in the range 0<x<=3600.0."),
+        ({"step_timeout_s": math.inf}, "Invalid value for 'step_timeout_s'"),
+    ]
+    for kwargs, words in cases:
+        got = made(**kwargs)
+        assert got is not None and words in got, (kwargs, got)
+    assert made(pixels=True, pixel_size=(64, 64), step_timeout_s=0.5, opponents=[("bt", 1), "bt:2"]) is None
+
+
+def test_the_parallel_env_refuses_the_single_envs_options_in_one_line(no_setup):
+    from boxbox.gym import parallel_env
+
+    cases = [
+        ({"sensor_noise": True}, "'sensor_noise': the parallel env does not take it yet; leave it out"),
+        ({"spares": 0}, "'spares': the parallel env does not take it yet"),
+        ({"grid_position": 2}, "'grid_position': the parallel env does not take it yet"),
+        ({"track": ["g-track-1", "e-track-2"]}, "'track': ['g-track-1', 'e-track-2']: the parallel env races the same "
+                                                "race at each reset; give one value"),
+        ({"opponents": [[], ["bt:1"]]}, "the parallel env races the same race at each reset"),
+        ({"pixel_size": 96}, "set pixels=True"),
+    ]
+    for kwargs, words in cases:
+        with pytest.raises(UsageError) as refused:
+            parallel_env(**kwargs)
+        assert words in str(refused.value) and "\n" not in str(refused.value), (kwargs, str(refused.value))
+    with pytest.raises(TypeError, match="unexpected keyword argument 'bogus'"):
+        parallel_env(bogus=1)
+    with pytest.raises(SetUp):  # a field of pairs and names is one field
+        parallel_env(opponents=[("bt", 1), "bt:2"], step_timeout_s=2)
+
+
+def test_the_docs_option_table_is_the_envs_signature():
+    """Each option docs/gym.md's table lists is one TorcsEnv takes, and each one it takes is listed."""
+    import inspect
+    import itertools
+    import re
+    from pathlib import Path
+
+    doc = (Path(__file__).resolve().parents[3] / "docs" / "gym.md").read_text()
+    lines = doc.split("## Options", 1)[1].splitlines()
+    first = next(i for i, line in enumerate(lines) if line.startswith("|"))
+    rows = list(itertools.takewhile(lambda line: line.startswith("|"), lines[first:]))[2:]  # below the header
+    listed = {name for row in rows for name in re.findall(r"`(\w+)`", row.split("|")[1])}
+    takes = set(inspect.signature(TorcsEnv.__init__).parameters) - {"self"}
+    assert listed == takes, (sorted(listed - takes), sorted(takes - listed))
 
 
 def test_reset_refuses_options_it_does_not_take():

@@ -110,11 +110,12 @@ def test_the_overview_shows_every_car_where_it_is(raster):
 
 def test_render_options_are_checked():
     assert render.check_render_mode(None) is None and render.check_render_mode("rgb_array") == "rgb_array"
-    assert render.check_pixel_size((64, 128)) == (64, 128)
+    assert render.check_pixel_size((64, 128), True) == (64, 128)
+    assert render.check_pixel_size(None, True) == (96, 96) and render.check_pixel_size(None, False) is None
     for bad in ("human", 1, "RGB"):
         with pytest.raises(UsageError, match="render_mode"):
             render.check_render_mode(bad)
     for bad in ((96,), (96, 96, 3), (4, 96), (96, 5000), "big", 96):
         with pytest.raises(UsageError, match="pixel_size"):
-            render.check_pixel_size(bad)
+            render.check_pixel_size(bad, True)
     assert render.render_fps(1) == 50.0 and render.render_fps(5) == 10.0

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import time
 
-from boxbox.gym.session import IdleShares, spare_core
+from boxbox.gym.cores import IdleShares, spare_core
 
 
 def test_an_idle_other_core_takes_the_spare():
