@@ -11,7 +11,7 @@ PitMode = Literal["constant-decel", "bang-bang"]  # how the robot brakes into it
 PIT_MODES: tuple[PitMode, ...] = get_args(PitMode)
 
 # on: the shared learning store; off: none; fresh: a new empty store in the race's run dir
-# (torcs/launch.py: learning_store, one per skill level)
+# (torcs/raceprep.py: learning_store, one per skill level)
 LearningMode = Literal["on", "off", "fresh"]
 LEARNING_MODES: tuple[LearningMode, ...] = get_args(LearningMode)
 

@@ -7,8 +7,8 @@ import dataclasses
 
 import pytest
 
-from boxbox.bench.bench import BenchSpec, classify_robot, expand_all, plan
 from boxbox.bench.cache import cache_key, python_robot_version, torcs_robot_version
+from boxbox.bench.solo import BenchSpec, classify_robot, expand_all, plan
 from boxbox.cli.types import CommaList
 from boxbox.errors import UsageError
 from boxbox.report.tables import fmt_time

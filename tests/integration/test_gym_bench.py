@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import re
 
-from boxbox.gym.bench import markdown, run_bench
+from boxbox.gym.bench_gym import markdown, run_bench
 
 
 def number(text: str) -> float:

@@ -130,7 +130,7 @@ def test_storage_calls_of_a_trial_on_postgres(postgres):
     parameters on three tracks with pruning makes at most 44 SQL statements (82 when ask looked for
     queued trials, the pruner and TPE's constant liar read the study again and tell read the trial
     back twice)."""
-    from boxbox.tune.bench import time_storage
+    from boxbox.tune.bench_tune import time_storage
     from boxbox.tune.objective import TuneConfig
 
     base = TuneConfig(study="x", tracks=["g-track-1", "e-track-2", "aalborg"], categories=["road"] * 3,

@@ -14,7 +14,8 @@ import pytest
 
 import boxbox.robot.params as params_mod
 from boxbox.model import State
-from boxbox.report.race_report import braking_points, build_report, write_report
+from boxbox.report.figures import braking_points
+from boxbox.report.race_report import build_report, write_report
 from boxbox.robot.base import RaceOptions, Robot
 from boxbox.robot.tutorial import PIT_PHASE_CODES, TutorialRobot
 from boxbox.torcs import wire

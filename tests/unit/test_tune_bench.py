@@ -1,8 +1,8 @@
-"""bench-tune's summary (tune.bench) on plain numbers."""
+"""bench-tune's summary (tune/bench_tune.py) on plain numbers."""
 
 from __future__ import annotations
 
-from boxbox.tune.bench import BenchTuneResult, summary_rows
+from boxbox.tune.bench_tune import BenchTuneResult, summary_rows
 
 
 def test_summary_of_the_generalisation_studies_alone_is_empty():

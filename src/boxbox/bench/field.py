@@ -2,7 +2,7 @@
 
 On each track two races (issue #16): the robot starts last of ten behind nine TORCS robots in a
 fixed grid order, then the same race with its slot taken by `inferno:3`, a TORCS robot in the same
-car (car1-trb1), as the anchor.  Both are ordinary bench races (bench/bench.py): cached, raced in
+car (car1-trb1), as the anchor.  Both are ordinary bench races (bench/solo.py): cached, raced in
 parallel, their run dirs (result, telemetry) kept for `boxbox report`.
 
 Figures per car: finishing place, gap to the winner, places gained on lap 1, its damage, the
@@ -24,7 +24,7 @@ from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
-from boxbox.bench.bench import BenchSpec, RaceJob, plan, race_or_recall
+from boxbox.bench.solo import BenchSpec, RaceJob, plan, race_or_recall
 from boxbox.cache import cache_dir
 from boxbox.errors import UsageError
 from boxbox.files import write_json_atomic

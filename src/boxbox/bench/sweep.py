@@ -18,8 +18,8 @@ from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
-from boxbox.bench.bench import BenchSpec, plan, race_or_recall, row_of
 from boxbox.bench.cache import package_version
+from boxbox.bench.solo import BenchSpec, plan, race_or_recall, row_of
 from boxbox.files import write_json_atomic, write_text_atomic
 from boxbox.model.skill import DEFAULT_SKILL_LEVEL, SkillLevel
 from boxbox.options import LearningMode

@@ -22,7 +22,7 @@ COMMANDS = {
     **dict.fromkeys(("race", "params", "drill"), "race"),
     **dict.fromkeys(("setup", "doctor", "tracks", "cars", "robots"), "info"),
     **dict.fromkeys(("bench", "bench-speed", "bench-pits", "bench-field", "bench-telemetry", "bench-learning"),
-                    "bench"),
+                    "benches"),
     **dict.fromkeys(("report", "contacts"), "report"), "replay": "replay",
     **dict.fromkeys(("sweep", "soak"), "reliability"), **dict.fromkeys(("scr-server", "bench-gym"), "gym"),
     "limit": "limit", **dict.fromkeys(("tune", "bench-tune"), "tune"),

@@ -11,7 +11,7 @@ from boxbox.errors import Interrupted, RaceError
 if TYPE_CHECKING:
     from rich.console import Console
 
-    from boxbox.torcs.launch import RaceConfig
+    from boxbox.torcs.raceprep import RaceConfig
     from boxbox.torcs.results import RaceResult
     from boxbox.torcs.setup import Overlay
 

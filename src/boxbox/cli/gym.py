@@ -68,7 +68,7 @@ def bench_gym(track, steps, episode_steps, envs, vector_steps, episodes, policy_
     from rich.table import Table
 
     from boxbox.files import write_json_atomic
-    from boxbox.gym.bench import run_bench
+    from boxbox.gym.bench_gym import run_bench
     from boxbox.torcs.checks import check_race
 
     ready()

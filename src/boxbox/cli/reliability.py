@@ -44,7 +44,7 @@ def sweep(robot, car, cars_track, tracks, cars, laps, jobs, no_cache, json_file,
 
     Example: boxbox sweep --tracks aalborg,e-track-2 --cars car1-trb1 --laps 1
     """
-    from boxbox.bench.bench import expand_all
+    from boxbox.bench.solo import expand_all
     from boxbox.bench.sweep import SweepSpec, check, command_line, run_sweep, write_outputs
     from boxbox.report.replay import replay_line
     from boxbox.torcs import catalog

@@ -161,6 +161,7 @@ def _run_with_progress(cfg, workers: int, stop, quiet: bool):
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
     from boxbox.tune import study as studies
+    from boxbox.tune import study_figures
 
     if quiet:
         return studies.run(cfg, workers, lambda s: None, stop)
@@ -169,7 +170,7 @@ def _run_with_progress(cfg, workers: int, stop, quiet: bool):
         task = bar.add_task(f"tune {cfg.study[:40]}", total=cfg.trials, note="")
 
         def tick(study) -> None:
-            p = studies.progress(study)
+            p = study_figures.progress(study)
             best = "-" if p.best_value is None else f"{p.best_value:.3f} s"
             bar.update(task, completed=min(p.finished, cfg.trials),
                        note=f"best {best}, {p.pruned} pruned, {p.running} running, {p.failed} failed")
@@ -182,11 +183,11 @@ def _summary(cfg, study, setup_out: Path | None, report_dir: Path | None, compar
 
     from boxbox.robot.loader import load_robot_class
     from boxbox.robot.tunable import param_space, write_setup
-    from boxbox.tune import study as studies
+    from boxbox.tune import study_figures
     from boxbox.tune.storage import journal_path
 
-    p = studies.progress(study)
-    skipped, run, saved_s = studies.pruning_savings(study, len(cfg.tracks))
+    p = study_figures.progress(study)
+    skipped, run, saved_s = study_figures.pruning_savings(study, len(cfg.tracks))
     err.print(f"{p.complete} complete, {p.pruned} pruned, {p.failed} failed trials; pruning skipped {skipped} of "
               f"{skipped + run} races (about {saved_s:.0f} s of racing saved)")
     chosen = pick.choose(study, cfg)
@@ -290,7 +291,7 @@ def bench_tune(robot, tracks, param_names, laps, trials, storage_trials, storage
     from boxbox.robot.loader import load_robot_class
     from boxbox.robot.tunable import param_space
     from boxbox.torcs import checks
-    from boxbox.tune.bench import run_bench, summary_rows
+    from boxbox.tune.bench_tune import run_bench, summary_rows
     from boxbox.tune.objective import TuneConfig
     from boxbox.tune.postgres import TempServer
     from boxbox.tune.space import distributions

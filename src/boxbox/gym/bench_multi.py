@@ -14,7 +14,7 @@ import gymnasium
 import numpy as np
 
 from boxbox.gym import ENV_ID
-from boxbox.gym.bench import Log, Row, _actions, timed_steps
+from boxbox.gym.bench_gym import Log, Row, _actions, timed_steps
 from boxbox.gym.parallel import parallel_env
 
 

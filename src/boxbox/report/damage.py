@@ -15,7 +15,7 @@ MOVED_S = 0.5  # who moved over towards the other is judged over this long befor
 
 
 @dataclass(frozen=True)
-class Incident:
+class DamageIncident:
     """One incident: the hits from time_s on, none more than MERGE_S after the one before."""
 
     lap: int  # the lap it began on (0: before the start line)
@@ -44,7 +44,7 @@ class Incident:
         return float(np.hypot(self.near_ahead_m, self.near_left_m))
 
 
-def damage_incidents(c: dict[str, np.ndarray], merge_s: float = MERGE_S) -> list[Incident]:
+def damage_incidents(c: dict[str, np.ndarray], merge_s: float = MERGE_S) -> list[DamageIncident]:
     """The incidents of one car's telemetry `c` (columns time_s, lap, dist_m, speed_mps, damage,
     x_m, y_m, one row per step; near_car, near_ahead_m, near_left_m when recorded).  A fall of the
     count (a repair in the pits) is not a hit."""
@@ -60,7 +60,7 @@ def damage_incidents(c: dict[str, np.ndarray], merge_s: float = MERGE_S) -> list
     ahead = np.asarray(c.get("near_ahead_m", np.full(n, np.nan)), dtype=float)
     left = np.asarray(c.get("near_left_m", np.full(n, np.nan)), dtype=float)
     mid = np.asarray(c.get("to_middle_m", np.full(n, np.nan)), dtype=float)
-    return [Incident(lap=int(c["lap"][r.first]), dist_m=float(c["dist_m"][r.first]), time_s=float(t[r.first]),
+    return [DamageIncident(lap=int(c["lap"][r.first]), dist_m=float(c["dist_m"][r.first]), time_s=float(t[r.first]),
                      damage=r.damage, speed_mps=float(c["speed_mps"][r.first]), hits=r.hits,
                      x_m=float(c["x_m"][r.first]), y_m=float(c["y_m"][r.first]), near_car=int(near[r.first]),
                      near_ahead_m=float(ahead[r.first]), near_left_m=float(left[r.first]),
@@ -100,7 +100,7 @@ def damage_rises(time_s: np.ndarray, damage: np.ndarray, merge_s: float = MERGE_
 
 
 def _moved_in(t: np.ndarray, first: int, near: np.ndarray, left: np.ndarray, mid: np.ndarray) -> dict[str, float]:
-    """we_moved_in_m and it_moved_in_m of the incident whose first hit is at row `first` (see Incident)."""
+    """we_moved_in_m and it_moved_in_m of the incident whose first hit is at row `first` (see DamageIncident)."""
     before = int(np.searchsorted(t, t[first] - MOVED_S))
     if near[first] < 0 or near[before] != near[first] or before == first:
         return {}
@@ -110,7 +110,7 @@ def _moved_in(t: np.ndarray, first: int, near: np.ndarray, left: np.ndarray, mid
     return {"we_moved_in_m": float(we), "it_moved_in_m": float(it)}
 
 
-def damage_by_lap(incidents: list[Incident]) -> dict[int, int]:
+def damage_by_lap(incidents: list[DamageIncident]) -> dict[int, int]:
     """Damage points taken per lap (the lap each incident began on), laps in order."""
     out: dict[int, int] = {}
     for i in sorted(incidents, key=lambda i: i.lap):
@@ -118,7 +118,7 @@ def damage_by_lap(incidents: list[Incident]) -> dict[int, int]:
     return out
 
 
-def nearest_text(i: Incident, names: dict[int, str], near_m: float = NEAR_M) -> str:
+def nearest_text(i: DamageIncident, names: dict[int, str], near_m: float = NEAR_M) -> str:
     """The nearest other car at the incident's first hit in words ("bt 2: 3.1 m ahead, 1.8 m
     left"), or that none was within near_m; names: TORCS car index -> driver name."""
     if i.near_car < 0 or not i.near_m <= near_m:
@@ -128,7 +128,7 @@ def nearest_text(i: Incident, names: dict[int, str], near_m: float = NEAR_M) -> 
     return f"{names.get(i.near_car, f'car {i.near_car}')}: {ahead}, {side}"
 
 
-def moved_text(i: Incident, near_m: float = NEAR_M) -> str:
+def moved_text(i: DamageIncident, near_m: float = NEAR_M) -> str:
     """Who moved over towards the other in the MOVED_S before the first hit, in words ("we 3.2 m,
     it -1.2 m": we moved 3.2 m towards it, it 1.2 m away), or "" when not known or no car was near."""
     if i.near_car < 0 or not i.near_m <= near_m or i.we_moved_in_m != i.we_moved_in_m:

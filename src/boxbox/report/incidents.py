@@ -30,7 +30,7 @@ KINDS = ("contact", "damage", "off-track", "spin", "pass", "pit-stop", "missed-s
 
 
 @dataclass(frozen=True)
-class Incident:
+class RaceIncident:
     kind: str  # one of KINDS
     time_s: float  # simulated time it began
     lap: int  # the lap of the first car in `cars` then (TORCS's count)
@@ -113,7 +113,7 @@ def _near_cars(f: Frames, s: int, k: int, lengths: dict[int, float]) -> list[int
     return near
 
 
-def damage_incidents(f: Frames, lengths: dict[int, float]) -> list[Incident]:
+def damage_incidents(f: Frames, lengths: dict[int, float]) -> list[RaceIncident]:
     """Every jump of a car's damage (rises under MERGE_S apart are one): a contact when other cars
     were within a car's length, else damage (a barrier, a kerb, the car's own landing)."""
     out = []
@@ -122,13 +122,13 @@ def damage_incidents(f: Frames, lengths: dict[int, float]) -> list[Incident]:
             first, last, taken = rise.first, rise.last, rise.damage
             near = _near_cars(f, first, k, lengths)
             speed = f.at("speed_mps", first, k) * 3.6
-            out.append(Incident("contact" if near else "damage", float(f.times[first]), _lap(f, first, k),
+            out.append(RaceIncident("contact" if near else "damage", float(f.times[first]), _lap(f, first, k),
                                 f.at("dist_m", first, k), (car, *near), damage=taken,
                                 duration_s=float(f.times[last] - f.times[first]), detail=f"at {speed:.0f} km/h"))
     return out
 
 
-def off_track_incidents(f: Frames) -> list[Incident]:
+def off_track_incidents(f: Frames) -> list[RaceIncident]:
     """Each spell with the car's centre beyond a track edge (the pit lane excepted)."""
     out = []
     off = f.flag("off_track") & ~f.flag("out")
@@ -138,12 +138,12 @@ def off_track_incidents(f: Frames) -> list[Incident]:
             if length + 1e-9 < OFF_MIN_S:
                 continue
             side = "left" if f.at("to_middle_m", first, k) > 0 else "right"
-            out.append(Incident("off-track", float(f.times[first]), _lap(f, first, k), f.at("dist_m", first, k),
+            out.append(RaceIncident("off-track", float(f.times[first]), _lap(f, first, k), f.at("dist_m", first, k),
                                 (car,), duration_s=length, detail=f"off the {side} edge for {length:.1f} s"))
     return out
 
 
-def spin_incidents(f: Frames) -> list[Incident]:
+def spin_incidents(f: Frames) -> list[RaceIncident]:
     """Each spell with a car turned more than SPIN_RAD from the track's direction (outside the pit)."""
     out = []
     heading = np.abs(np.nan_to_num(f.cols["heading_to_track_rad"]))
@@ -151,7 +151,7 @@ def spin_incidents(f: Frames) -> list[Incident]:
     for k, car in enumerate(f.cars):
         for first, last in _runs(spun[:, k], f.times, SPIN_MERGE_S):
             worst = float(np.degrees(heading[first:last + 1, k].max()))
-            out.append(Incident("spin", float(f.times[first]), _lap(f, first, k), f.at("dist_m", first, k), (car,),
+            out.append(RaceIncident("spin", float(f.times[first]), _lap(f, first, k), f.at("dist_m", first, k), (car,),
                                 duration_s=float(f.times[last] - f.times[first]),
                                 detail=f"turned up to {worst:.0f} deg from the track's direction"))
     return out
@@ -174,7 +174,7 @@ def _held_swaps(rel: np.ndarray, times: np.ndarray) -> list[int]:
     return out
 
 
-def pass_incidents(f: Frames) -> list[Incident]:
+def pass_incidents(f: Frames) -> list[RaceIncident]:
     """Two cars swapping places in the race for good (the car now ahead first); a car out of the
     race is not passed, a car in the pit lane is (said so)."""
     place = f.cols["place"]
@@ -188,13 +188,13 @@ def pass_incidents(f: Frames) -> list[Incident]:
             for s in _held_swaps(rel, f.times):
                 ahead, behind = (a, b) if rel[s] > 0 else (b, a)
                 note = " (in the pit lane)" if pit[s, behind] or pit[s, ahead] else ""
-                found.append(Incident("pass", float(f.times[s]), _lap(f, s, ahead), f.at("dist_m", s, ahead),
+                found.append(RaceIncident("pass", float(f.times[s]), _lap(f, s, ahead), f.at("dist_m", s, ahead),
                                       (f.cars[ahead], f.cars[behind]),
                                       detail=f"for place {int(place[s, ahead])}{note}"))
     return found
 
 
-def pit_stop_incidents(f: Frames) -> list[Incident]:
+def pit_stop_incidents(f: Frames) -> list[RaceIncident]:
     """Each stop in a pit box: the race engine holding the car (seen by a Python car), or a Python
     car's own drive steps pausing in the pit lane (TORCS does not drive a car it holds)."""
     out = []
@@ -209,7 +209,7 @@ def pit_stop_incidents(f: Frames) -> list[Incident]:
                 spells.append((s0, s1))
         for first, last in spells:
             stand = float(f.times[last] - f.times[first])
-            out.append(Incident("pit-stop", float(f.times[first]), _lap(f, first, k), f.at("dist_m", first, k),
+            out.append(RaceIncident("pit-stop", float(f.times[first]), _lap(f, first, k), f.at("dist_m", first, k),
                                 (car,), duration_s=stand, detail=f"standing about {stand:.1f} s"))
     return out
 
@@ -254,7 +254,7 @@ def _missed_stop_time(f: Frames, car: int, lap: int, pit: dict | None) -> float:
     return float(f.times[on_lap[0]])
 
 
-def result_incidents(f: Frames, meta: dict, result: dict, fault: dict | None) -> list[Incident]:
+def result_incidents(f: Frames, meta: dict, result: dict, fault: dict | None) -> list[RaceIncident]:
     """What the result says: the fault or other end that stopped the race, and missed pit stops."""
     out = []
     pit = (meta.get("track") or {}).get("pit")
@@ -267,22 +267,22 @@ def result_incidents(f: Frames, meta: dict, result: dict, fault: dict | None) ->
                 continue
             t = _missed_stop_time(f, int(car), int(miss.get("lap", 0)), pit)
             _, dist, _ = _where(f, int(car), t)
-            out.append(Incident("missed-stop", t, int(miss.get("lap", 0)), dist, (int(car),),
+            out.append(RaceIncident("missed-stop", t, int(miss.get("lap", 0)), dist, (int(car),),
                                 detail=f"{miss.get('reason', '')}: {miss.get('detail', '')}"))
     error = (result.get("error") or "").strip()
     if fault:
         car = _python_car(meta, result, int(fault.get("robot_index", -1)))
         t = min(float(fault.get("sim_time_s") or f.times[-1]), float(f.times[-1]))
         _, dist, lap = _where(f, car, t)
-        out.append(Incident("fault", t, lap, dist, () if car is None else (car,),
+        out.append(RaceIncident("fault", t, lap, dist, () if car is None else (car,),
                             detail=str(fault.get("message", "")).splitlines()[0] if fault.get("message") else ""))
     elif error:
-        out.append(Incident("stopped", float(f.times[-1]), 0, math.nan, (), detail=error.splitlines()[0]))
+        out.append(RaceIncident("stopped", float(f.times[-1]), 0, math.nan, (), detail=error.splitlines()[0]))
     return out
 
 
 def find_incidents(columns: dict[str, np.ndarray], meta: dict, result: dict | None = None,
-                   fault: dict | None = None) -> list[Incident]:
+                   fault: dict | None = None) -> list[RaceIncident]:
     """Every incident of a recorded race, in time order (columns and meta: a recording's;
     result: result.json's content; fault: fault.json's)."""
     if not len(columns.get("time_s", ())):
@@ -294,7 +294,7 @@ def find_incidents(columns: dict[str, np.ndarray], meta: dict, result: dict | No
     return sorted(found, key=lambda i: (i.time_s, KINDS.index(i.kind)))
 
 
-def describe(i: Incident, names: dict[int, str]) -> str:
+def describe(i: RaceIncident, names: dict[int, str]) -> str:
     """The incident in words, with the cars' names (names: TORCS car index -> name)."""
     who = [names.get(c, f"car {c}") for c in i.cars]
     first = who[0] if who else "the race"

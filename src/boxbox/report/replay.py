@@ -27,7 +27,7 @@ from boxbox.torcs.results import is_python_module
 REPLAY_FILE = "replay.html"
 RECORDING_FILE = "recording.parquet"
 VIEWER_DIR = Path(__file__).resolve().parent / "replay_viewer"
-# the report's palette (report/race_report.py), by TORCS car index
+# the report's palette (report/figures.py), by TORCS car index
 COLORS = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22",
           "#17becf"]
 # per-sample flags, one bit each (the viewer's FLAG_*)

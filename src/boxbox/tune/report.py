@@ -11,7 +11,8 @@ import math
 from pathlib import Path
 from typing import Any
 
-from boxbox.report.race_report import CSS, _figure, _img, _num, _table
+from boxbox.report.figures import _figure, _img
+from boxbox.report.race_report import CSS, _num, _table
 from boxbox.tune.objective import PENALTY_S_PER_LAP, RESULT_ATTR, TuneConfig
 from boxbox.tune.pick import PickRule
 
@@ -113,7 +114,7 @@ def fig_slice(study: Any, name: str, penalty_s: float):
 
 def build_report(study: Any, cfg: TuneConfig, pick: PickRule | None = None) -> str:
     from boxbox.report.tables import fmt_time
-    from boxbox.tune.study import progress, pruning_savings
+    from boxbox.tune.study_figures import progress, pruning_savings
 
     penalty = PENALTY_S_PER_LAP * cfg.laps
     p = progress(study)

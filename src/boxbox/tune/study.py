@@ -22,8 +22,9 @@ from dataclasses import dataclass
 from typing import Any
 
 from boxbox.errors import BoxboxError
-from boxbox.tune.objective import RESULT_ATTR, RaceLost, TrialInterrupted, TuneConfig, make_objective, sweep_dead_runs
+from boxbox.tune.objective import RaceLost, TrialInterrupted, TuneConfig, make_objective, sweep_dead_runs
 from boxbox.tune.storage import WORKER_ATTR, Storage, worker_tag
+from boxbox.tune.study_figures import progress
 
 FINISHED = ("COMPLETE", "PRUNED")
 WAIT_S = 1.0  # a worker with nothing to take looks again after this
@@ -66,13 +67,6 @@ def tell(study: Any, trial: Any, value: float | None = None, state: Any = None) 
         study.sampler.after_trial(study, frozen, state, values)
     finally:  # an UpdateFinishedTrialError here: another worker found the trial stale and retried it
         study._storage.set_trial_state_values(trial._trial_id, state, values)
-
-
-def counts(study: Any) -> dict[str, int]:
-    out: dict[str, int] = {}
-    for t in study.get_trials(deepcopy=False):
-        out[t.state.name] = out.get(t.state.name, 0) + 1
-    return out
 
 
 class StopFlag:
@@ -301,50 +295,6 @@ def _die_with_parent() -> None:
     from boxbox.torcs.processes import PR_SET_PDEATHSIG, _libc
 
     _libc.prctl(PR_SET_PDEATHSIG, signal.SIGKILL)
-
-
-# --- the figures of a study -----------------------------------------------------------------------
-@dataclass
-class Progress:
-    finished: int
-    complete: int
-    pruned: int
-    failed: int
-    running: int
-    best_value: float | None
-    best_params: dict
-
-
-def progress(study: Any) -> Progress:
-    import optuna
-
-    c = counts(study)
-    try:
-        best = study.best_trial
-        value, params = best.value, best.params
-    except (ValueError, optuna.exceptions.OptunaError):
-        value, params = None, {}
-    return Progress(finished=c.get("COMPLETE", 0) + c.get("PRUNED", 0), complete=c.get("COMPLETE", 0),
-                    pruned=c.get("PRUNED", 0), failed=c.get("FAIL", 0), running=c.get("RUNNING", 0),
-                    best_value=value, best_params=params)
-
-
-def pruning_savings(study: Any, n_tracks: int) -> tuple[int, int, float]:
-    """(races skipped by pruning, races run, an estimate of the wall time saved: the skipped races
-    at the mean wall time of a race)."""
-    import optuna
-
-    skipped = run = 0
-    walls = []
-    for t in study.get_trials(deepcopy=False, states=(optuna.trial.TrialState.COMPLETE,
-                                                      optuna.trial.TrialState.PRUNED)):
-        result = t.user_attrs.get(RESULT_ATTR, {})
-        races = result.get("races", [])
-        run += len(races)
-        walls += [r.get("wall_s", 0.0) for r in races]
-        skipped += int(result.get("races_skipped", 0))
-    mean = sum(walls) / len(walls) if walls else 0.0
-    return skipped, run, skipped * mean
 
 
 def compare(cfg: TuneConfig, candidates: dict[str, dict], tracks: list[str] | None = None,

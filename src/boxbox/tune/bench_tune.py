@@ -56,6 +56,7 @@ def time_workers(base: TuneConfig, workers: int) -> tuple[float, float]:
     """A fresh study of base.trials trials run by `workers` worker processes: the time from the
     first trial's start to the last one's end (what a long study sees), and the whole run's."""
     from boxbox.tune import study as studies
+    from boxbox.tune import study_figures
 
     cfg = dataclasses.replace(base, study=f"bench-{workers}w-{uuid.uuid4().hex[:8]}", prune=False)
     try:
@@ -66,7 +67,7 @@ def time_workers(base: TuneConfig, workers: int) -> tuple[float, float]:
         study, _ = studies.open_study(cfg)
         if lost:
             raise RuntimeError(f"bench study {cfg.study}: {studies.lost_line(study, workers, lost)}")
-        done = studies.counts(study).get("COMPLETE", 0)
+        done = study_figures.counts(study).get("COMPLETE", 0)
         if done != cfg.trials:
             raise RuntimeError(f"bench study {cfg.study} ended with {done} of {cfg.trials} complete trials")
         trials = study.get_trials(deepcopy=False)

@@ -54,7 +54,7 @@ def bench(tracks, cars, robots, laps, together, jobs, no_cache, learning, settin
       boxbox bench --tracks e-track-2 --laps 30
       boxbox bench --robots boxbox,my_robot.py:MyRobot --tracks all --json b.json
     """
-    from boxbox.bench.bench import BenchSpec, expand_all, plan, run_bench
+    from boxbox.bench.solo import BenchSpec, expand_all, plan, run_bench
     from boxbox.report.replay import replay_line
     from boxbox.robot.params import parse_set
     from boxbox.torcs import catalog
@@ -82,7 +82,7 @@ def bench(tracks, cars, robots, laps, together, jobs, no_cache, learning, settin
 
 def _grid_slot(position: int | str | None, robots: list[str], together: bool) -> int | None:
     """The Python robots' grid slot in a race --together ('last': behind every TORCS robot)."""
-    from boxbox.bench.bench import classify_robot
+    from boxbox.bench.solo import classify_robot
     from boxbox.torcs import checks
 
     if position is None:
@@ -222,8 +222,8 @@ def bench_field(tracks, robot, laps, jobs, repeats, no_cache, learning, settings
       boxbox bench-field --repeats 5 --jobs 2     # each race 5 times: how much is chance
       boxbox bench-field --repeats 5 --set side_margin_m=0.5 --against base.json
     """
-    from boxbox.bench.bench import expand_all
     from boxbox.bench.field import FieldSpec, run_field, runs_root
+    from boxbox.bench.solo import expand_all
     from boxbox.report.replay import replay_line
     from boxbox.robot.params import parse_set
     from boxbox.torcs import catalog
