@@ -33,7 +33,6 @@ MAX_FUNCTION_LINES = 60
 MAX_MODULE_LINES = 500  # per module and per class: a file per concern
 # modules over the cap today, each to be split along its seams (the count is a ceiling: it may only fall)
 OVER_THE_CAP = {
-    "torcs/host.py": 553,  # the robot host and its process entry (python -m boxbox.torcs.host, host.main)
 }
 
 

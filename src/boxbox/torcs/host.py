@@ -1,6 +1,7 @@
 """The robot host: the Python process that answers the bridge's messages with robot calls.
 
-Started by the race launcher (forked, or as `python -m boxbox.torcs.host SPEC.json`) with the
+Started by the race launcher (forked, or as `python -m boxbox.torcs.host_process SPEC.json`: the
+process entry, torcs/host_process.py) with the
 listening socket and the write end of its pipe to the launcher (torcs/hostlink.py) inherited.  One
 host serves every Python car of a race.  A robot that raises, exits, or returns bad values is a
 fault: the host makes a `Fault` record (torcs/faults.py), tells the launcher and the bridge, which
@@ -10,16 +11,12 @@ brakes the car and ends the race.  SIGUSR1 dumps the current traceback (for hang
 from __future__ import annotations
 
 import contextlib
-import faulthandler
 import gc
-import json
 import math
 import os
-import signal
 import socket
 import sys
 import traceback
-from pathlib import Path
 from time import perf_counter_ns
 
 from boxbox.model import Car, CarSetup, Controls, Opponent, PitOrder, State, Track
@@ -46,7 +43,7 @@ from boxbox.torcs.timing import HEARTBEAT_S, MIN_SPEED_MPS, TimeModel
 BREAKDOWN_S = 1.0  # simulated time TORCS may have lost every car before the race is stopped
 # set in a child a robot forks (os.fork): back in the host's code it must end at once, never answer
 # the bridge or send the launcher a summary (see forked_child)
-_FORKED = [False]
+FORKED = [False]
 
 
 HEARTBEAT_NS = int(HEARTBEAT_S * 1e9)
@@ -58,11 +55,11 @@ class CallAbandoned(BaseException):
     each robot's on_race_end (docs/robots.md promises it once in every ending)."""
 
 
-_MEMORY_LIMIT_GIB: list[float | None] = [None]  # the robots' allowance (RaceConfig.memory_limit_gib)
+MEMORY_LIMIT_GIB: list[float | None] = [None]  # the robots' allowance (RaceConfig.memory_limit_gib)
 _ABANDON_ARMED = [False]  # SIGUSR2 raises CallAbandoned only while the host serves the bridge
 
 
-def _abandon(signum: int, frame) -> None:
+def abandon_call(signum: int, frame) -> None:
     if _ABANDON_ARMED[0]:
         _ABANDON_ARMED[0] = False  # once: on_race_end that follows runs to its end
         raise CallAbandoned
@@ -81,8 +78,8 @@ class RobotFault(Exception):
         its sys.exit(): the robot exiting is reported as such at once, never as a hang (SystemExit
         would otherwise end the host)."""
         tb = traceback.format_exc()
-        if isinstance(exc, MemoryError) and _MEMORY_LIMIT_GIB[0] is not None:
-            return cls("exception", f"the robot used more than {_MEMORY_LIMIT_GIB[0]:g} GiB of memory ({context}); "
+        if isinstance(exc, MemoryError) and MEMORY_LIMIT_GIB[0] is not None:
+            return cls("exception", f"the robot used more than {MEMORY_LIMIT_GIB[0]:g} GiB of memory ({context}); "
                                     "give it more with --memory-limit", tb)
         if isinstance(exc, SystemExit):
             code = "" if exc.code is None else repr(exc.code)
@@ -189,7 +186,7 @@ class Host:
     def _serve(self, conn: socket.socket) -> None:
         buf = self.buf
         header = wire.HEADER.unpack_from
-        forked = _FORKED
+        forked = FORKED
         drive = self._drive_step(conn)
         handlers = {wire.NEW_TRACK: self._new_track, wire.NEW_RACE: self._new_race, wire.PIT_CMD: self._pit_cmd,
                     wire.END_RACE: self._end_race, wire.SHUTDOWN: self._shutdown, wire.HELLO: self._hello}
@@ -486,68 +483,9 @@ def report_fault(run_dir: RunDir, link: HostLink, fault: Fault) -> None:
 def forked_child(link: HostLink) -> None:
     """In a child a robot forks: its copy of the launcher's pipe closed at once (the launcher waits
     for the host's end of it to close: a child holding it kept a finished race waiting 30 s), and
-    marked, so that it ends as soon as it comes back into the host's code (_FORKED)."""
-    _FORKED[0] = True
+    marked, so that it ends as soon as it comes back into the host's code (FORKED)."""
+    FORKED[0] = True
     if link.fd is not None:
         with contextlib.suppress(OSError):
             os.close(link.fd)
         link.fd = None
-
-
-def _accept(listener: socket.socket, timeout_s: float) -> socket.socket | None:
-    listener.settimeout(timeout_s)
-    try:
-        conn, _ = listener.accept()
-    except TimeoutError:
-        return None
-    conn.settimeout(None)
-    return conn
-
-
-def serve_profiled(host: Host, conn: socket.socket, stats_file: str) -> None:
-    """host.serve under cProfile, its statistics written to stats_file (BOXBOX_PROFILE=FILE: where
-    a robot's step time goes; read with `python -m pstats FILE`)."""
-    import cProfile
-
-    profiler = cProfile.Profile()
-    try:
-        profiler.runcall(host.serve, conn)
-    finally:
-        profiler.dump_stats(stats_file)
-
-
-def main(argv: list[str]) -> int:
-    spec = json.loads(Path(argv[0]).read_text())
-    run_dir = RunDir(spec["run_dir"])
-    link = HostLink(spec.get("link_fd"))
-    _MEMORY_LIMIT_GIB[0] = spec.get("memory_limit_gib")
-    os.register_at_fork(after_in_child=lambda: forked_child(link))
-    os.environ["BOXBOX_RUN_DIR"] = str(run_dir)  # robots may keep files of their race here
-    hang_file = open(run_dir.hang_traceback, "w")  # noqa: SIM115  (open for the process's life)
-    faulthandler.register(signal.SIGUSR1, file=hang_file, all_threads=False)
-    signal.signal(signal.SIGUSR2, _abandon)
-    listener = socket.socket(fileno=int(spec["listen_fd"]))
-    try:
-        host = Host(spec, link)
-    except BaseException as exc:  # noqa: BLE001  (robot import or constructor failed, or exited)
-        fault = RobotFault.from_exception(exc, "creating the robot")
-        report_fault(run_dir, link, Fault(kind=fault.kind, message=fault.message, where="__init__",
-                                          traceback=fault.tb))
-        return 1
-    conn = _accept(listener, float(spec.get("connect_timeout_s", 60)))
-    if conn is None:
-        return 2
-    link.send("connected")
-    try:
-        serve_profiled(host, conn, profile) if (profile := os.environ.get("BOXBOX_PROFILE")) else host.serve(conn)
-    except (BrokenPipeError, ConnectionResetError):
-        pass  # TORCS went away while we answered (killed): what we have is sent below
-    finally:
-        if _FORKED[0]:
-            os._exit(0)  # a robot's forked child: the host's end is the parent's
-        host.finish()
-    return 1 if host.fault else 0
-
-
-if __name__ == "__main__":
-    sys.exit(main(sys.argv[1:]))

@@ -162,7 +162,7 @@ class RaceLaunch:
                 # process, every forked host has it (a bench, a study or a notebook races many times)
                 import pyarrow.parquet  # noqa: F401
             return ForkedHost(self.run_dir.host_spec, log_fd, self.cpu, host_address_space(self.cfg.memory_limit_gib))
-        return subprocess.Popen([sys.executable, "-m", "boxbox.torcs.host", str(self.run_dir.host_spec)],
+        return subprocess.Popen([sys.executable, "-m", "boxbox.torcs.host_process", str(self.run_dir.host_spec)],
                                 stdout=log_fd, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
                                 pass_fds=[listen_fd, link_fd],
                                 preexec_fn=child_setup(self.cpu, host_address_space(self.cfg.memory_limit_gib)),

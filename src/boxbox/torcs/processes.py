@@ -68,7 +68,7 @@ def pick_cpu() -> int | None:
 class ForkedHost:
     """The robot host as a forked child of the launcher (a Popen look-alike).
 
-    A fresh `python -m boxbox.torcs.host` spends about 0.4 s importing numpy and the robot before
+    A fresh `python -m boxbox.torcs.host_process` spends about 0.4 s importing numpy and the robot before
     TORCS can start its race; a fork starts with what the launcher has imported already (it has
     loaded the robot class to check it). BOXBOX_HOST_EXEC=1 goes back to a fresh interpreter.
     """
@@ -81,7 +81,7 @@ class ForkedHost:
             _host_child(spec_path, log_fd, child_setup(cpu, address_space_bytes))
         self.pid = pid
         self.returncode: int | None = None
-        self.args = ["fork", "boxbox.torcs.host", str(spec_path)]
+        self.args = ["fork", "boxbox.torcs.host_process", str(spec_path)]
 
     def poll(self) -> int | None:
         if self.returncode is None:
@@ -132,11 +132,11 @@ def _host_child(spec_path: Path, log_fd: int, setup: Callable[[], None]) -> None
         sys.stderr = open(2, "w", buffering=1, closefd=False)  # noqa: SIM115
         import atexit
 
-        from boxbox.torcs import host
+        from boxbox.torcs import host_process
 
         atexit._clear()  # the launcher's exit handlers are not the host's to run
         try:
-            code = host.main([str(spec_path)])
+            code = host_process.main([str(spec_path)])
         finally:
             try:
                 atexit._run_exitfuncs()  # a robot's own exit handlers run, as in a fresh interpreter
