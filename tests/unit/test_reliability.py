@@ -29,9 +29,9 @@ def state(**kw) -> State:
     return State(**values)
 
 
-def slot_on(track_name: str) -> carwatch.Slot:
+def slot_on(track_name: str) -> carwatch.HostedCar:
     track, car = trackdata.load(track_name)
-    slot = carwatch.Slot(robot=None, spec="x", name="x 1", car=car, track=track)
+    slot = carwatch.HostedCar(robot=None, spec="x", name="x 1", car=car, track=track)
     slot.pit_zone = carwatch.pit_zone(track)
     return slot
 
@@ -71,7 +71,7 @@ def test_before_the_start_nothing_is_stuck():
 
 
 def test_step_times_stay_bounded_and_representative():
-    slot = carwatch.Slot(robot=None, spec="x", name="x 1")
+    slot = carwatch.HostedCar(robot=None, spec="x", name="x 1")
     n = 5 * carwatch.MAX_STEP_SAMPLES
     for i in range(n):
         carwatch.record_step_time(slot, i)
@@ -368,14 +368,14 @@ def test_every_car_lost_only_when_ours_and_every_racing_car_have_no_position():
 
 
 def test_a_breakdown_stops_the_race_after_a_second_of_every_car_lost():
-    slot = carwatch.Slot(robot=None, spec="x", name="x 1")
+    slot = carwatch.HostedCar(robot=None, spec="x", name="x 1")
     for t in (467.2, 467.6, 468.1):
         host.Host._check_breakdown(slot, with_opponents(state(x_m=NAN, sim_time_s=t), opponent(NAN)))
     with pytest.raises(host.RobotFault) as raised:
         host.Host._check_breakdown(slot, with_opponents(state(x_m=NAN, sim_time_s=468.3), opponent(NAN)))
     assert raised.value.kind == "sim-breakdown" and "broke down at 467.2 s" in str(raised.value)
     # a car found again resets the clock
-    slot2 = carwatch.Slot(robot=None, spec="x", name="x 1")
+    slot2 = carwatch.HostedCar(robot=None, spec="x", name="x 1")
     host.Host._check_breakdown(slot2, with_opponents(state(x_m=NAN, sim_time_s=1.0), opponent(NAN)))
     host.Host._check_breakdown(slot2, with_opponents(state(x_m=NAN, sim_time_s=1.5), opponent(4.0)))
     host.Host._check_breakdown(slot2, with_opponents(state(x_m=NAN, sim_time_s=2.2), opponent(NAN)))

@@ -41,7 +41,7 @@ from boxbox.model import Car, PitOrder, State, Track
 from boxbox.model.skill import SkillLevel
 from boxbox.torcs import setup
 from boxbox.torcs.checks import check_grid_position, check_race
-from boxbox.torcs.launch import RaceConfig
+from boxbox.torcs.raceprep import RaceConfig
 
 MAX_ACTION_REPEAT = 1000  # 20 s of simulated time per step
 MAX_FUEL_L = 1000.0  # beyond any car's tank

@@ -29,7 +29,7 @@ from boxbox.errors import UsageError
 from boxbox.model.skill import SkillLevel
 from boxbox.torcs import setup
 from boxbox.torcs.checks import check_grid_position, check_race
-from boxbox.torcs.launch import RaceConfig
+from boxbox.torcs.raceprep import RaceConfig
 
 MAX_FUEL_L = 1000.0  # beyond any car's tank
 # The SCR championship's noisy sensors (its server's scr_server.cpp: __NOISE_STD__, __OPP_NOISE_STD__):

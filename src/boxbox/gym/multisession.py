@@ -14,13 +14,20 @@ from __future__ import annotations
 import copy
 from pathlib import Path
 
-from boxbox.gym.race import SETUP_ANSWER_TIMEOUT_S, STEP_TIMEOUT_S_DEFAULT, Race, RaceOrder, Shared, TorcsGone
+from boxbox.gym.race import (
+    SETUP_ANSWER_TIMEOUT_S,
+    STEP_TIMEOUT_S_DEFAULT,
+    GymRace,
+    RaceOrder,
+    SessionResources,
+    TorcsGone,
+)
 from boxbox.gym.session import Session
 from boxbox.model import Car, PitOrder, State, Track
 from boxbox.model.state import CAR_STATE_NO_SIMU
 from boxbox.torcs import wire
-from boxbox.torcs.launch import RaceConfig
 from boxbox.torcs.messages import decode_state, pack_controls
+from boxbox.torcs.raceprep import RaceConfig
 from boxbox.torcs.setup import Overlay
 
 Controls = tuple[float, float, float, float, int, bool]  # steer, accel, brake, clutch, gear, pit
@@ -57,13 +64,13 @@ class MultiSession(Session):
                          self.step_timeout_s)
 
 
-class MultiRace(Race):
+class MultiRace(GymRace):
     """One TORCS process with len(cfg.robots) Python cars (robot indices 0..n-1) and TORCS's robots
     as opponents."""
 
     torcs_env = {"BOXBOX_BATCH_DRIVE": "1"}
 
-    def __init__(self, order: RaceOrder, overlay: Overlay, shared: Shared, folder: Path, cpu: int,
+    def __init__(self, order: RaceOrder, overlay: Overlay, shared: SessionResources, folder: Path, cpu: int,
                  step_timeout_s: float = STEP_TIMEOUT_S_DEFAULT) -> None:
         super().__init__(order, overlay, shared, folder, cpu, step_timeout_s)
         self.n_cars = len(order.cfg.robots)

@@ -2,11 +2,11 @@
 
 TORCS runs in console mode as `boxbox race` runs it (torcs/launch.py prepares the same local
 folder and race file), with the bridge connecting to a socket this process listens on.  There
-is no robot host process: `Race.drive` answers the pending DRIVE message with the controls and
+is no robot host process: `GymRace.drive` answers the pending DRIVE message with the controls and
 reads the next one, so a step is one socket round trip; the messages are read and written by
 torcs/messages.py, as the robot host reads and writes them.  Each episode is a fresh TORCS process
-(`Race`), so a reset leaves nothing of the last race behind.  A race is made ready up to its first
-drive step at 0 s (`Race.prepare`: spawn, HELLO, NEW_TRACK, NEW_RACE, the start countdown), either
+(`GymRace`), so a reset leaves nothing of the last race behind.  A race is made ready up to its first
+drive step at 0 s (`GymRace.prepare`: spawn, HELLO, NEW_TRACK, NEW_RACE, the start countdown), either
 when the reset asks for it or ahead of it, as a spare (gym/spare.py), which the reset then takes
 over in microseconds.  TORCS dies with the thread that started it (PR_SET_PDEATHSIG, set by
 util-linux's setpriv before it execs TORCS; in practice with the env's process) and is killed by
@@ -31,9 +31,9 @@ from pathlib import Path
 from boxbox.errors import RaceError
 from boxbox.model import Car, PitOrder, State, Track
 from boxbox.torcs import messages, wire
-from boxbox.torcs.launch import RaceConfig, prepare_local_dir, torcs_command
 from boxbox.torcs.messages import HSIZE, TrackChunks, decode_state, pack_controls
 from boxbox.torcs.processes import child_setup
+from boxbox.torcs.raceprep import RaceConfig, prepare_local_dir, torcs_command
 from boxbox.torcs.rundir import RunDir
 from boxbox.torcs.setup import Overlay
 
@@ -75,7 +75,7 @@ class RaceOrder:
     initial_fuel_l: float | None = field(default=None, compare=False)
 
 
-class Shared:
+class SessionResources:
     """What a session's races share with its clean-up (which may run in any thread, from the
     garbage collector): the processes running, the decoded tracks, whether the session is closed."""
 
@@ -87,7 +87,7 @@ class Shared:
         self.tracks: dict[tuple[str, str], tuple[bytes, Track, Car]] = {}  # NEW_TRACK's bytes, decoded
 
 
-def clean_up(shared: Shared) -> None:
+def clean_up(shared: SessionResources) -> None:
     """What a session leaves: TORCS processes and the folder (at close, or when the env is dropped
     without it, or at exit)."""
     with shared.lock:
@@ -102,13 +102,13 @@ def clean_up(shared: Shared) -> None:
     shutil.rmtree(shared.folder, ignore_errors=True)
 
 
-class Race:
+class GymRace:
     """One TORCS process with one Python car (robot index 0) and TORCS's robots as opponents, in a
     folder of its own under the session's."""
 
     torcs_env: dict[str, str] = {}  # more of TORCS's environment (gym/multisession.py: the bridge's batch mode)
 
-    def __init__(self, order: RaceOrder, overlay: Overlay, shared: Shared, folder: Path, cpu: int,
+    def __init__(self, order: RaceOrder, overlay: Overlay, shared: SessionResources, folder: Path, cpu: int,
                  step_timeout_s: float = STEP_TIMEOUT_S_DEFAULT) -> None:
         self.order, self.cfg, self.overlay, self.shared, self.cpu = order, order.cfg, overlay, shared, cpu
         self.step_timeout_s = step_timeout_s  # a drive step's answer, once the race is set up

@@ -119,7 +119,7 @@ def _values(values) -> str:
 
 
 @dataclass
-class Race:
+class ScrRaceState:
     """What the sensor message needs besides the state: the distance raced, the focus rays."""
 
     env: TorcsEnv
@@ -283,7 +283,7 @@ class ScrServer:
         or a lost client."""
         assert self.env is not None
         obs, info = self.env.reset()
-        race, action = Race(self.env), Action()
+        race, action = ScrRaceState(self.env), Action()
         self._send(race.sensors(obs, info["state"]))
         while not self.stopping:
             got = self._next_action(action)

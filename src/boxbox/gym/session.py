@@ -17,10 +17,10 @@ from boxbox.gym.cores import CoreFollow, CorePin, IdleShares, pick_cpu, spare_co
 from boxbox.gym.race import (
     FOLDER_PREFIX,
     STEP_TIMEOUT_S_DEFAULT,
+    GymRace,
     PitHandler,
-    Race,
     RaceOrder,
-    Shared,
+    SessionResources,
     Started,
     clean_up,
 )
@@ -42,11 +42,11 @@ class Session:
         self.cpu = pick_cpu() if cpu is None else cpu
         remove_stale_sockets(FOLDER_PREFIX)  # of env processes killed outright
         self.dir = Path(tempfile.mkdtemp(prefix=f"{FOLDER_PREFIX}{os.getpid()}-"))  # short: a socket path has 108 bytes
-        self.shared = Shared(self.dir)
+        self.shared = SessionResources(self.dir)
         self._finalizer = weakref.finalize(self, clean_up, self.shared)
         # `with session.pin:` around a step or a reset: the cpu the user chose, or the caller's own
         self.pin: CorePin | CoreFollow = CorePin(self.cpu) if cpu is not None else CoreFollow(self)
-        self.race: Race | None = None
+        self.race: GymRace | None = None
         self._count = 0  # races made: their folders' names
         self.pool = SparePool(spares, self._new_race) if spares else None
         self.cores = usable_cpus()  # at the start: where the spares may load (the thread moves later)
@@ -113,9 +113,9 @@ class Session:
     def ended(self) -> bool:
         return self.race is None or self.race.ended
 
-    def _new_race(self, order: RaceOrder, spare: bool = False) -> Race:
+    def _new_race(self, order: RaceOrder, spare: bool = False) -> GymRace:
         self._count += 1
-        return Race(order, self.overlay, self.shared, self.dir / f"r{self._count}",
+        return GymRace(order, self.overlay, self.shared, self.dir / f"r{self._count}",
                     self.pool_cpu() if spare else self.cpu, self.step_timeout_s)
 
     def pool_cpu(self) -> int:

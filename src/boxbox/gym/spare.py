@@ -18,7 +18,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 
-from boxbox.gym.race import Race, RaceOrder, Started, TorcsGone
+from boxbox.gym.race import GymRace, RaceOrder, Started, TorcsGone
 
 MAX_SPARES = 8
 
@@ -26,15 +26,15 @@ MAX_SPARES = 8
 class SparePool:
     """Races made ready ahead for the episodes to come, `depth` at most."""
 
-    def __init__(self, depth: int, new_race: Callable[[RaceOrder, bool], Race]) -> None:
+    def __init__(self, depth: int, new_race: Callable[[RaceOrder, bool], GymRace]) -> None:
         self.depth = depth
         self.new_race = new_race
-        self.spares: list[Race] = []  # in the order of the episodes they are for
-        self.dying: list[Race] = []  # killed, to collect
+        self.spares: list[GymRace] = []  # in the order of the episodes they are for
+        self.dying: list[GymRace] = []  # killed, to collect
         self.taken = 0  # spares handed over (tests and the bench read it)
         self.pending = False  # a spare to set up, or a race to collect: `advance` has work
 
-    def take(self, order: RaceOrder) -> tuple[Race, Started] | None:
+    def take(self, order: RaceOrder) -> tuple[GymRace, Started] | None:
         """The spare made for `order` (its key), ready; None when there is none (or it failed)."""
         for i, race in enumerate(self.spares):
             if race.order == order:
@@ -52,7 +52,7 @@ class SparePool:
         """Keep the spares that match the next episodes, drop the others, add the missing ones
         (set up from the next `advance` on)."""
         wanted = list(upcoming[: self.depth])
-        kept: list[Race] = []
+        kept: list[GymRace] = []
         for race in self.spares:
             if race.order in wanted:
                 wanted.remove(race.order)
@@ -77,7 +77,7 @@ class SparePool:
                 return
         self.pending = bool(self.dying)
 
-    def retire(self, race: Race) -> None:
+    def retire(self, race: GymRace) -> None:
         """Kill a race now; it is collected at a later `advance` (or at close)."""
         race.kill()
         self.dying.append(race)

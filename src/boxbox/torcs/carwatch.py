@@ -1,4 +1,4 @@
-"""The car watch: what the robot host keeps of each Python car (`Slot`) and counts every drive
+"""The car watch: what the robot host keeps of each Python car (`HostedCar`) and counts every drive
 step (stuck, off the track, lost by TORCS, the step times), and the car's figures for the results.
 """
 
@@ -23,7 +23,7 @@ MAX_STEP_SAMPLES = 1 << 16  # step times kept per car: every step up to this, th
 
 
 @dataclass
-class Slot:
+class HostedCar:
     """One Python car: its robot and what the host tracks for it."""
 
     robot: Robot
@@ -72,7 +72,7 @@ def pit_zone(track: Track | None) -> bytes:
     return bytes(zone)
 
 
-def watch_step(slot: Slot, state: State) -> None:
+def watch_step(slot: HostedCar, state: State) -> None:
     """Count a drive step stuck (slower than 1 m/s) or off the track (the car's centre beyond an
     edge), outside the pit: captured in the box, or in the pit lane beside the pit zone, is neither."""
     if int(state.car_state) & (CAR_STATE_PIT | CAR_STATE_OUT):
@@ -105,7 +105,7 @@ def every_car_lost(state: State) -> bool:
     return all(o.x_m != o.x_m for o in state.opponents if not int(o.car_state) & CAR_STATE_NO_SIMU)
 
 
-def record_step_time(slot: Slot, ns: int) -> None:
+def record_step_time(slot: HostedCar, ns: int) -> None:
     """Keep the step times in bounded memory: all of them up to MAX_STEP_SAMPLES, then an evenly
     spaced sample over the whole race (thinned by half, stride doubled, whenever it fills up)."""
     slot.steps_timed += 1
@@ -116,7 +116,7 @@ def record_step_time(slot: Slot, ns: int) -> None:
             slot.step_stride *= 2
 
 
-def incidents(slot: Slot) -> dict:
+def incidents(slot: HostedCar) -> dict:
     return {"stuck_s": round(slot.stuck_steps * STEP_S, 2),
             "longest_stuck_s": round(slot.longest_stuck_steps * STEP_S, 2),
             "off_track_s": round(slot.off_track_steps * STEP_S, 2)}
@@ -126,7 +126,7 @@ def incidents(slot: Slot) -> dict:
 
 
 
-def car_json(index: int, slot: Slot, final: bool, pit_laps: tuple[int, ...] = ()) -> dict:
+def car_json(index: int, slot: HostedCar, final: bool, pit_laps: tuple[int, ...] = ()) -> dict:
     """One Python car's figures; the step times and the robot's report only at the end (final),
     when also the stops the race asked for (pit_laps) and the robot never did are missed stops."""
     ns = sorted(slot.step_ns) if final else []

@@ -24,7 +24,7 @@ from boxbox.robot.base import RaceOptions
 from boxbox.robot.loader import load_robot_class
 from boxbox.torcs import messages, wire
 from boxbox.torcs.carwatch import (
-    Slot,
+    HostedCar,
     car_json,
     every_car_lost,
     pit_zone,
@@ -118,10 +118,10 @@ class Host:
         opts["pit_laps"] = tuple(opts.get("pit_laps", ()))
         options = RaceOptions(**opts)
         self.pit_laps = options.pit_laps
-        self.slots: list[Slot] = []
+        self.slots: list[HostedCar] = []
         for entry in spec["robots"]:
             cls = load_robot_class(entry["spec"], isolated=False)  # the host is the robot's own process
-            self.slots.append(Slot(robot=cls(options), spec=entry["spec"], name=entry["name"]))
+            self.slots.append(HostedCar(robot=cls(options), spec=entry["spec"], name=entry["name"]))
         if spec.get("telemetry", True):
             for i, slot in enumerate(self.slots):
                 slot.rec = slot.recorder = Recorder(i, slot.name, slot.spec, spool_dir=self.run_dir.path)
@@ -256,7 +256,7 @@ class Host:
 
         return drive
 
-    def _robot_controls(self, slot: Slot, state: State, step: int) -> Controls:
+    def _robot_controls(self, slot: HostedCar, state: State, step: int) -> Controls:
         """The robot's controls for this step, checked; a RobotFault for anything else."""
         if state.sim_time_s > self.sim_limit_s:
             raise RobotFault("sim-time-limit", self._sim_limit_text())
@@ -278,7 +278,7 @@ class Host:
         return c
 
     @staticmethod
-    def _check_breakdown(slot: Slot, state: State) -> None:
+    def _check_breakdown(slot: HostedCar, state: State) -> None:
         """A RobotFault once TORCS has lost every car for BREAKDOWN_S: the race cannot finish."""
         if not every_car_lost(state):
             slot.lost_since_s = None
@@ -392,7 +392,7 @@ class Host:
         """The STATE record a message of n bytes carries, if it carries one."""
         return messages.message_state(self.buf, n)
 
-    def _race_end(self, slot: Slot, state: State | None) -> RobotFault | None:
+    def _race_end(self, slot: HostedCar, state: State | None) -> RobotFault | None:
         """The robot's on_race_end, once per race, for a robot that took part (its on_track
         returned), with the car's state at the end (else the last one it drove with); the fault
         if it failed."""
@@ -418,7 +418,7 @@ class Host:
         self._reply(conn, wire.HELLO, robot, step, wire.HELLO_REC, (wire.PROTOCOL_VERSION, 0.0, 0.0))
 
     # --- what the host keeps -----------------------------------------------------------------
-    def _lap(self, slot: Slot, state: State) -> None:
+    def _lap(self, slot: HostedCar, state: State) -> None:
         laps = int(state.laps)
         if laps > slot.laps_seen and slot.laps_seen >= 1 and state.last_lap_time_s > 0:
             slot.lap_times.append(state.last_lap_time_s)

@@ -1,6 +1,6 @@
 """What a race needs before TORCS starts: its config, its robots' learning store, its local dir
 with the race file and the driver files, and TORCS's command line (torcs/launch.py runs the race;
-the Gymnasium env prepares its races the same way, gym/session.py).
+the Gymnasium env prepares its races the same way, gym/race.py).
 """
 
 from __future__ import annotations
@@ -111,7 +111,7 @@ def prepare_local_dir(run_dir: RunDir, overlay: Overlay, cfg: RaceConfig) -> Pat
 
 
 def torcs_command(overlay: Overlay, run_dir: RunDir) -> list[str]:
-    """TORCS in console mode on a race's folder (also the Gymnasium env's, gym/session.py)."""
+    """TORCS in console mode on a race's folder (also the Gymnasium env's, gym/race.py)."""
     return [str(overlay.torcs.binary), "-l", f"{run_dir.local}/", "-L", f"{overlay.lib_dir}/", "-D",
             f"{overlay.data_dir}/", "-r", str(run_dir.race_file)]
 
