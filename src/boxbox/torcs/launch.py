@@ -84,7 +84,6 @@ class RaceLaunch:
         self.laps_seen: list[tuple[int, float]] = []
         self.timed_out = False
         self.hang_dumped = False  # the host was asked for its stack (once: the diagnosis prints it)
-        self.host_stopped = False  # the host still ran when the race was over: killed here (diagnosis.Ending)
         self.stalled = False  # timed out by the stall limit: TORCS stopped calling the robots
         self.host_ended: int | None = None  # how the host ended by itself, before the launcher killed it
         # what the robot host and TORCS print, bounded (torcs/logcap.py); the host's shown with verbose
@@ -305,7 +304,6 @@ class RaceLaunch:
     def _stop_processes(self) -> None:
         kill_group(self.torcs)
         self.host_ended = self.host.poll() if self.host is not None else None
-        self.host_stopped = self.host is not None and self.host_ended is None
         kill_group(self.host, tree=True)
         if self.torcs is not None and self.torcs.stdout is not None:
             self.torcs.stdout.close()
@@ -340,6 +338,10 @@ class RaceLaunch:
             return (f"a robot sent {self.stop.names()} to boxbox (the robot host's parent process), which stops "
                     f"a race: a robot may not signal boxbox; the results so far are kept (run dir {self.run_dir})")
         return f"{INTERRUPTED} (run dir {self.run_dir})"
+
+    def _host_stopped(self) -> bool:
+        """The host still ran when the race was over: the launcher killed it (diagnosis.Ending)."""
+        return self.host is not None and self.host_ended is None
 
     def _killed_from_outside(self) -> bool:
         """The host died of SIGKILL by itself (the launcher had not killed it), with no fault said,
@@ -384,7 +386,7 @@ class RaceLaunch:
                      stalled_sim_s=self.reports.alive_sim_s if self.reports else 0.0,
                      fault=self.reports.fault if self.reports else None,
                      torcs_code=self.torcs.returncode if self.torcs else None,
-                     host_code=self.host.poll() if self.host else None, host_stopped=self.host_stopped)
+                     host_code=self.host.poll() if self.host else None, host_stopped=self._host_stopped())
         error = diagnose(self.run_dir, end)
         if error is None:
             return None
