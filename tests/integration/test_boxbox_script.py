@@ -43,3 +43,15 @@ def test_a_missing_robot_file_names_the_folder_it_looked_in(tmp_path):
     assert done.returncode == 2
     assert done.stderr.strip().splitlines()[-1] == (
         f"boxbox: error: robot file 'theirs.py' does not exist (looked in {tmp_path})")
+
+
+def test_a_link_to_the_script_finds_its_checkout(tmp_path):
+    """A link to ./boxbox (~/bin/boxbox) runs the checkout's command, not one beside the link
+    (it said "No `pyproject.toml` found" when the link's folder was taken for the checkout)."""
+    (tmp_path / "bin").mkdir()
+    (tmp_path / "bin" / "boxbox").symlink_to(SCRIPT)
+    (tmp_path / "mine.py").write_text(MINE)
+    done = subprocess.run([str(tmp_path / "bin" / "boxbox"), "params", "--robot", "mine.py:Mine"], cwd=tmp_path,
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert "lean" in done.stdout
