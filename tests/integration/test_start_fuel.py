@@ -24,7 +24,7 @@ def test_no_pit_lane_starts_with_the_race_s_fuel_not_a_full_tank(tmp_path, overl
 def test_the_bridge_sends_the_engine_s_fuel_constants(tmp_path, overlay):
     """The engine constants the fuel model needs come from the car file (car1-trb1: tickover 900
     rpm, revs maxi 10000 rpm; no brake coefficient, so simuv2's 0.33)."""
-    from boxbox.bench.limit import recorded_track
+    from boxbox.torcs.track_record import recorded_track
 
     _, car = recorded_track("g-track-1", "car1-trb1")
     rpm = math.pi / 30.0

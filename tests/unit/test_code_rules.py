@@ -23,6 +23,7 @@ ALLOWED = {
     "bench": {"report", "torcs", "robot", "control", "model"} | SHARED,
     "gym": {"torcs", "robot", "control", "model"} | SHARED,
     "tune": {"report", "torcs", "robot", "model"} | SHARED,
+    "testing": {"torcs", "robot", "model"} | SHARED,
 }
 ALLOWED["api"] = set(ALLOWED) - {"api"}
 ALLOWED["cli"] = set(ALLOWED) - {"cli"}

@@ -4,8 +4,8 @@ simulation (control/lapsim.py) on a minimum-curvature line over the drivable wid
 downforce, drag with the wings', the torque curve through the gears, banking, grade, vertical
 curvature and each surface's friction, and the skill level's tyre gain (control/tyre.py).
 
-The track and the car come from TORCS itself: a 0-lap race of the recorder robot
-(robot/recorder.py), kept under the cache folder per track and car.
+The track and the car come from TORCS itself (torcs/track_record.py: a 0-lap race of the recorder
+robot, kept under the cache folder per track and car).
 """
 
 from __future__ import annotations
@@ -14,8 +14,6 @@ import dataclasses
 import hashlib
 import json
 import math
-import shutil
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -41,8 +39,7 @@ from boxbox.model.car import FWD
 from boxbox.model.skill import SkillLevel
 from boxbox.model.track import LEFT, RIGHT
 from boxbox.robot.racingline import middle_line, vertical_curvature
-from boxbox.robot.recorder import RECORD_FILE, load_track
-from boxbox.torcs import wire
+from boxbox.torcs.track_record import record_key, recorded_track
 
 STEP_M = 3.0  # sample spacing of the line
 WING_ANGLES = 8  # rear wing angles tried, from 0 to the car's own
@@ -66,35 +63,6 @@ class LimitLap:
     right_m: np.ndarray
     line: str  # which width the fastest line was drawn over
     rear_wing_deg: float = math.nan  # the rear wing angle of the fastest lap (a robot may set it: Robot.car_setup)
-
-
-def _record_key(track: str, car: str) -> str:
-    layout = ",".join(wire.SEGMENT_FIELDS + wire.HANDLE_FIELDS + wire.CAR_FIELDS)
-    return hashlib.sha256(f"{track}\0{car}\0{layout}".encode()).hexdigest()[:16]
-
-
-def recorded_track(track: str, car: str) -> tuple[Track, Car]:
-    """The track's segments and the car's constants as the bridge sends them: from the cache, else
-    from a 0-lap race of the recorder robot (under a second), then cached."""
-    from boxbox.torcs import checks, launch, setup
-
-    path = cache_dir() / "limit" / f"{track}-{car}-{_record_key(track, car)}.npz"
-    if not path.exists():
-        overlay = setup.ensure_ready()
-        category, _ = checks.check_race(track, car, 1, [], [], 1)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        run = Path(tempfile.mkdtemp(prefix="record-", dir=path.parent))
-        try:
-            cfg = launch.RaceConfig(track=track, category=category, car=car, laps=0, telemetry=False,
-                                    robots=["boxbox.robot.recorder:Recorder"], robot_names=["recorder 1"],
-                                    run_dir=run, learning="off")
-            result = launch.run_race(cfg, overlay)
-            if result.error or not (run / RECORD_FILE).exists():
-                raise BoxboxError(f"could not record {track} with {car}: {result.error or 'no track file'}")
-            (run / RECORD_FILE).replace(path)
-        finally:
-            shutil.rmtree(run, ignore_errors=True)
-    return load_track(path)
 
 
 def point_mass_car(car: Car, skill_level: SkillLevel, fuel_l: float = 0.0) -> PointMassCar:
@@ -187,7 +155,7 @@ def _model_version() -> str:
 def limit_for(track: str, car: str, skill_level: SkillLevel, track_limits: str = "torcs") -> LimitLap:
     """limit_lap for a track and car by name (recorded from TORCS when not cached), kept under the
     cache folder per track, car, skill level, track limits and model version."""
-    key = f"{track}-{car}-{int(skill_level)}-{track_limits}-{_record_key(track, car)}-{_model_version()}"
+    key = f"{track}-{car}-{int(skill_level)}-{track_limits}-{record_key(track, car)}-{_model_version()}"
     path = cache_dir() / "limit" / "laps" / f"{key}.npz"
     try:
         with np.load(path) as z:

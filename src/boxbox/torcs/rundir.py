@@ -15,6 +15,7 @@ What the folder holds, documented in docs/reliability.md:
 | `fault.json` | robot host | the robot fault that stopped the race (`faults.Fault`) |
 | `hang-traceback.txt` | robot host | where a hung robot was stuck (faulthandler, on SIGUSR1) |
 | `telemetry.parquet` | robot host | every drive step of the Python cars (`torcs/telemetry.py`) |
+| `states.parquet` | robot host | each drive step's `State` of the Python cars (`boxbox.testing.recorded_states`) |
 | `.telemetry-N.rows`, `.sig` | robot host | telemetry spool while the race runs (removed at the end) |
 | `recording.parquet` | robot host | every car, 10 times a second, for `boxbox replay` (`torcs/recording.py`) |
 | `.telemetry-race.rows` | robot host | the recording's spool while the race runs (removed at the end) |
@@ -37,6 +38,7 @@ from boxbox.errors import UsageError
 
 RESULT_FILE = "result.json"  # the names others read: the report, the tests
 TELEMETRY_FILE = "telemetry.parquet"
+STATES_FILE = "states.parquet"  # written with the telemetry, from the same rows
 RECORDING_FILE = "recording.parquet"
 KEEP_RUNS_DEFAULT = 50  # automatic run dirs kept under CACHE/runs (BOXBOX_KEEP_RUNS overrides)
 AUTO_MARK = ".auto"
@@ -100,6 +102,10 @@ class RunDir:
         return self.path / TELEMETRY_FILE
 
     @property
+    def states(self) -> Path:
+        return self.path / STATES_FILE
+
+    @property
     def recording(self) -> Path:
         return self.path / RECORDING_FILE
 
@@ -137,8 +143,8 @@ class RunDir:
 
     def clear_stale(self) -> None:
         """Remove what an earlier race in this folder left, so nothing of it is read as this race's."""
-        for path in (self.fault, self.hang_traceback, self.torcs_stack, self.telemetry, self.recording, self.result,
-                     self.torcs_err, self.torcs_out):
+        for path in (self.fault, self.hang_traceback, self.torcs_stack, self.telemetry, self.states, self.recording,
+                     self.result, self.torcs_err, self.torcs_out):
             path.unlink(missing_ok=True)
         for spool in self.path.glob(".telemetry-*"):
             spool.unlink(missing_ok=True)
