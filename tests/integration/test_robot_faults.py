@@ -76,7 +76,7 @@ def test_the_robot_host_log_is_bounded(tmp_path, overlay):
     assert proc.returncode == 0, proc.stderr
     log = (run_dir / "host.log").read_bytes()
     assert len(log) < 2_200_000
-    assert log.startswith(b"step xxx") and log.rstrip().endswith(b"last words of the robot")
+    assert log.startswith(b"[middle 1] step xxx") and log.rstrip().endswith(b"[middle 1] last words of the robot")
     assert b"bytes of the log cut here" in log
 
 

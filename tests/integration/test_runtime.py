@@ -237,9 +237,9 @@ def test_a_car_that_never_moves_has_no_laps_and_no_place(tmp_path, overlay):
     assert "did not finish: 0 of 1 laps" in proc.stderr and "-1 of" not in proc.stderr
 
 
-def test_what_a_robot_prints_is_kept_and_shown_with_verbose(tmp_path, overlay, capfd):
+def test_what_a_robot_prints_is_kept_and_shown_with_show_prints(tmp_path, overlay, capfd):
     cfg = launch.RaceConfig(track="g-track-1", category="road", laps=1, robots=[f"{HOSTILE}:Talks"],
-                            run_dir=tmp_path / "run", verbose=True, telemetry=False)
+                            run_dir=tmp_path / "run", show_prints=True, telemetry=False)
     result = launch.run_race(cfg, overlay)
     assert result.error is None
     err = capfd.readouterr().err
@@ -277,17 +277,34 @@ def test_a_car_pushed_past_its_box_is_reported_and_a_made_stop_is_not(tmp_path, 
 
 
 def test_the_race_command_shows_robot_output_and_missed_stops(tmp_path, overlay):
-    """--verbose shows what the robot prints as it comes; a stop asked for and not made is a
-    warning line per lap."""
-    talks = run_boxbox("race", "--track", "g-track-1", "--laps", "1", "--robot", f"{HOSTILE}:Talks", "--verbose",
+    """What the robot prints is shown as it comes, each line marked with its car (--quiet hides
+    it); a stop asked for and not made is a warning line per lap."""
+    talks = run_boxbox("race", "--track", "g-track-1", "--laps", "1", "--robot", f"{HOSTILE}:Talks",
                        "--no-telemetry", "--run-dir", str(tmp_path / "talks"))
     assert talks.returncode == 0, talks.stderr
-    assert "hello from the robot" in talks.stderr and "a warning from the robot" in talks.stderr
+    assert "[middle 1] hello from the robot\n" in talks.stderr, talks.stderr
+    assert "[middle 1] a warning from the robot\n" in talks.stderr
     asks = run_boxbox("race", "--track", "g-track-1", "--laps", "2", "--robot", f"{HOSTILE}:AsksForAStopOnTheTrack",
                       "--quiet", "--no-telemetry", "--run-dir", str(tmp_path / "asks"))
     assert asks.returncode == 0, asks.stderr
     assert "warning: middle 1 asked for a pit stop on lap 1 that was not made: never entered the pit lane" \
         in asks.stderr, asks.stderr
+
+
+@pytest.mark.parametrize("quiet", [False, True])
+def test_a_fault_shows_the_robots_last_five_printed_lines(tmp_path, overlay, quiet):
+    """The robot reads its own prints back from host.log, marked, while the race runs (it raises
+    if they are not there); its fault's line then shows the last five and where host.log is; they
+    are on the terminal as they came unless --quiet."""
+    run_dir = tmp_path / "run"
+    proc = run_boxbox("race", "--track", "g-track-1", "--laps", "1", "--robot", f"{HOSTILE}:TalksThenFails",
+                      "--no-telemetry", "--run-dir", str(run_dir), *(["--quiet"] if quiet else []))
+    assert proc.returncode == 4, proc.stderr
+    [error] = [ln for ln in proc.stderr.splitlines() if ln.startswith("boxbox: error:")]
+    assert "RuntimeError: done talking" in error and f"its prints are in {run_dir / 'host.log'}" in error
+    shown = "the last 5 lines talker 1 printed:\n" + "".join(f"[talker 1] line {i}\n" for i in range(3, 8))
+    assert shown in proc.stderr, proc.stderr
+    assert ("[talker 1] line 1\n" in proc.stderr) is not quiet  # as they came: all seven lines, before the fault
 
 
 def test_numpy_scalars_in_controls_drive_a_real_race(tmp_path, overlay):

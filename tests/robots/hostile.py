@@ -60,7 +60,7 @@ class AsksForAStopOnTheTrack(MiddleRobot):
 
 
 class Talks(MiddleRobot):
-    """Prints on stdout and stderr (kept in RUN_DIR/host.log, shown live with verbose)."""
+    """Prints on stdout and stderr (kept in RUN_DIR/host.log, shown live unless quiet)."""
 
     said = False
 
@@ -72,6 +72,37 @@ class Talks(MiddleRobot):
         return super().drive(state)
 
 
+
+
+class TalksThenFails(MiddleRobot):
+    """Prints "line 1" .. "line 7" on its first drive steps (the last two on stderr, one without
+    flush), reads its own prints back from host.log as the race runs, then raises."""
+
+    name = "talker"
+    step = 0
+
+    def drive(self, state):
+        self.step += 1
+        if self.step <= 7:
+            print(f"line {self.step}", file=sys.stderr if self.step > 5 else sys.stdout, flush=self.step != 6)
+        elif self.step == 8:
+            self.wait_for_own_prints()
+        else:
+            raise RuntimeError("done talking")
+        return super().drive(state)
+
+    @staticmethod
+    def wait_for_own_prints() -> None:
+        """As they happen: each line is in host.log, marked with the car, while the race runs."""
+        import os
+        from pathlib import Path
+
+        log = Path(os.environ["BOXBOX_RUN_DIR"]) / "host.log"
+        for _ in range(100):
+            if "[talker 1] line 7" in log.read_text():
+                return
+            time.sleep(0.02)
+        raise RuntimeError(f"my prints are not in host.log yet: {log.read_text()!r}")
 
 
 class Crawls(MiddleRobot):

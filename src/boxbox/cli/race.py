@@ -72,12 +72,11 @@ SET_HELP = ("Set a parameter of the robots that declare it (see `boxbox params -
               help="Where the Python cars start: 1 (pole, the default) .. or 'last'; the TORCS robots fill the "
                    "other slots in the order given, e.g. --grid-position last.")
 @skill_level_option
-@click.option("--quiet", is_flag=True, help="No progress bar.")
-@click.option("--verbose", is_flag=True,
-              help="Show what the robots print as the race runs (it is always kept in RUN_DIR/host.log).")
+@click.option("--quiet", is_flag=True,
+              help="No progress bar, and what the robots print not shown (it is always kept in RUN_DIR/host.log).")
 def race(track, car, laps, robots, opponents, fuel_laps, pit_laps, pit_mode, json_file, step_budget_ms, settings,
          setup_file, setup_budget_s, memory_limit_gib, learning, run_dir, no_telemetry, report_dir, grid_position,
-         skill_level, quiet, verbose) -> None:
+         skill_level, quiet) -> None:
     """Run one race in TORCS (console mode) and print the results.
 
     \b
@@ -105,10 +104,10 @@ def race(track, car, laps, robots, opponents, fuel_laps, pit_laps, pit_mode, jso
                             opponents=opp, options=options, step_budget_ms=int(step_budget_ms), run_dir=run_dir,
                             setup_budget_ms=int(setup_budget_s * 1000), telemetry=not no_telemetry,
                             skill_level=skill_level, grid_position=grid_slot, learning=learning,
-                            json_file=json_file, verbose=verbose,
+                            json_file=json_file, show_prints=not quiet,
                             memory_limit_gib=memory_limit_gib)  # the race writes RUN_DIR/result.json, then this
     with StopSignals() as stop:  # a Ctrl-C after the finish: the table and report first, then exit 130
-        _finish(run_with_progress(cfg, overlay, quiet or verbose), laps, report_dir, stop)
+        _finish(run_with_progress(cfg, overlay, quiet), laps, report_dir, stop)
 
 
 def _setup_values(setup_file: Path | None, specs: list[str], budget_s: float) -> dict:

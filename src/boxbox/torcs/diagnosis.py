@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from boxbox.torcs import wire
 from boxbox.torcs.faults import RACE_KINDS, Fault
 from boxbox.torcs.paths import ROBOT_MODULE
+from boxbox.torcs.robot_output import last_prints
 from boxbox.torcs.rundir import RunDir
 
 PROGRESS_LINE = re.compile(r"Sim Time:\s*([\d.]+)\s*\[s\], Leader Laps:\s*(\d+)")
@@ -85,10 +86,20 @@ def diagnose(run_dir: RunDir, end: Ending) -> str | None:
 
 
 def robot_fault_line(run_dir: RunDir, fault: Fault, default_spec: str) -> str:
-    """The fault's line; a robot's fault also says where the robot's last prints are (host.log)."""
-    first, nl, rest = fault.line(default_spec).partition("\n")
-    if fault.kind not in RACE_KINDS and run_dir.host_log.is_file() and run_dir.host_log.stat().st_size:
-        first += f"; its prints are in {run_dir.host_log}"
+    """The fault's line; a robot's fault also says where its prints are (host.log) and shows the
+    last lines it printed."""
+    line = fault.line(default_spec)
+    return line if fault.kind in RACE_KINDS else with_prints(run_dir, fault.name, line)
+
+
+def with_prints(run_dir: RunDir, name: str, line: str) -> str:
+    """A robot's fault line (its first line, then what follows) with where host.log is and, below
+    the first line, the last lines the car `name`'s robot printed (torcs/robot_output.py)."""
+    first, nl, rest = line.partition("\n")
+    prints = last_prints(run_dir.read_text(run_dir.host_log), name) if name else []
+    first += f"; its prints are in {run_dir.host_log}"
+    if prints:
+        first += f"\nthe last {len(prints)} lines {name} printed:\n" + "\n".join(prints)
     return first + nl + rest
 
 
@@ -121,7 +132,8 @@ def _bridge_fault(run_dir: RunDir, end: Ending, marker: re.Match) -> str:
             return timeout_line(who, end, step, marker) + "; it answered late but was not stuck (asked where it " \
                 "was, its host was already finishing the race): a slow step or a loaded machine; give more time " \
                 "with --step-budget-ms, or race fewer jobs at once"
-        return timeout_line(who, end, step, marker) + (f"\nwhere the robot was stuck:\n{hang_tb}" if hang_tb else "")
+        line = timeout_line(who, end, step, marker) + (f"\nwhere the robot was stuck:\n{hang_tb}" if hang_tb else "")
+        return with_prints(run_dir, end.names[robot], line) if 0 <= robot < len(end.names) else line
     if kind == "host-gone" and end.host_stopped:  # its socket closed, the process alive: not a kill from outside
         return f"the robot process dropped its connection to TORCS during the race (step {step}) while driving " \
             f"{who}, though it still ran (stopped at the end): a robot that closes file descriptors it did not " \

@@ -15,7 +15,6 @@ import gc
 import math
 import os
 import socket
-import sys
 import traceback
 from time import perf_counter_ns
 
@@ -36,6 +35,7 @@ from boxbox.torcs.hostlink import HostLink
 from boxbox.torcs.messages import HSIZE, OPPONENTS_AT, decode_state, decode_track, pack_controls
 from boxbox.torcs.pitwatch import PitWatch
 from boxbox.torcs.recording import RaceRecorder, write_recording
+from boxbox.torcs.robot_output import CALLER, host_message
 from boxbox.torcs.rundir import RunDir
 from boxbox.torcs.telemetry import NO_NEAR, SPILL_BYTES, Recorder, nearest_car, write_telemetry
 from boxbox.torcs.timing import HEARTBEAT_S, MIN_SPEED_MPS, TimeModel
@@ -119,8 +119,9 @@ class Host:
         options = RaceOptions(**opts)
         self.pit_laps = options.pit_laps
         self.slots: list[HostedCar] = []
-        for entry in spec["robots"]:
+        for i, entry in enumerate(spec["robots"]):
             cls = load_robot_class(entry["spec"], isolated=False)  # the host is the robot's own process
+            CALLER[0] = i  # what the robot's constructor prints is marked with its car
             self.slots.append(HostedCar(robot=cls(options), spec=entry["spec"], name=entry["name"]))
         if spec.get("telemetry", True):
             for i, slot in enumerate(self.slots):
@@ -152,8 +153,8 @@ class Host:
         """Keep the race's first fault (fault.json, and the launcher told); a later one is only printed."""
         slot = self.slots[robot] if 0 <= robot < len(self.slots) else None
         if self.fault is not None:
-            print(f"boxbox host: after the race's first fault, {slot.name if slot else robot}: {fault.message}\n"
-                  f"{fault.tb}", file=sys.stderr)
+            host_message(f"boxbox host: after the race's first fault, {slot.name if slot else robot}: "
+                         f"{fault.message}\n{fault.tb}")
             return
         last = slot.last_state if slot else None
         self.fault = Fault(kind=fault.kind, message=fault.message, where=where, robot_index=robot,
@@ -190,6 +191,7 @@ class Host:
         drive = self._drive_step(conn)
         handlers = {wire.NEW_TRACK: self._new_track, wire.NEW_RACE: self._new_race, wire.PIT_CMD: self._pit_cmd,
                     wire.END_RACE: self._end_race, wire.SHUTDOWN: self._shutdown, wire.HELLO: self._hello}
+        caller = CALLER
         while True:
             try:
                 n = conn.recv_into(buf)
@@ -198,6 +200,7 @@ class Host:
             if n == 0:
                 return
             kind, robot, step, count = header(buf, 0)
+            caller[0] = robot  # a robot's prints are marked with its car (torcs/robot_output.py)
             if kind == wire.DRIVE:
                 drive(robot, step, count)
             elif (handler := handlers.get(kind)) is not None:
@@ -410,6 +413,7 @@ class Host:
     def end_races(self) -> None:
         """on_race_end for every robot TORCS did not tell (a fault, Ctrl-C, TORCS gone)."""
         for i, slot in enumerate(self.slots):
+            CALLER[0] = i
             fault = self._race_end(slot, None)
             if fault is not None:
                 self._record_fault(i, slot.steps_timed, "on_race_end", fault)
@@ -463,8 +467,7 @@ class Host:
         except OSError as exc:
             lost.append(f"{self.run_dir.telemetry.name} not written: {exc.strerror or exc}")
         except Exception:
-            print("boxbox host: writing the telemetry failed", file=sys.stderr)
-            traceback.print_exc()
+            host_message(f"boxbox host: writing the telemetry failed\n{traceback.format_exc()}")
         finally:
             for rec in recorders:
                 rec.remove_spool()

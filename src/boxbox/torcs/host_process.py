@@ -16,6 +16,7 @@ from boxbox.torcs import host as host_module
 from boxbox.torcs.faults import Fault
 from boxbox.torcs.host import Host, RobotFault, abandon_call, forked_child, report_fault
 from boxbox.torcs.hostlink import HostLink
+from boxbox.torcs.robot_output import mark_robot_output
 from boxbox.torcs.rundir import RunDir
 
 
@@ -44,6 +45,7 @@ def serve_profiled(host: Host, conn: socket.socket, stats_file: str) -> None:
 def main(argv: list[str]) -> int:
     spec = json.loads(Path(argv[0]).read_text())
     run_dir = RunDir(spec["run_dir"])
+    mark_robot_output([entry["name"] for entry in spec["robots"]])  # each robot's prints marked with its car
     link = HostLink(spec.get("link_fd"))
     host_module.MEMORY_LIMIT_GIB[0] = spec.get("memory_limit_gib")
     os.register_at_fork(after_in_child=lambda: forked_child(link))

@@ -86,7 +86,7 @@ class RaceLaunch:
         self.hang_dumped = False  # the host was asked for its stack (once: the diagnosis prints it)
         self.stalled = False  # timed out by the stall limit: TORCS stopped calling the robots
         self.host_ended: int | None = None  # how the host ended by itself, before the launcher killed it
-        # what the robot host and TORCS print, bounded (torcs/logcap.py); the host's shown with verbose
+        # what the robot host and TORCS print, bounded (torcs/logcap.py); the host's shown with show_prints
         self.host_pump: LogPump | None = None
         self.err_pump: LogPump | None = None
         self.started = time.perf_counter()
@@ -132,7 +132,7 @@ class RaceLaunch:
             listener.listen(1)
             read_fd, write_fd = os.pipe()
             self.reports = HostReports(read_fd)
-            self.host_pump = LogPump(self.run_dir.host_log, echo=self.cfg.verbose)
+            self.host_pump = LogPump(self.run_dir.host_log, echo=self.cfg.show_prints)
             try:
                 self.run_dir.host_spec.write_text(json.dumps(self._host_spec(listener.fileno(), write_fd)))
                 self.host = self._spawn_host(listener.fileno(), write_fd, self.host_pump.write_fd)

@@ -10,6 +10,7 @@ write to a pipe.  TORCS's console (torcs.out), read by the launcher's own loop, 
 
 from __future__ import annotations
 
+import codecs
 import contextlib
 import os
 import selectors
@@ -100,12 +101,14 @@ def capped_text(text: str, what: str, head: int, tail: int) -> str:
 
 class LogPump:
     """A pipe whose write end a child of the race prints to, read by a thread into a CappedLog
-    (and echoed to stderr as it comes, when `echo`)."""
+    (and echoed to sys.stderr as it comes, when `echo`: as text, so that a progress bar on the
+    terminal, which takes over sys.stderr, prints it above itself)."""
 
     def __init__(self, path: Path, echo: bool = False) -> None:
         self.read_fd, self.write_fd = os.pipe()
         self.log = CappedLog(path)
         self.echo = echo
+        self._decode = codecs.getincrementaldecoder("utf-8")("replace").decode  # a character cut between reads
         self._stop = threading.Event()
         self._done = False
         self._thread = threading.Thread(target=self._run, name=f"log {path.name}", daemon=True)
@@ -134,7 +137,7 @@ class LogPump:
                 self.log.write(chunk)
                 if self.echo:
                     with contextlib.suppress(OSError, ValueError):
-                        sys.stderr.buffer.write(chunk)
+                        sys.stderr.write(self._decode(chunk))
                         sys.stderr.flush()
 
     def finish(self, timeout_s: float = 2.0) -> None:

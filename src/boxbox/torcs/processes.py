@@ -127,7 +127,7 @@ def _host_child(spec_path: Path, log_fd: int, setup: Callable[[], None]) -> None
         os.dup2(log_fd, 2)
         os.close(log_fd)
         # what the robot prints goes to the log, whatever the launcher's sys.stdout was (a notebook's
-        # stream, a test's capture); line by line, so --verbose shows it as it comes
+        # stream, a test's capture); line by line, so the terminal shows it as it comes
         sys.stdout = open(1, "w", buffering=1, closefd=False)  # noqa: SIM115
         sys.stderr = open(2, "w", buffering=1, closefd=False)  # noqa: SIM115
         import atexit

@@ -48,7 +48,7 @@ class RaceConfig:
     run_dir: Path | None = None  # None: a new folder under CACHE/runs (the oldest pruned, keep_runs kept)
     json_file: Path | None = None  # the result is also written here, after RUN_DIR/result.json
     telemetry: bool = True  # record every drive step of the Python cars in RUN_DIR/telemetry.parquet
-    verbose: bool = False  # show what the robots print (RUN_DIR/host.log) on stderr as the race runs
+    show_prints: bool = False  # show what the robots print (RUN_DIR/host.log) on stderr as the race runs
     keep_runs: int | None = None  # automatic run dirs kept (None: $BOXBOX_KEEP_RUNS or 50)
     skill_level: SkillLevel = DEFAULT_SKILL_LEVEL  # for every car in the race, boxbox's and TORCS's
     grid_position: int | None = None  # the Python cars' first grid slot (1 = pole, the default)
