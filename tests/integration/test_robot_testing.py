@@ -7,7 +7,9 @@ from __future__ import annotations
 import importlib.util
 
 import numpy as np
+import pytest
 
+from boxbox.errors import UsageError
 from boxbox.testing import load_car, load_track, recorded_states
 from boxbox.torcs.telemetry import load_telemetry
 from helpers import ROBOTS, read_json, run_boxbox
@@ -32,3 +34,10 @@ def test_a_robot_replayed_over_its_recorded_race_answers_as_it_raced(tmp_path, o
     controls = [robot.drive(s) for s in states]
     for name in ("steer", "accel", "brake"):
         assert np.array_equal([getattr(c, name) for c in controls], raced[name]), name
+
+
+def test_an_unknown_track_or_car_is_one_line_naming_the_nearest(overlay):
+    with pytest.raises(UsageError, match="g-track-1"):
+        load_track("g-trak-1")
+    with pytest.raises(UsageError, match="car1-trb1"):
+        load_car("car1-trb")

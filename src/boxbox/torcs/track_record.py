@@ -1,6 +1,6 @@
 """A track's segments and a car's constants exactly as the bridge sends them to a robot, without a
 race to drive: a 0-lap race of the recorder robot (robot/recorder.py, under a second), kept under
-the cache folder per track, car and wire layout (`CACHE/limit/TRACK-CAR-KEY.npz`), so the next
+the cache folder per track, car and wire layout (`CACHE/tracks/TRACK-CAR-KEY.npz`), so the next
 call reads a file.  The limit lap (bench/limit.py) and `boxbox.testing` read them from here."""
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ def recorded_track(track: str, car: str) -> tuple[Track, Car]:
     """The track's segments and the car's constants as the bridge sends them: from the cache, else
     from a 0-lap race of the recorder robot (under a second), then cached.  Unknown names are a
     one-line UsageError naming the nearest ones (torcs/checks.py)."""
-    path = cache_dir() / "limit" / f"{track}-{car}-{record_key(track, car)}.npz"
+    path = cache_dir() / "tracks" / f"{track}-{car}-{record_key(track, car)}.npz"
     if not path.exists():
         from boxbox.torcs import checks, launch, setup  # only to record: a cached pair reads a file
 
