@@ -508,25 +508,39 @@ def test_brakes_for_a_much_slower_car_close_ahead(name):
 
 # --- drive: cost -----------------------------------------------------------------------------------
 
+def _drive_s(robot, states) -> float:
+    """The least wall time of three passes of robot.drive over states, per call (s)."""
+    best = math.inf
+    for _ in range(3):
+        t0 = time.perf_counter()
+        for s in states:
+            robot.drive(s)
+        best = min(best, (time.perf_counter() - t0) / len(states))
+    return best
+
+
 @pytest.mark.parametrize("name", TRACKS)
-def test_drive_is_cheap(name):
+def test_drive_among_cars_costs_at_most_eight_times_driving_alone(name):
+    """The drive step with a car 30 m ahead in our lane and one behind (the envelope's record and
+    grid, the filters) against the same steps alone, timed in turn in one process, so a loaded
+    machine slows both (the absolute figures are bench-speed's: a wall-time bound failed here
+    whenever the machine was busy): an order of magnitude is what fails.  Measured 2026-12-01 on a
+    loaded 2-core machine: 3.2 to 5.5 times (about 60 us alone)."""
     robot = robot_for(name)
     length = robot.track.length_m
-    states = []
+    among, alone = [], []
     d = 100.0
     for k in range(2000):
         v = min(robot.profile.speed_at(d), 60.0)
         opps = (make_opp(robot, dist_from_start_m=(d + 30.0) % length, to_middle_m=1.0, speed_mps=v - 2.0),
                 make_opp(robot, dist_from_start_m=(d - 20.0) % length, to_middle_m=-1.0, speed_mps=v + 2.0))
-        states.append(line_state(robot, d, v, opponents=opps, n_opponents=2.0, sim_time_s=k * STEP_S,
-                                 cur_lap_time_s=k * STEP_S))
+        among.append(line_state(robot, d, v, opponents=opps, n_opponents=2.0, sim_time_s=k * STEP_S,
+                                cur_lap_time_s=k * STEP_S))
+        alone.append(line_state(robot, d, v, sim_time_s=k * STEP_S, cur_lap_time_s=k * STEP_S))
         d += v * STEP_S
-    robot.drive(states[0])  # first call of the lap
-    t0 = time.perf_counter()
-    for s in states:
-        robot.drive(s)
-    per_call = (time.perf_counter() - t0) / len(states)
-    assert per_call < 200e-6
+    robot.drive(alone[0])  # first call of the lap
+    ratio = _drive_s(robot, among) / _drive_s(robot, alone)
+    assert ratio < 8.0, f"{ratio:.2f} times driving alone"
 
 
 # --- regressions (bugs found by these tests, since fixed) ------------------------------------------
