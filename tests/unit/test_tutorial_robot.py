@@ -509,14 +509,11 @@ def test_brakes_for_a_much_slower_car_close_ahead(name):
 # --- drive: cost -----------------------------------------------------------------------------------
 
 def _drive_s(robot, states) -> float:
-    """The least wall time of three passes of robot.drive over states, per call (s)."""
-    best = math.inf
-    for _ in range(3):
-        t0 = time.perf_counter()
-        for s in states:
-            robot.drive(s)
-        best = min(best, (time.perf_counter() - t0) / len(states))
-    return best
+    """The wall time of one pass of robot.drive over states, per call (s)."""
+    t0 = time.perf_counter()
+    for s in states:
+        robot.drive(s)
+    return (time.perf_counter() - t0) / len(states)
 
 
 @pytest.mark.parametrize("name", TRACKS)
@@ -530,7 +527,7 @@ def test_drive_among_cars_costs_at_most_eight_times_driving_alone(name):
     length = robot.track.length_m
     among, alone = [], []
     d = 100.0
-    for k in range(2000):
+    for k in range(1000):
         v = min(robot.profile.speed_at(d), 60.0)
         opps = (make_opp(robot, dist_from_start_m=(d + 30.0) % length, to_middle_m=1.0, speed_mps=v - 2.0),
                 make_opp(robot, dist_from_start_m=(d - 20.0) % length, to_middle_m=-1.0, speed_mps=v + 2.0))
@@ -539,7 +536,8 @@ def test_drive_among_cars_costs_at_most_eight_times_driving_alone(name):
         alone.append(line_state(robot, d, v, sim_time_s=k * STEP_S, cur_lap_time_s=k * STEP_S))
         d += v * STEP_S
     robot.drive(alone[0])  # first call of the lap
-    ratio = _drive_s(robot, among) / _drive_s(robot, alone)
+    passes = [(_drive_s(robot, among), _drive_s(robot, alone)) for _ in range(5)]  # in turn: the same load
+    ratio = min(a for a, _ in passes) / min(b for _, b in passes)
     assert ratio < 8.0, f"{ratio:.2f} times driving alone"
 
 
