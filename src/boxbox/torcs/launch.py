@@ -46,6 +46,7 @@ Progress = Callable[[int, float], None]  # (leader laps done, sim time)
 INTERRUPTED = "the race was interrupted (Ctrl-C, SIGTERM or SIGHUP); TORCS was stopped, the results so far are kept"
 # the host dead of SIGKILL with no fault said and nobody in the race sending it: the kernel's OOM
 # killer, or an operator's kill -9 (a robot's own excess of memory is a MemoryError: memory_limit_gib)
+HOST_EXIT_WAIT_S = 1.0  # a SIGKILLed host is reaped within ms idle; 1 s covers a loaded machine
 HOST_KILLED = ("the robot host was killed by SIGKILL with no fault of its robot said "
                "(the kernel's OOM killer, or kill -9)")
 SOCK_PREFIX = "boxbox-sock-"
@@ -303,6 +304,7 @@ class RaceLaunch:
 
     def _stop_processes(self) -> None:
         kill_group(self.torcs)
+        self._let_a_dropped_host_end()
         self.host_ended = self.host.poll() if self.host is not None else None
         kill_group(self.host, tree=True)
         if self.torcs is not None and self.torcs.stdout is not None:
@@ -338,6 +340,17 @@ class RaceLaunch:
             return (f"a robot sent {self.stop.names()} to boxbox (the robot host's parent process), which stops "
                     f"a race: a robot may not signal boxbox; the results so far are kept (run dir {self.run_dir})")
         return f"{INTERRUPTED} (run dir {self.run_dir})"
+
+    def _let_a_dropped_host_end(self) -> None:
+        """A host whose connection TORCS saw drop may be dying still: the kernel closes a killed
+        process's sockets before its parent can reap it, and on a busy machine that gap outlasted
+        TORCS's own ending (a SIGKILLed host read as alive, "though it still ran"). Up to 1 s for it,
+        only in that ending; a host that cut its own socket (os.closerange) stays alive and is killed."""
+        if self.host is None or self.host.poll() is not None:
+            return
+        if "BOXBOX-FAULT host-gone" in self.run_dir.read_text(self.run_dir.torcs_err):
+            with contextlib.suppress(subprocess.TimeoutExpired):
+                self.host.wait(timeout=HOST_EXIT_WAIT_S)
 
     def _host_stopped(self) -> bool:
         """The host still ran when the race was over: the launcher killed it (diagnosis.Ending)."""
