@@ -15,6 +15,8 @@ from boxbox.report.contacts import (
     SIDE_NEITHER,
     SIDE_WE,
     Contact,
+    RaceContacts,
+    ahead_rows,
     find_contacts,
     usual_lines,
 )
@@ -108,6 +110,24 @@ def test_we_hit_the_car_ahead():
     [c] = contacts({0: us, 1: it})
     assert (c.kind, c.cause) == ("ahead", AHEAD)
     assert c.closing_mps == pytest.approx(1.55, abs=0.01)
+
+
+def test_how_we_hit_the_car_ahead_headway_turning_and_its_slide():
+    """1 s before the hit the bumper gap is 20 - 1.55 * 9 - 4.5 = 1.55 m at 31.55 m/s; the round
+    track turns us at 30^2 / 47.7 m = 19 m/s^2; a heading 0.3 rad off the track's from 39.2 s on is a
+    slide of 0.8 s at the hit (40 s), which the table counts as begun early."""
+    us = car(30.0 * T - 20.0 + np.clip(T - 30.0, 0.0, None) * 1.55, 0.0, hit_at(40.0))
+    it = car(30.0 * T, 0.5)
+    cols = columns({0: us, 1: it})
+    cols["heading_to_track_rad"] = np.where((cols["car"] == 1) & (cols["time_s"] >= 39.2), 0.3, 0.0)
+    [c] = find_contacts(Frames.from_columns(cols), 0, T, us["damage"], TRACK_M, LENGTHS)
+    assert c.headway_s == pytest.approx(1.55 / 31.55, abs=0.005)
+    assert c.turning_mps2 == pytest.approx(31.55 ** 2 / RADIUS_M, rel=0.03)
+    assert c.it_slid_s == pytest.approx(0.8, abs=0.11)
+    rows = ahead_rows([RaceContacts("run", "round", 0, c.damage, [c])])
+    assert [r["incidents"] for r in rows] == [1, 0, 0, 0]
+    calm = contacts({0: us, 1: it})[0]  # no heading recorded: not known to slide, so in a turn
+    assert [r["incidents"] for r in ahead_rows([RaceContacts("run", "round", 0, calm.damage, [calm])])] == [0, 0, 1, 0]
 
 
 @pytest.mark.parametrize(("ours", "its", "cause"), [

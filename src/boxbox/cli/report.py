@@ -77,6 +77,7 @@ def contacts(run_dirs: tuple[Path, ...], bench_file: Path | None, each: bool, js
     if each:
         out.print(_each_table(races))
     out.print(_cause_table(races))
+    out.print(_ahead_table(races))
     out.print(_scenario_table(races))
     if json_file is not None:
         write_json_atomic(json_file, [r.to_json() for r in races], indent=1)
@@ -110,6 +111,20 @@ def _cause_table(races):
     for r in cause_rows(races):
         table.add_row(r["cause"], str(r["incidents"]), str(r["damage"]), f"{100 * r['share']:.0f} %", str(r["lap1"]),
                       str(r["lapping"]), str(r["others_damage"]), str(r["races_led"]))
+    return table
+
+
+def _ahead_table(races):
+    from rich.table import Table
+
+    from boxbox.report.contacts import ahead_rows
+
+    table = Table(title="we hit the car ahead: how")
+    for col in ("how", "incidents", "damage", "on lap 1", "headway s (median, 1 s before)", "closing m/s (median)"):
+        table.add_column(col, justify="left" if col == "how" else "right")
+    for r in ahead_rows(races):
+        nums = [f"{v:.2f}" if v == v else "-" for v in (r["headway_s"], r["closing_mps"])]
+        table.add_row(r["how"], str(r["incidents"]), str(r["damage"]), str(r["lap1"]), *nums)
     return table
 
 

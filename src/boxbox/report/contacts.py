@@ -38,6 +38,12 @@ CLOSING_S = 0.2  # the speeds compared are of this long before the first hit (th
 OTHER_HIT_S = 0.3  # the other car's damage rising this close to our first hit: it was in the contact
 NEAR_M = 20.0  # alone with another car's centre within this: perhaps making room for it
 LOW_DAMAGE = 300  # issue #51's race "under 300 damage"
+# how we hit the car ahead (`ahead_rows`): the car ahead sliding, more than SLIDE_RAD (11.5 degrees)
+# off the track's heading (its racing line's own angle is under it), or we in a turn, our sideways
+# acceleration TURNING_MPS2 or more at some sample of the BEFORE_S before (about a half of car1-trb1's grip)
+SLIDE_RAD = 0.2
+TURNING_MPS2 = 8.0
+EARLY_SLIDE_S = 0.5  # a slide that began this long before the hit left time to brake
 
 BEHIND_HELD = "hit from behind, our line held"
 BEHIND_MOVED = "hit from behind, we changed line"
@@ -73,6 +79,9 @@ class Contact:
     other_damage: int = 0  # what the other car took in the same moments
     after: str = ""  # alone: the cause of the contact AFTER_S before, else ""
     nearest_m: float = math.nan  # the nearest other car's centre from ours
+    headway_s: float = math.nan  # the bumper gap along the track BEFORE_S before the hit, over our speed then
+    turning_mps2: float = math.nan  # our highest sideways acceleration over the BEFORE_S before
+    it_slid_s: float = math.nan  # how long the other car had been sliding (SLIDE_RAD) at the hit (0: not)
 
     @property
     def cause(self) -> str:
@@ -209,7 +218,40 @@ def classify(f: Frames, us: int, k: int, c: Contact, lines: np.ndarray, track_le
     slowed = float(at_time(f, "speed_mps", t - BEFORE_S)[us] - at_time(f, "speed_mps", t)[us])
     lapping = _lapping(float(raced[k] - raced[us]), track_length_m)
     return replace(c, kind=kind, other=f.cars[k], ahead_m=ahead, left_m=left, closing_mps=float(speed[us] - speed[k]),
-                   we_slowed_mps=slowed, lapping=lapping, we_moved_m=float(moved[us]), it_moved_m=float(-moved[k]))
+                   we_slowed_mps=slowed, lapping=lapping, we_moved_m=float(moved[us]), it_moved_m=float(-moved[k]),
+                   headway_s=_headway_s(f, us, k, t - BEFORE_S, track_length_m, mean_len),
+                   turning_mps2=_turning_mps2(f, us, t), it_slid_s=_slid_s(f, k, t))
+
+
+def _headway_s(f: Frames, us: int, k: int, t: float, track_length_m: float, mean_len_m: float) -> float:
+    """Car column k's bumper gap ahead of ours along the track at time t over our speed then (s)."""
+    raced, speed = at_time(f, "dist_raced_m", t), at_time(f, "speed_mps", t)
+    gap_m = float(_wrapped(raced[k:k + 1] - raced[us], track_length_m)[0]) - mean_len_m
+    return gap_m / float(speed[us]) if float(speed[us]) > 1.0 else math.nan
+
+
+def _turning_mps2(f: Frames, us: int, t: float) -> float:
+    """Our highest sideways acceleration (yaw rate times speed, m/s^2) at the samples of the BEFORE_S before t."""
+    i0, i1 = max(1, int(np.searchsorted(f.times, t - BEFORE_S))), int(np.searchsorted(f.times, t, side="right"))
+    if i1 <= i0:
+        return math.nan
+    yaw = np.unwrap(np.nan_to_num(f.cols["yaw_rad"][i0 - 1:i1, us]))
+    rate = np.diff(yaw) / np.diff(f.times[i0 - 1:i1])
+    return float(np.nanmax(np.abs(rate * f.cols["speed_mps"][i0:i1, us])))
+
+
+def _slid_s(f: Frames, k: int, t: float) -> float:
+    """How long before t car column k had been more than SLIDE_RAD off the track's heading without a
+    break (0: not sliding at t; NaN: a recording without the heading)."""
+    if "heading_to_track_rad" not in f.cols:
+        return math.nan
+    i = int(np.clip(np.searchsorted(f.times, t), 0, len(f.times) - 1))
+    sliding = np.abs(np.nan_to_num(f.cols["heading_to_track_rad"][:i + 1, k])) > SLIDE_RAD
+    if not sliding[-1]:
+        return 0.0
+    calm = np.flatnonzero(~sliding)
+    first = int(calm[-1]) + 1 if len(calm) else 0
+    return float(f.times[i] - f.times[first])
 
 
 def find_contacts(f: Frames, car: int, time_s: np.ndarray, damage: np.ndarray, track_length_m: float,
@@ -315,6 +357,33 @@ def cause_rows(races: list[RaceContacts]) -> list[dict]:
                      "lap1": sum(c.damage for c in mine if c.lap <= 1),
                      "lapping": sum(c.damage for c in mine if c.lapping),
                      "others_damage": sum(c.other_damage for c in mine), "races_led": led[cause]})
+    return rows
+
+
+AHEAD_HOW = ("the car ahead sliding, from 0.5 s or more before", "the car ahead sliding, from under 0.5 s before",
+             "in a turn, the car ahead not sliding", "on a straight, the car ahead not sliding")
+
+
+def _how(c: Contact) -> str:
+    if c.it_slid_s >= EARLY_SLIDE_S:
+        return AHEAD_HOW[0]
+    if c.it_slid_s > 0.0:
+        return AHEAD_HOW[1]
+    return AHEAD_HOW[2] if c.turning_mps2 >= TURNING_MPS2 else AHEAD_HOW[3]
+
+
+def ahead_rows(races: list[RaceContacts]) -> list[dict]:
+    """Our nose into the car ahead, by how (AHEAD_HOW): incidents, damage, on lap 1, and the median
+    headway (bumper gap over our speed, BEFORE_S before the hit) and closing speed."""
+    mine = [c for r in races for c in r.contacts if c.cause == AHEAD]
+    rows = []
+    for how in AHEAD_HOW:
+        group = [c for c in mine if _how(c) == how]
+        headway = [c.headway_s for c in group if math.isfinite(c.headway_s)]
+        rows.append({"how": how, "incidents": len(group), "damage": sum(c.damage for c in group),
+                     "lap1": sum(c.damage for c in group if c.lap <= 1),
+                     "headway_s": float(np.median(headway)) if headway else math.nan,
+                     "closing_mps": float(np.median([c.closing_mps for c in group])) if group else math.nan})
     return rows
 
 
