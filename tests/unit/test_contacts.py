@@ -200,8 +200,10 @@ def test_contacts_command_prints_the_causes_and_writes_json(tmp_path):
                                              str(tmp_path / "out.json")], terminal_width=200)
     assert result.exit_code == 0, result.output
     assert "hit from behind, our line held" in result.output and "1/1" in result.output
+    assert "we hit the car ahead: how" in result.output
     [race] = json.loads((tmp_path / "out.json").read_text())
     assert [c["cause"] for c in race["contacts"]] == [BEHIND_HELD] and race["damage"] == 100
+    assert race["contacts"][0]["headway_s"] < 0.0  # the car behind us: a gap behind, over our speed
 
 
 def test_contacts_command_needs_run_dirs_with_a_recording(tmp_path):
