@@ -233,10 +233,14 @@ class KillsItselfInLapTwo(LateFault):
 class KillsTorcsInLapTwo(LateFault):
     killed = False
 
+    def on_track(self, track, car):
+        super().on_track(track, car)
+        self.torcs_pid = torcs_pid()  # before the race: in a step it could overrun the step budget
+
     def fail(self, state):
         if not self.killed:
             self.killed = True
-            os.kill(torcs_pid(), signal.SIGKILL)
+            os.kill(self.torcs_pid, signal.SIGKILL)
 
 
 class Slow(MiddleRobot):
