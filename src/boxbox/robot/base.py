@@ -75,9 +75,10 @@ class Robot:
         return min(car.tank_l, self.options.fuel_laps * per_lap)
 
     def car_setup(self, track: Track, car: Car) -> CarSetup | None:
-        """Car parameters to set before the car is built (after `initial_fuel_l`): wing angles.
-        TORCS merges them over the car's file within its limits; `on_track` then sees the car with
-        them.  Default: None, the car as its file has it."""
+        """Car parameters to set before the car is built (after `initial_fuel_l`): wings, gears,
+        brakes, suspension, differential (docs/robots.md, "The car setup").  TORCS merges them over
+        the car's file; each must lie in the car's range.  `on_track` then sees the car with them.
+        Default: None, the car as its file has it (and the race's setup settings over it)."""
         return None
 
     def on_track(self, track: Track, car: Car) -> None:
