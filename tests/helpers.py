@@ -11,9 +11,18 @@ import sys
 from collections.abc import Iterator
 from pathlib import Path
 
+from boxbox.robot.template import robot_files
+
 ROOT = Path(__file__).resolve().parents[1]
 BOXBOX = [sys.executable, "-m", "boxbox.cli"]
 ROBOTS = ROOT / "tests" / "robots"
+
+
+def template_robot(folder: Path, name: str = "parts") -> Path:
+    """The robot `boxbox new-robot NAME` writes (robot/template.py), saved in folder: its path."""
+    path = folder / f"{name}.py"
+    path.write_text(robot_files(name)[path.name])
+    return path
 
 
 def run_boxbox(*args: str, timeout: float = 120, env: dict | None = None) -> subprocess.CompletedProcess:

@@ -19,15 +19,17 @@ if TYPE_CHECKING:  # what a type checker sees; at run time each name loads when 
     from boxbox.model import Car, CarSetup, Controls, Opponent, PitOrder, State, Track
     from boxbox.robot.base import RaceOptions, Robot
     from boxbox.robot.pit import PitEvent, PitParams, PitStops
+    from boxbox.robot.unstuck import Unstuck, UnstuckParams
 
 __version__ = "0.1.0"
 __all__ = ["Car", "CarSetup", "Controls", "Opponent", "PitEvent", "PitOrder", "PitParams", "PitStops", "RaceOptions",
-           "RaceResult", "Robot", "State", "Track", "UsageError", "race"]
+           "RaceResult", "Robot", "State", "Track", "Unstuck", "UnstuckParams", "UsageError", "race"]
 # each public name's module: `import boxbox` (and so the command line, `boxbox --help`) loads none
 # of them, nor numpy under them (about 0.5 s); `from boxbox import Robot` loads what Robot needs
 _HOMES = {**dict.fromkeys(("Car", "CarSetup", "Controls", "Opponent", "PitOrder", "State", "Track"), "boxbox.model"),
           "RaceOptions": "boxbox.robot.base", "Robot": "boxbox.robot.base", "race": "boxbox.api",
-          "RaceResult": "boxbox.api", **dict.fromkeys(("PitEvent", "PitParams", "PitStops"), "boxbox.robot.pit")}
+          "RaceResult": "boxbox.api", **dict.fromkeys(("PitEvent", "PitParams", "PitStops"), "boxbox.robot.pit"),
+          **dict.fromkeys(("Unstuck", "UnstuckParams"), "boxbox.robot.unstuck")}
 
 
 def __getattr__(name: str) -> Any:

@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING, Any
 from boxbox import validate
 from boxbox.model.skill import SkillLevel
 from boxbox.options import LearningMode, PitMode
-from boxbox.robot.base import RaceOptions, Robot
+from boxbox.robot.base import Robot, race_options
 from boxbox.torcs import results
 
 if TYPE_CHECKING:
@@ -91,8 +91,8 @@ def race(track: str = "e-track-2", *, laps: int = 3, robots: str | type[Robot] |
         from_file = read_setup(args["setup"])
         check_setup_for([load_robot_class(s, args["setup_budget_s"]) for s in specs], from_file, str(args["setup"]))
         values = {**from_file, **values}
-    options = RaceOptions(fuel_laps=args["fuel_laps"], pit_laps=tuple(sorted(args["pit_laps"])),
-                          pit_mode=args["pit_mode"], robot_args={"set": values} if values else {})
+    options = race_options(values, fuel_laps=args["fuel_laps"], pit_laps=tuple(sorted(args["pit_laps"])),
+                           pit_mode=args["pit_mode"])
     names = checks.check_robots(specs, options, args["track"], args["car"], args["setup_budget_s"])
     overlay = torcs_setup.ensure_ready()
     category, opp = checks.check_race(args["track"], args["car"], len(specs), args["opponents"], args["pit_laps"],

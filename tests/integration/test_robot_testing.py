@@ -12,16 +12,16 @@ import pytest
 from boxbox.errors import UsageError
 from boxbox.testing import load_car, load_track, recorded_states
 from boxbox.torcs.telemetry import load_telemetry
-from helpers import ROBOTS, read_json, run_boxbox
+from helpers import read_json, run_boxbox, template_robot
 
 
 def test_a_robot_replayed_over_its_recorded_race_answers_as_it_raced(tmp_path, overlay):
-    run = tmp_path / "run"
-    proc = run_boxbox("race", "--robot", f"{ROBOTS / 'parts.py'}:Parts", "--track", "g-track-1", "--laps", "1",
+    run, robot_file = tmp_path / "run", template_robot(tmp_path)
+    proc = run_boxbox("race", "--robot", f"{robot_file}:Parts", "--track", "g-track-1", "--laps", "1",
                       "--step-budget-ms", "5000", "--run-dir", str(run), "--quiet", timeout=300)
     assert proc.returncode == 0, proc.stderr
     assert read_json(run / "result.json")["drivers"][0]["laps"] == 1
-    spec = importlib.util.spec_from_file_location("parts", ROBOTS / "parts.py")
+    spec = importlib.util.spec_from_file_location("parts", robot_file)
     assert spec is not None and spec.loader is not None
     parts = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(parts)

@@ -8,7 +8,7 @@ import json
 import os
 from pathlib import Path
 
-from boxbox.model import Car, Track
+from boxbox.model import Car, CarSetup, Track
 from boxbox.robot.simple import MiddleRobot
 
 
@@ -19,3 +19,11 @@ class GearRecorder(MiddleRobot):
         out.write_text(json.dumps({"max_gear": car.max_gear, "gear_nb": car.gear_count,
                                    "gear_offset": car.gear_offset, "ratios": list(car.gear_ratios)}))
         (out.parent / "car.json").write_text(json.dumps(dataclasses.asdict(car)))
+
+
+class ShortFirstGear(GearRecorder):
+    """The GearRecorder with its own first gear (car_setup): $FIRST_GEAR, 2.5 by default (car1-trb1's
+    own is 3.0)."""
+
+    def car_setup(self, track: Track, car: Car) -> CarSetup:
+        return CarSetup(gear_ratios=(float(os.environ.get("FIRST_GEAR", "2.5")),))

@@ -15,12 +15,12 @@ from boxbox.testing import STATE_DEFAULTS, make_state, recorded_states
 from boxbox.torcs import wire
 from boxbox.torcs.rundir import RunDir
 from boxbox.torcs.telemetry import FILE_NAME, NO_NEAR, Recorder, write_telemetry
-from helpers import ROBOTS
+from helpers import template_robot
 from trackdata import load
 
 
-def _parts_robot():
-    spec = importlib.util.spec_from_file_location("parts", ROBOTS / "parts.py")
+def _parts_robot(folder):
+    spec = importlib.util.spec_from_file_location("parts", template_robot(folder))
     assert spec is not None and spec.loader is not None
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
@@ -79,7 +79,7 @@ def test_a_robot_drives_over_5000_recorded_states_in_well_under_a_second(tmp_pat
     _record(rec, [make_state(sim_time_s=0.02 * i, dist_from_start_m=(i * 0.6) % length, speed_x_mps=30.0,
                              seg_id=float(track.segment_at((i * 0.6) % length)), gear=3.0) for i in range(5000)], 0.0)
     write_telemetry(tmp_path / FILE_NAME, [rec])
-    robot = _parts_robot()
+    robot = _parts_robot(tmp_path)
     robot.on_track(track, car)
     next(recorded_states(tmp_path))  # pyarrow's first read in a process: 0.2 to 0.5 s of set-up, once
     start_s = time.perf_counter()

@@ -275,7 +275,7 @@ def test_boxed_in_between_two_cars_it_holds_on_the_brakes():
     """Backing out, still not moving after GRINDING_S and taking damage (dirt-5: turned round between
     two stopped cars, backing from one into the other): it stops pushing and holds on the brakes for
     BOXED_HOLD_S, then tries again."""
-    from boxbox.robot.tutorial import BOXED_HOLD_S
+    from boxbox.robot.unstuck import BOXED_HOLD_S
 
     robot = robot_for("e-track-2")
     s = line_state(robot, 300.0, 0.5, to_middle_m=0.5, angle_rad=3.0, gear=1.0)
@@ -285,7 +285,7 @@ def test_boxed_in_between_two_cars_it_holds_on_the_brakes():
     gears = [robot.drive(stuck._replace(damage=10.0 + i, sim_time_s=0.04 + 0.02 * i)).gear for i in range(40)]
     assert gears[10] == -1  # 0.2 s of backing: still trying
     assert gears[-1] >= 1  # boxed in after 0.5 s of it: not backing any more
-    until = robot._hold_until_s
+    until = robot.unstuck.hold_until_s
     assert 0.5 < until - BOXED_HOLD_S < 0.85
     c = robot.drive(stuck._replace(damage=70.0, sim_time_s=until - 0.1))  # hit meanwhile
     assert c.brake == 1.0 and c.accel == 0.0  # on the brakes

@@ -31,7 +31,7 @@ from boxbox.bench.solo_result import BenchResult, set_gaps
 from boxbox.errors import BoxboxError, Interrupted, UsageError
 from boxbox.model.skill import DEFAULT_SKILL_LEVEL, SkillLevel
 from boxbox.options import LEARNING_MODES, LearningMode
-from boxbox.robot.base import RaceOptions
+from boxbox.robot.base import RaceOptions, race_options
 from boxbox.robot.loader import BUILTIN, load_robot_class
 from boxbox.torcs import catalog, checks, launch
 from boxbox.torcs.results import DriverResult, RaceResult
@@ -192,7 +192,9 @@ def _check(spec: BenchSpec) -> tuple[dict[str, str], list[_Robot], RaceOptions]:
     categories = {t: catalog.check_track(t) for t in spec.tracks}
     for car in spec.cars:
         catalog.check_car(car)
-    options = RaceOptions(robot_args={"set": dict(spec.settings)} if spec.settings else {})
+    options = race_options(spec.settings)
+    for car in spec.cars:
+        checks.check_car_setup(options.car_setup, car)
     package = package_version()
     robots = [_bench_robot(entry, spec, options, package) for entry in dict.fromkeys(spec.robots)]
     if spec.together:

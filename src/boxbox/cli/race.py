@@ -86,7 +86,7 @@ def race(track, car, laps, robots, opponents, fuel_laps, pit_laps, pit_mode, jso
       boxbox race --laps 5 --fuel-laps 3 --pit-laps 2 --report out/
       boxbox race --opponents inferno:3,bt:2 --grid-position last --skill-level pro
     """
-    from boxbox.robot.base import RaceOptions
+    from boxbox.robot.base import race_options
     from boxbox.robot.loader import DEFAULT_ROBOT
     from boxbox.robot.params import parse_set
     from boxbox.torcs import checks, launch
@@ -94,8 +94,7 @@ def race(track, car, laps, robots, opponents, fuel_laps, pit_laps, pit_mode, jso
 
     specs = list(robots) or [DEFAULT_ROBOT]
     values = {**_setup_values(setup_file, specs, setup_budget_s), **parse_set(settings)}
-    options = RaceOptions(fuel_laps=fuel_laps, pit_laps=tuple(sorted(pit_laps)), pit_mode=pit_mode,
-                          robot_args={"set": values} if values else {})
+    options = race_options(values, fuel_laps=fuel_laps, pit_laps=tuple(sorted(pit_laps)), pit_mode=pit_mode)
     names = checks.check_robots(specs, options, track, car, setup_budget_s)
     overlay = ready()  # first: on a fresh machine the names below can only be checked once TORCS is there
     category, opp = checks.check_race(track, car, len(specs), opponents, pit_laps, laps)

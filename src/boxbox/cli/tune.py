@@ -119,17 +119,16 @@ def tune(robot, tracks, param_names, trials, laps, car, study_name, storage, wor
     """
     from boxbox.errors import Interrupted, UsageError
     from boxbox.robot.loader import load_robot_class
-    from boxbox.robot.tunable import param_space
     from boxbox.torcs import checks
     from boxbox.tune import study as studies
     from boxbox.tune.objective import TuneConfig
-    from boxbox.tune.space import distributions
+    from boxbox.tune.space import distributions, tune_space
     from boxbox.tune.storage import Storage, describe
 
     if not tracks:
         raise UsageError("--tracks: name at least one track, e.g. g-track-1")
     cls = load_robot_class(robot)
-    distributions(param_space(cls), param_names)  # unknown or unsearchable names: exit 2 here
+    distributions(tune_space(cls, car), param_names)  # unknown or unsearchable names: exit 2 here
     name = study_name or _default_name(cls.name, tracks, param_names, laps)
     cfg = TuneConfig(study=name, robot=robot, tracks=tracks, params=param_names, laps=laps, car=car, trials=trials,
                      damage_limit=damage_limit, skill_level=skill_level.torcs_name, storage=storage, seed=seed,
@@ -182,8 +181,9 @@ def _summary(cfg, study, setup_out: Path | None, report_dir: Path | None, compar
     from rich.table import Table
 
     from boxbox.robot.loader import load_robot_class
-    from boxbox.robot.tunable import param_space, write_setup
+    from boxbox.robot.tunable import write_setup
     from boxbox.tune import study_figures
+    from boxbox.tune.space import tune_space
     from boxbox.tune.storage import journal_path
 
     p = study_figures.progress(study)
@@ -196,7 +196,7 @@ def _summary(cfg, study, setup_out: Path | None, report_dir: Path | None, compar
         return
     best = chosen.trial
     err.print(f"best ({pick.how}): trial #{best.number}, {chosen.why}")
-    space = param_space(load_robot_class(cfg.robot))
+    space = tune_space(load_robot_class(cfg.robot), cfg.car)
     params = Table("parameter", "declared default", "best", title=f"study {cfg.study}: best trial #{best.number}")
     for key, value in best.params.items():
         params.add_row(key, _fmt(space.defaults[key]), _fmt(value))

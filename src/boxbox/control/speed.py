@@ -21,8 +21,8 @@ DEFAULT_MAX_SPEED_MPS = 100.0
 QUARTER_TURN_RAD = math.pi / 2.0
 # The defaults of segment_speed_limits and SpeedProfile.from_track fit a car on the track's middle
 # line steered by steer_to_line's defaults (docs/robots.md): no turn is cut (full_arc_rad 0), and
-# 70% of the grip, as that law settles outside the line in fast turns.  Such a car
-# (tests/robots/parts.py, 1 lap of e-track-2, 2026-12-01) took damage 10,590 and no lap with the
+# 70% of the grip, as that law settles outside the line in fast turns.  Such a car (the documented
+# parts with their defaults, 1 lap of e-track-2, 2026-12-01) took damage 10,590 and no lap with the
 # whole grip and turns under a quarter turn taken as cut, 1,633 with the cut at 70%, 553 at 80%
 # without it, 0 at 70% without it.
 MIDDLE_LINE_MU_SCALE = 0.7

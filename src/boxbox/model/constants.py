@@ -16,3 +16,6 @@ SIM_STEP_S = 0.002  # simulated time of one physics step
 # litres of fuel an engine burns per joule of its work (|torque| x engine speed, driving or engine
 # braking), times the car's fuel consumption factor: simuv2 engine.cpp, SimEngineUpdateTq
 FUEL_L_PER_J = 1e-7
+# the units TORCS's car files write spring and damper rates in (lbs/in: TORCS's pound is a mass)
+INCH_M = 0.0254
+POUND_KG = 0.45359237

@@ -84,23 +84,3 @@ class PitOrder:
             if not 0.0 <= value < math.inf:
                 return f"{name}={value} must be finite and >= 0"
         return None
-
-
-@dataclass(frozen=True, slots=True)
-class CarSetup:
-    """Car parameters a robot sets once per race, before the car is built (TORCS merges them over
-    the car's file, like a C++ robot's setup file).  None keeps the car's own value."""
-
-    front_wing_angle_rad: float | None = None
-    rear_wing_angle_rad: float | None = None
-
-    def problem(self) -> str | None:
-        for name in ("front_wing_angle_rad", "rear_wing_angle_rad"):
-            value = getattr(self, name)
-            if value is None:
-                continue
-            if not isinstance(value, (int, float)) or isinstance(value, bool):
-                return f"{name} must be a number or None, got {type(value).__name__}"
-            if not 0.0 <= value <= math.pi / 2:
-                return f"{name}={value} must be from 0 to pi/2"
-        return None

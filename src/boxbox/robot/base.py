@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from boxbox.model import Car, CarSetup, Controls, PitOrder, State, Track
+from boxbox.model.car_setup import SETTING_NAMES
 
 # Fuel use before anything is measured: litres per metre for a car with fuel cons factor 1
 # (car1-trb1 at racing speed uses about this much; robots refine it lap by lap).
@@ -22,6 +23,17 @@ class RaceOptions:
     pit_mode: str = "constant-decel"
     learning_dir: str | None = None  # where robots keep what they learn per track and car
     robot_args: dict = field(default_factory=dict)  # robot-specific (the tutorial robot: {"set": {...}})
+    # the car setup from the race's settings (CarSetup's field names: final_drive_ratio = 4.2), for
+    # every Python car: over what the robot's car_setup() returns
+    car_setup: dict = field(default_factory=dict)
+
+
+def race_options(settings: dict | None = None, **options) -> RaceOptions:
+    """RaceOptions with the race's settings (--set, --setup, tune's): the car setup's apart
+    (RaceOptions.car_setup), the robots' parameters in robot_args["set"]."""
+    params = dict(settings or {})
+    setup = {name: params.pop(name) for name in list(params) if name in SETTING_NAMES}
+    return RaceOptions(robot_args={"set": params} if params else {}, car_setup=setup, **options)
 
 
 class Robot:
@@ -63,9 +75,10 @@ class Robot:
         return min(car.tank_l, self.options.fuel_laps * per_lap)
 
     def car_setup(self, track: Track, car: Car) -> CarSetup | None:
-        """Car parameters to set before the car is built (after `initial_fuel_l`): wing angles.
-        TORCS merges them over the car's file within its limits; `on_track` then sees the car with
-        them.  Default: None, the car as its file has it."""
+        """Car parameters to set before the car is built (after `initial_fuel_l`): wings, gears,
+        brakes, suspension, differential (docs/robots.md, "The car setup").  TORCS merges them over
+        the car's file; each must lie in the car's range.  `on_track` then sees the car with them.
+        Default: None, the car as its file has it (and the race's setup settings over it)."""
         return None
 
     def on_track(self, track: Track, car: Car) -> None:

@@ -19,6 +19,7 @@ from pathlib import Path
 from boxbox.errors import UsageError
 from boxbox.robot.pit import PitParams
 from boxbox.robot.racecraft import RacecraftParams
+from boxbox.robot.unstuck import UnstuckParams
 
 SETUPS = Path(__file__).parent / "setups"
 
@@ -30,6 +31,7 @@ def setups_dir() -> Path:
 
 
 PIT_DEFAULTS = PitParams()  # the pit_* parameters' defaults
+UNSTUCK_DEFAULTS = UnstuckParams()  # the stuck_* parameters' defaults
 
 
 @dataclass(frozen=True)
@@ -101,11 +103,11 @@ class TutorialParams(RacecraftParams):
     spin_yaw_rate_rps: float = 0.7  # no throttle while turning this much faster than the line, against the steering
     counter_lock_accel: float = 0.2  # the same while counter-steering at the lock (the rear is out)
     lock_accel: float = 0.4  # most throttle while the steering is at its lock (the car cannot follow its line)
-    # getting unstuck
-    stuck_angle_deg: float = 30.0
-    stuck_speed_mps: float = 5.0
-    stuck_offset_m: float = 3.0
-    stuck_time_s: float = 2.0
+    # getting unstuck: robot/unstuck.py's UnstuckParams, the one home of their defaults and what each means
+    stuck_angle_deg: float = UNSTUCK_DEFAULTS.angle_deg
+    stuck_speed_mps: float = UNSTUCK_DEFAULTS.speed_mps
+    stuck_offset_m: float = UNSTUCK_DEFAULTS.offset_m
+    stuck_time_s: float = UNSTUCK_DEFAULTS.time_s
     # opponents
     front_range_m: float = 200.0
     back_range_m: float = 50.0

@@ -1,8 +1,9 @@
 """The robot `boxbox new-robot NAME` starts from: NAME.py, a robot of the documented parts whose
 defaults suit each other (docs/robots.md: the car model, the speed profile, `steer_to_line` on the
-track's middle, the gear changing, the pit part), and test_NAME.py, offline tests of its `drive()`
-with `boxbox.testing`.  The figures in its docstring are measured on the six public tracks
-(docs/robots.md, "Starting a robot")."""
+track's middle, the gear changing, the pit part, getting unstuck), and test_NAME.py, offline tests
+of its `drive()` with `boxbox.testing`.  The figures in its docstring are measured on the six public
+tracks (docs/robots.md, "Starting a robot").  The tests race it too (as `parts`, `template_robot` in
+tests/helpers.py)."""
 
 from __future__ import annotations
 
@@ -17,15 +18,15 @@ NAME_PATTERN = re.compile(r"[a-z][a-z0-9_]*")
 
 ROBOT = '''"""{name}: a robot of boxbox's documented parts, each with its defaults (docs/robots.md): the car
 model, the speed profile (every turn at 70% of the grip at its middle radius), the steering law on
-the track's middle, the gear changing and the pit part.  As written it finishes the six public
-tracks with damage under 10 (docs/robots.md).  Race it:
+the track's middle, the gear changing, the pit part and getting unstuck.  As written it finishes the
+six public tracks with damage under 10 (docs/robots.md).  Race it:
 
     boxbox race --robot {name}.py:{cls} --track g-track-1 --laps 1
 
 and test it without TORCS: pytest test_{name}.py
 """
 
-from boxbox import Controls, PitStops, Robot
+from boxbox import Controls, PitStops, Robot, Unstuck
 from boxbox.control.carmodel import CarModel
 from boxbox.control.gears import GearBox
 from boxbox.control.speed import SpeedProfile
@@ -44,8 +45,12 @@ class {cls}(Robot):
         self.speeds = SpeedProfile.from_track(track, CarModel.from_car(car))
         self.gears = GearBox(car)
         self.pits = PitStops(track, car, self.options)  # the stops --pit-laps asks for
+        self.unstuck = Unstuck(track, car)  # backing out when stuck against a wall
 
     def drive(self, state):
+        backing = self.unstuck.step(state)  # None: not stuck, drive on
+        if backing is not None:
+            return backing
         steer = steer_to_line(state.angle_rad, -state.to_middle_m, self.curvature_1pm[int(state.seg_id)],
                               state.speed_x_mps, state.yaw_rate_rps, self.wheelbase_m, self.car.steer_lock_rad)
         over_mps = state.speed_x_mps - self.speeds.speed_at(state.dist_from_start_m)  # + too fast
@@ -110,6 +115,12 @@ def test_it_steers_back_to_the_middle(robot):
     left_of_it = robot.drive(make_state(to_middle_m=3.0, speed_x_mps=20.0))
     right_of_it = robot.drive(make_state(to_middle_m=-3.0, speed_x_mps=20.0))
     assert left_of_it.steer < 0 < right_of_it.steer
+
+
+def test_it_backs_out_when_stuck_against_a_wall(robot):
+    against_wall = make_state(speed_x_mps=1.0, to_middle_m=4.0, angle_rad=-0.8)  # sideways, at the left edge
+    gears = [robot.drive(against_wall._replace(sim_time_s=0.02 * i)).gear for i in range(150)]
+    assert gears[50] == 1 and gears[-1] == -1  # after 2 s of it: reverse
 
 
 def test_every_segment_at_the_profile_speed_gives_valid_controls(robot):

@@ -31,6 +31,7 @@ from pathlib import Path
 from typing import Any
 
 from boxbox.errors import UsageError
+from boxbox.model.car_setup import SETTING_NAMES
 from boxbox.robot.params import Bound, example_setting
 
 
@@ -157,10 +158,12 @@ def read_setup(path: str | Path) -> dict:
 
 
 def check_setup_for(robot_classes: list[type], setup: dict, origin: str) -> None:
-    """A setup's keys and values checked against each robot that declares parameters."""
+    """A setup's keys and values checked against each robot that declares parameters (the car
+    setup's, CarSetup's field names, are every robot's: torcs/checks.py checks them against the car)."""
+    params = {key: value for key, value in setup.items() if key not in SETTING_NAMES}
     for cls in robot_classes:
         if declares_params(cls):
-            param_space(cls).check(setup, origin)
+            param_space(cls).check(params, origin)
 
 
 def write_setup(path: Path, values: dict, header: list[str], robot: str | None = None) -> None:

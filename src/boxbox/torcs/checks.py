@@ -54,9 +54,24 @@ def check_robots(specs: list[str], options: RaceOptions, track: str, car: str,
     from boxbox.robot.loader import IMPORT_BUDGET_S, robot_names
 
     check_field(len(specs), 0)
+    check_car_setup(options.car_setup, car)
     names = robot_names(specs, lambda cls: cls.check_setup(options, track, car),
                         IMPORT_BUDGET_S if setup_budget_s is None else setup_budget_s)
     return [f"{name} {i + 1}" for i, name in enumerate(names)]
+
+
+def check_car_setup(values: dict, car: str) -> None:
+    """The car setup's settings (--set, --setup: CarSetup's field names) against what the car allows,
+    before TORCS starts: a value outside its range is a one-line error naming the range."""
+    if not values:
+        return
+    from boxbox.model.car_setup import setup_from
+    from boxbox.torcs.car_setup import car_settings
+
+    catalog.check_car(car)
+    problem = car_settings(car).problem(setup_from(values))
+    if problem:
+        raise UsageError(f"car setup: {problem}; give a value in range, or none for the car's own")
 
 
 def check_pit_laps(track: str, pit_laps: Iterable[int], laps: int) -> None:

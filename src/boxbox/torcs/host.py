@@ -18,10 +18,11 @@ import socket
 import traceback
 from time import perf_counter_ns
 
-from boxbox.model import Car, CarSetup, Controls, Opponent, PitOrder, State, Track
+from boxbox.model import Car, Controls, Opponent, PitOrder, State, Track
 from boxbox.robot.base import RaceOptions
 from boxbox.robot.loader import load_robot_class
 from boxbox.torcs import messages, wire
+from boxbox.torcs.car_setup import apply_setup, car_settings, checked_setup
 from boxbox.torcs.carwatch import (
     HostedCar,
     car_json,
@@ -97,14 +98,6 @@ def check_start_fuel(fuel, car: Car) -> None:
     if fuel > car.tank_l + 1e-6:
         raise RobotFault("invalid-value", f"initial_fuel_l() returned {fuel:g} l, more than the tank holds "
                                           f"({car.tank_l:g} l): return at most car.tank_l, or None for the car's own")
-
-
-def apply_setup(car: Car, setup: CarSetup) -> None:
-    """The car as the robot set it up (what on_track and drive then see)."""
-    if setup.front_wing_angle_rad is not None:
-        car.front_wing_angle_rad = float(setup.front_wing_angle_rad)
-    if setup.rear_wing_angle_rad is not None:
-        car.rear_wing_angle_rad = float(setup.rear_wing_angle_rad)
 
 
 class Host:
@@ -313,16 +306,17 @@ class Host:
             fuel = self._call("initial_fuel_l", slot.robot.initial_fuel_l, slot.track, slot.car)
             check_start_fuel(fuel, slot.car)
             fuel = self._offset_fuel(fuel, slot.car)
-            setup = self._call("car_setup", slot.robot.car_setup, slot.track, slot.car) or CarSetup()
-            problem = setup.problem() if isinstance(setup, CarSetup) else \
-                f"returned {type(setup).__name__}, not CarSetup or None"
+            answer = self._call("car_setup", slot.robot.car_setup, slot.track, slot.car)
+            setup, problem = checked_setup(answer, slot.robot.options.car_setup, self.spec["car"])
             if problem:
                 raise RobotFault("invalid-value", f"car_setup(): {problem}")
         except RobotFault as fault:
             self._fail(conn, robot, step, "initial_fuel_l", fault, wire.FUEL)
             return
         apply_setup(slot.car, setup)
-        self._reply(conn, wire.FUEL, robot, step, wire.FUEL_REC, messages.fuel_reply(fuel, setup))
+        self._reply(conn, wire.FUEL, robot, step, wire.FUEL_REC,
+                    messages.fuel_reply(fuel, setup, car_settings(self.spec["car"]).drivetrain))
+
 
     def _offset_fuel(self, fuel: float | None, car: Car) -> float | None:
         """The robot's start fuel (None: the car's own) plus the race's fuel_offset_l; as much less

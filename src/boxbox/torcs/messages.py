@@ -9,12 +9,12 @@ reply's header and record packed into a buffer the caller keeps (`pack_reply`, `
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from boxbox.model import Car, CarSetup, Opponent, PitLane, State, Track
+from boxbox.model.car import RWD
 from boxbox.torcs import wire
+from boxbox.torcs.car_setup import slot_values
 
 HSIZE = wire.HEADER.size
 STATE_SIZE = wire.STATE_REC.size
@@ -112,9 +112,7 @@ def complete_car(car: Car, payload: bytes) -> None:
     car.gear_ratios = tuple(r[f"gear_ratio_{i}"] for i in range(wire.MAX_GEARS))
 
 
-def fuel_reply(fuel_l: float | None, setup: CarSetup | None = None) -> tuple[float, float, float]:
-    """NEW_TRACK's FUEL record: the start fuel (-1: the car's own) and the wing angles (NaN: the
-    car's own)."""
-    front, rear = (None, None) if setup is None else (setup.front_wing_angle_rad, setup.rear_wing_angle_rad)
-    return (-1.0 if fuel_l is None else float(fuel_l), math.nan if front is None else float(front),
-            math.nan if rear is None else float(rear))
+def fuel_reply(fuel_l: float | None, setup: CarSetup | None = None, drivetrain: int = RWD) -> tuple[float, ...]:
+    """NEW_TRACK's FUEL record: the start fuel (-1: the car's own) and the car setup, a value per
+    place in the car's file (torcs/car_setup.py; NaN: the car's own)."""
+    return (-1.0 if fuel_l is None else float(fuel_l), *slot_values(setup, drivetrain))

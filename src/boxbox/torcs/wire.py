@@ -20,7 +20,11 @@ from __future__ import annotations
 
 import struct
 
-PROTOCOL_VERSION = 6  # 6: SHUTDOWN carries the car's STATE; 5: the suspension in HANDLE, the wheels' travel
+from boxbox.torcs.car_setup import SLOTS
+
+# 7: the whole car setup in FUEL; 6: SHUTDOWN carries the car's STATE; 5: the suspension in HANDLE,
+# the wheels' travel
+PROTOCOL_VERSION = 7
 
 # message kinds
 HELLO, NEW_TRACK, NEW_RACE, DRIVE, PIT_CMD, END_RACE, SHUTDOWN, FUEL, ACK, CONTROLS, PIT_ORDER = range(1, 12)
@@ -140,8 +144,9 @@ OPPONENT_FIELDS = [
 
 CONTROLS_FIELDS = ["steer", "accel", "brake", "clutch", "gear", "pit_request"]
 PIT_ORDER_FIELDS = ["fuel_l", "repair"]
-# the answer to NEW_TRACK: fuel (< 0: the car's own) and the car setup (NaN: the car's own)
-FUEL_FIELDS = ["initial_fuel_l", "front_wing_angle_rad", "rear_wing_angle_rad"]
+# the answer to NEW_TRACK: fuel (< 0: the car's own) and the car setup, a value per place of
+# torcs/car_setup.py's SLOTS (NaN: the car's own)
+FUEL_FIELDS = ["initial_fuel_l", *[f"setup_{i}" for i in range(len(SLOTS))]]
 
 RECORDS = {
     "HELLO": HELLO_FIELDS, "TRACK": TRACK_FIELDS, "SEGMENT": SEGMENT_FIELDS, "HANDLE": HANDLE_FIELDS,
@@ -183,4 +188,7 @@ def c_header() -> str:
     for name, fields in RECORDS.items():
         body = " ".join(f"double {f};" for f in fields)
         out.append(f"typedef struct {{ {body} }} bb_{name.lower()};")
+    out.append(f"#define BB_SETUP_SLOTS {len(SLOTS)}")  # FUEL's setup_i: the place in the car's file
+    places = ", ".join(f'{{"{section}", "{key}"}}' for section, key in SLOTS)
+    out.append(f"static const char *const BB_SETUP_PLACES[BB_SETUP_SLOTS][2] = {{{places}}};")
     return "\n".join(out) + "\n"

@@ -125,12 +125,12 @@ def sweep_dead_runs() -> None:
 def run_race(cfg: TuneConfig, index: int, settings: dict, cpu: int | None) -> RaceScore:
     """Race the robot on cfg.tracks[index] with settings, in a temporary run dir (removed after)."""
     from boxbox.model.skill import SkillLevel
-    from boxbox.robot.base import RaceOptions
+    from boxbox.robot.base import race_options
     from boxbox.robot.loader import load_robot_class
     from boxbox.torcs import launch, setup
     from boxbox.torcs.launch import HOST_KILLED, INTERRUPTED
 
-    options = RaceOptions(robot_args={"set": dict(settings)} if settings else {})
+    options = race_options(settings)
     name = f"{load_robot_class(cfg.robot).name} 1"
     with tempfile.TemporaryDirectory(dir=runs_root(), prefix=f"{worker_tag().split(':', 1)[1]}:") as tmp:
         race_cfg = launch.RaceConfig(track=cfg.tracks[index], category=cfg.categories[index], car=cfg.car,

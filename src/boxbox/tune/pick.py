@@ -177,10 +177,9 @@ def _same(a: dict, b: dict) -> bool:
 def _dists(cfg: TuneConfig) -> tuple[dict[str, Any], dict[str, Any]]:
     """The study's distributions and the robot's declared defaults in them."""
     from boxbox.robot.loader import load_robot_class
-    from boxbox.robot.tunable import param_space
-    from boxbox.tune.space import defaults_in_space, distributions
+    from boxbox.tune.space import defaults_in_space, distributions, tune_space
 
-    space = param_space(load_robot_class(cfg.robot))
+    space = tune_space(load_robot_class(cfg.robot), cfg.car)
     dists = distributions(space, cfg.params)
     return dists, defaults_in_space(space, dists)
 

@@ -1,10 +1,25 @@
-"""The search space of a study: Optuna distributions built from a robot's declared parameters."""
+"""The search space of a study: Optuna distributions built from a robot's declared parameters and
+the car's setup (model/car_setup.py: each setting the car allows, searched over its range)."""
 
 from __future__ import annotations
 
 from typing import Any
 
-from boxbox.robot.tunable import ParamSpace
+from boxbox.robot.params import Bound
+from boxbox.robot.tunable import ParamSpace, declares_params, param_space
+
+
+def tune_space(cls: type, car: str) -> ParamSpace:
+    """What a study of robot class `cls` on `car` may search: the robot's declared parameters, and
+    the car's setup settings (final_drive_ratio, rear_spring_npm, ...), each from the car's own value
+    over the range its files allow (a fixed one is not searchable)."""
+    from boxbox.torcs.car_setup import car_settings
+
+    robot = param_space(cls) if declares_params(cls) else ParamSpace(getattr(cls, "name", cls.__name__), {}, {}, {})
+    settings = car_settings(car).settings
+    return ParamSpace(robot=robot.robot, defaults={**{k: s.value for k, s in settings.items()}, **robot.defaults},
+                      bounds={**{k: Bound(s.lo, s.hi) for k, s in settings.items()}, **robot.bounds},
+                      choices=robot.choices)
 
 
 def distributions(space: ParamSpace, names: list[str]) -> dict[str, Any]:

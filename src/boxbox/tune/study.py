@@ -160,13 +160,12 @@ def run_worker(cfg: TuneConfig, cpu: int | None = None, stop: StopFlag | None = 
     number of trials this worker finished."""
 
     from boxbox.robot.loader import load_robot_class
-    from boxbox.robot.tunable import param_space
-    from boxbox.tune.space import distributions
+    from boxbox.tune.space import distributions, tune_space
 
     stop = stop or StopFlag()
     sweep_dead_runs()
     study, storage = open_study(cfg)
-    objective = make_objective(cfg, distributions(param_space(load_robot_class(cfg.robot)), cfg.params), cpu)
+    objective = make_objective(cfg, distributions(tune_space(load_robot_class(cfg.robot), cfg.car), cfg.params), cpu)
     try:
         return _work(cfg, study, storage, objective, stop)
     except Exception as exc:
@@ -399,8 +398,7 @@ def prepare(cfg: TuneConfig) -> Any:
     the robot's declared defaults."""
     from boxbox.errors import UsageError
     from boxbox.robot.loader import load_robot_class
-    from boxbox.robot.tunable import param_space
-    from boxbox.tune.space import defaults_in_space, distributions
+    from boxbox.tune.space import defaults_in_space, distributions, tune_space
 
     study, storage = open_study(cfg, create=True)
     mine = {k: getattr(cfg, k) for k in STUDY_KEYS}
@@ -408,7 +406,7 @@ def prepare(cfg: TuneConfig) -> Any:
         theirs = study.user_attrs.get("boxbox")
         if theirs is None:
             study.set_user_attr("boxbox", mine)
-            space = param_space(load_robot_class(cfg.robot))
+            space = tune_space(load_robot_class(cfg.robot), cfg.car)
             if not study.get_trials(deepcopy=False):
                 study.enqueue_trial(defaults_in_space(space, distributions(space, cfg.params)))
     if theirs is not None and {k: theirs.get(k) for k in STUDY_KEYS} != mine:

@@ -5,12 +5,11 @@ controllers, a file per concern (like bt's robot):
   filter in turn);
 - `plan.py`: the plan of a track (racing line, speed profile, caps, car setup, start fuel, pit part);
 - `traffic.py`: other cars near (the overtaking offset, the brakes for a car ahead, wrecks);
-- `unstuck.py`: getting unstuck (backing out, boxed in, blind);
-- `slip.py`: wheel slip (ABS, traction control, the throttle guards).
+- `slip.py`: wheel slip (ABS, traction control, the throttle guards);
+- getting unstuck is the part any robot can use: `Unstuck` (robot/unstuck.py).
 """
 
 from boxbox.robot.tutorial.robot import TutorialRobot
 from boxbox.robot.tutorial.traffic import OFFSET_ROOM_AHEAD_M, PIT_PHASE_CODES
-from boxbox.robot.tutorial.unstuck import BOXED_HOLD_S
 
-__all__ = ["BOXED_HOLD_S", "OFFSET_ROOM_AHEAD_M", "PIT_PHASE_CODES", "TutorialRobot"]
+__all__ = ["OFFSET_ROOM_AHEAD_M", "PIT_PHASE_CODES", "TutorialRobot"]

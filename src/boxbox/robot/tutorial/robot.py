@@ -35,12 +35,12 @@ from boxbox.robot.racecraft import Racecraft, inside_speed_mps
 from boxbox.robot.tutorial.plan import TrackPlan
 from boxbox.robot.tutorial.slip import WheelSlip
 from boxbox.robot.tutorial.traffic import OFFSET_ROOM_AHEAD_M, PIT_PHASE_CODES, Traffic
-from boxbox.robot.tutorial.unstuck import Unstuck
+from boxbox.robot.unstuck import Unstuck, UnstuckParams
 
 TWO_PI = 2.0 * math.pi
 
 
-class TutorialRobot(TrackPlan, Traffic, Unstuck, WheelSlip, Robot):
+class TutorialRobot(TrackPlan, Traffic, WheelSlip, Robot):
     name = "boxbox"
     param_class = TutorialParams  # what `boxbox tune` may search (robot/tunable.py)
     param_bounds = BOUNDS
@@ -104,22 +104,16 @@ class TutorialRobot(TrackPlan, Traffic, Unstuck, WheelSlip, Robot):
         self.craft = Racecraft(p, car.width_m, car.length_m, self.tyre_model.mu)
         self._init_race_state()
         self._setup_pit(track, car, p)
-        self._inv_lock = 1.0 / car.steer_lock_rad
         self.wheelbase_m = car.steering_wheelbase_m
-        self._stuck_angle = math.radians(p.stuck_angle_deg)
+        self.unstuck = Unstuck(track, car, UnstuckParams(angle_deg=p.stuck_angle_deg, speed_mps=p.stuck_speed_mps,
+                                                         offset_m=p.stuck_offset_m, time_s=p.stuck_time_s,
+                                                         back_range_m=p.back_range_m), self._heading_at)
 
     def _init_race_state(self) -> None:
         """What the drive steps keep between them: the race starts with none of it."""
         self.offset_m = 0.0
         self.target_mps = 0.0  # the speed profile's target the last drive step used
-        self.stuck_steps = 0
-        self.reversing = False
-        self.reverse_steps = 0
         self.blocked_steps = 0
-        self._damage_seen, self._grinding_until_s = 0.0, -math.inf  # for _grinding
-        self._hold_until_s = -math.inf  # boxed in: on the brakes until then
-        self._backing_on_throttle = False  # the last backing step gave throttle (not waiting for a car)
-        self._backing_from_m: float | None = None  # where backing away from a wreck began
         self._wrecks_until_s = -math.inf  # after backing from a wreck, stopped cars are driven round until then
         self.wreck: Nearby | None = None  # the stopped car ahead driven round this step
         self.laps_seen = 0
@@ -132,14 +126,12 @@ class TutorialRobot(TrackPlan, Traffic, Unstuck, WheelSlip, Robot):
         collision avoidance, ABS and traction control and the throttle guards."""
         v = s.speed_x_mps
         if s.dist_from_start_m != s.dist_from_start_m:  # NaN: TORCS lost the car's place (a pile-up)
-            return self._blind(s)
+            return self.unstuck.blind(s)  # before the new lap: a lap needs the car's place
         if s.laps != self.laps_seen:
             self._new_lap(s)
-        if s.sim_time_s < self._hold_until_s:  # boxed in: pushing either way only takes damage
-            self._damage_seen = s.damage  # what hits us meanwhile is no reason to back out after
-            return self._blind(s)
-        if self._stuck(s):
-            return self._back_out(s, v)
+        backing = self.unstuck.step(s)  # stuck (or behind a wreck, traffic.py): back out; boxed in: brake
+        if backing is not None:
+            return backing
         self._learn(s)
         cars = self._traffic(s, v)
         steer = self._avoid_side(self._steer(s, v), cars)
@@ -293,4 +285,4 @@ class TutorialRobot(TrackPlan, Traffic, Unstuck, WheelSlip, Robot):
         """The target speed drive() used (the speed profile speed_lookahead_s ahead of the car), the
         pit phase code (PIT_PHASE_CODES), the overtaking offset and 1 while reversing out of a stuck
         position.  Values drive() stored: nothing is computed here."""
-        return (self.target_mps, PIT_PHASE_CODES.get(self.pits.phase, -1), self.offset_m, self.reversing)
+        return (self.target_mps, PIT_PHASE_CODES.get(self.pits.phase, -1), self.offset_m, self.unstuck.reversing)

@@ -19,6 +19,7 @@ from boxbox.robot.params import TutorialParams
 from boxbox.robot.pit import PitStops
 from boxbox.robot.racecraft import TURN_CURVATURE_1PM, Racecraft
 from boxbox.robot.racingline import RacingLine
+from boxbox.robot.unstuck import Unstuck
 
 # the pit brake filter's phase as a number for telemetry (0: no pit business)
 PIT_PHASE_CODES = {None: 0, FREE: 0, ENTRY: 1, LIMIT: 2, LANE: 3, STOP: 4, HOLD: 5, EXIT: 6, GAVE_UP: 7}
@@ -48,14 +49,11 @@ class Traffic(Robot):
     craft: Racecraft
     opp: OpponentParams
     pits: PitStops
-    # the race's state, shared with getting unstuck (unstuck.py)
+    # the race's state, and getting unstuck (robot/unstuck.py), which backs away from a wreck
     offset_m: float
     blocked_steps: int
-    reversing: bool
-    reverse_steps: int
-    _backing_from_m: float | None
     _wrecks_until_s: float
-    _grinding: Callable[[State], bool]
+    unstuck: Unstuck
 
     def _traffic(self, s: State, v: float) -> list[Nearby]:
         """The cars near enough to matter, and the line's offset from racecraft (robot/racecraft.py:
@@ -117,10 +115,10 @@ class Traffic(Robot):
         on_track = PIT_PHASE_CODES.get(self.pits.phase, -1) == 0  # not in the pit lane, where cars stop
         blocker = self.craft.blocking(v, cars) if on_track else None
         self.blocked_steps = self.blocked_steps + 1 if blocker else 0
-        wait_s = self.craft.p.blocked_grinding_s if self._grinding(s) else self.craft.p.blocked_s
+        wait_s = self.craft.p.blocked_grinding_s if self.unstuck.grinding(s) else self.craft.p.blocked_s
         if blocker and self.blocked_steps * DRIVE_STEP_S > wait_s:
-            self.reversing, self.reverse_steps, self.blocked_steps = True, 0, 0
-            self._backing_from_m = s.dist_from_start_m
+            self.blocked_steps = 0
+            self.unstuck.back_away(s, self.craft.p.blocked_back_lengths * self.car.length_m)
             self._wrecks_until_s = s.sim_time_s + self.craft.p.wreck_s
 
     def _wreck_ahead(self, s: State, cars: list[Nearby]) -> Nearby | None:

@@ -316,17 +316,17 @@ static void newTrack(int index, tTrack *track, void *carHandle, void **carParmHa
     if (bb_recv(BB_FUEL, index, nchunks - 1, g_setup_budget_ms, &flags) < 0) return;
     bb_fuel fuel;
     memcpy(&fuel, g_in + sizeof(bb_header), sizeof fuel);
-    bool wings = !std::isnan(fuel.front_wing_angle_rad) || !std::isnan(fuel.rear_wing_angle_rad);
-    if (fuel.initial_fuel_l >= 0 || wings) {
+    const double *setup = &fuel.setup_0;  // a value per place of the car's file (BB_SETUP_PLACES), NaN: its own
+    bool any = fuel.initial_fuel_l >= 0;
+    for (int i = 0; i < BB_SETUP_SLOTS; i++) any = any || !std::isnan(setup[i]);
+    if (any) {
         // the robot's setup, merged by TORCS over the car's file (within its min and max)
         char path[1024];
         snprintf(path, sizeof path, "%sdrivers/boxbox/setup-%d.xml", GetLocalDir(), index);
         void *h = GfParmReadFile(path, GFPARM_RMODE_STD | GFPARM_RMODE_CREAT);
         if (fuel.initial_fuel_l >= 0) GfParmSetNum(h, SECT_CAR, PRM_FUEL, NULL, (tdble)fuel.initial_fuel_l);
-        if (!std::isnan(fuel.front_wing_angle_rad))
-            GfParmSetNum(h, SECT_FRNTWING, PRM_WINGANGLE, NULL, (tdble)fuel.front_wing_angle_rad);
-        if (!std::isnan(fuel.rear_wing_angle_rad))
-            GfParmSetNum(h, SECT_REARWING, PRM_WINGANGLE, NULL, (tdble)fuel.rear_wing_angle_rad);
+        for (int i = 0; i < BB_SETUP_SLOTS; i++)
+            if (!std::isnan(setup[i])) GfParmSetNum(h, BB_SETUP_PLACES[i][0], BB_SETUP_PLACES[i][1], NULL, (tdble)setup[i]);
         *carParmHandle = h;
     }
 }

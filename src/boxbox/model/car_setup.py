@@ -1,0 +1,90 @@
+"""The car setup a robot chooses before the car is built: wings, gears, brakes, suspension, the
+differential.  SI units; None keeps the car's own value."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from typing import Any
+
+# a field name -> (lowest, highest) value the car allows, in the field's units (torcs/carsetup.py
+# reads them from the car's files); the gears' as gear_ratio_1, gear_ratio_2, ...
+Ranges = dict[str, tuple[float, float]]
+
+
+@dataclass(frozen=True, slots=True)
+class CarSetup:
+    """Car parameters a robot sets once per race, before the car is built (TORCS merges them over
+    the car's file, like a C++ robot's setup file).  None keeps the car's own value.  Front and rear
+    values apply to both wheels of the axle."""
+
+    front_wing_angle_rad: float | None = None
+    rear_wing_angle_rad: float | None = None
+    # the gearbox's forward ratios from first gear on (engine turns per turn of the gearbox's output,
+    # without the final drive); fewer than the car has keeps the others
+    gear_ratios: tuple[float, ...] | None = None
+    final_drive_ratio: float | None = None  # the driven differential's ratio (rear: RWD, front: FWD, central: 4WD)
+    # the driven differential (limited slip): the largest share of the speed difference between
+    # its two sides, and the input torque (driving, braking) at which it locks
+    diff_max_slip_bias: float | None = None
+    diff_locking_torque_nm: float | None = None
+    diff_locking_brake_torque_nm: float | None = None
+    brake_front_share: float | None = None  # the brake pressure's share on the front wheels
+    brake_pressure_max_pa: float | None = None  # the pressure of a full brake
+    front_spring_npm: float | None = None
+    rear_spring_npm: float | None = None
+    # the dampers: slow (under the threshold speed) and fast rates, bump and rebound
+    front_slow_bump_nspm: float | None = None
+    front_slow_rebound_nspm: float | None = None
+    front_fast_bump_nspm: float | None = None
+    front_fast_rebound_nspm: float | None = None
+    rear_slow_bump_nspm: float | None = None
+    rear_slow_rebound_nspm: float | None = None
+    rear_fast_bump_nspm: float | None = None
+    rear_fast_rebound_nspm: float | None = None
+    front_anti_roll_npm: float | None = None  # the anti-roll bar's spring
+    rear_anti_roll_npm: float | None = None
+    front_ride_height_m: float | None = None
+    rear_ride_height_m: float | None = None
+
+    def values(self) -> dict[str, float]:
+        """The values set, by range name (the gears as gear_ratio_1, gear_ratio_2, ...)."""
+        out: dict[str, float] = {}
+        for f in dataclasses.fields(self):
+            value = getattr(self, f.name)
+            if f.name == "gear_ratios" and isinstance(value, tuple | list):
+                out.update({f"gear_ratio_{i}": v for i, v in enumerate(value, start=1)})
+            elif value is not None:
+                out[f.name] = value
+        return out
+
+    def problem(self, ranges: Ranges | None = None, car: str = "the car") -> str | None:
+        """What is wrong with this setup, or None: a value that is no finite number, a wing angle
+        outside 0..pi/2, and with `ranges` a value outside the car's range or one it cannot set."""
+        if self.gear_ratios is not None and not isinstance(self.gear_ratios, tuple | list):
+            return f"gear_ratios must be a tuple of numbers or None, got {type(self.gear_ratios).__name__}"
+        for name, value in self.values().items():
+            if not isinstance(value, int | float) or isinstance(value, bool):
+                return f"{name} must be a number or None, got {type(value).__name__}"
+            if not math.isfinite(value):
+                return f"{name}={value} must be a finite number"
+            if name.endswith("_wing_angle_rad") and not 0.0 <= value <= math.pi / 2:
+                return f"{name}={value} must be from 0 to pi/2"
+            if ranges is None:
+                continue
+            if name not in ranges:
+                return f"{name}: {car} has no such setting"
+            lo, hi = ranges[name]
+            if not lo <= value <= hi:
+                return f"{name}={value:g} is outside {car}'s range {lo:g} to {hi:g}"
+        return None
+
+
+SETTING_NAMES = tuple(f.name for f in dataclasses.fields(CarSetup) if f.name != "gear_ratios")  # the scalar ones
+
+
+def setup_from(values: dict[str, float], base: CarSetup | None = None) -> CarSetup:
+    """base (none: the car's own) with the named scalar fields of `values` set over it."""
+    changes: dict[str, Any] = {k: v for k, v in values.items() if k in SETTING_NAMES}
+    return dataclasses.replace(base or CarSetup(), **changes)
