@@ -1,10 +1,11 @@
 """Learn to drive a lap of g-track-1 with the cross-entropy method (numpy only).
 
 The policy is linear: two outputs from nine observations (the angle to the track axis, the
-offset from it, the speed, five range finders ahead and a constant), squashed by tanh; the first
-output steers, the second is the throttle when positive and the brake when negative.  The
-cross-entropy method samples a population of weight vectors from a Gaussian, drives one episode
-with each (TORCS is deterministic: one episode says all), and refits the Gaussian to the best few.
+offset from it, the speed, five range finders ahead and a constant; the env scales each to about
+-1..1), squashed by tanh: the env's two actions, the steering and the pedal (throttle when
+positive, brake when negative).  The cross-entropy method samples a population of weight vectors
+from a Gaussian, drives one episode with each from the same seeded start (TORCS is deterministic:
+one episode says all), and refits the Gaussian to the best few.
 
     .venv/bin/python examples/train_cem.py            # until a policy completes a lap (~1-3 min)
     .venv/bin/python examples/train_cem.py --quick    # a few short iterations (what CI runs)
@@ -30,13 +31,12 @@ N_OUTPUTS = 2
 
 
 def features(obs: dict) -> np.ndarray:
-    edges = obs["track_edges_m"][AHEAD] / 200.0
-    return np.concatenate([[obs["angle_rad"][0], obs["track_pos"][0], obs["speed_mps"][0] / 50.0, 1.0], edges])
+    ahead = obs["track_edges_m"][AHEAD]
+    return np.concatenate([obs["angle_rad"], obs["track_pos"], obs["speed_mps"][:1], [1.0], ahead])
 
 
 def act(weights: np.ndarray, obs: dict) -> np.ndarray:
-    steer, pedal = np.tanh(weights.reshape(N_OUTPUTS, N_FEATURES) @ features(obs))
-    return np.array([steer, max(pedal, 0.0), max(-pedal, 0.0)], dtype=np.float32)
+    return np.tanh(weights.reshape(N_OUTPUTS, N_FEATURES) @ features(obs)).astype(np.float32)  # steer, pedal
 
 
 def episode(env, policy, max_steps: int) -> tuple[float, bool]:
@@ -87,12 +87,12 @@ def main() -> None:
     parser.add_argument("--iterations", type=int, default=40)
     parser.add_argument("--population", type=int, default=24)
     parser.add_argument("--elite", type=int, default=6)
-    parser.add_argument("--max-steps", type=int, default=8000, help="drive steps per episode (0.02 s each)")
+    parser.add_argument("--max-steps", type=int, default=1600, help="env steps per episode (0.1 s each)")
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--json", help="write the summary here")
     args = parser.parse_args()
     if args.quick:
-        args.iterations, args.population, args.elite, args.max_steps = 3, 12, 3, 1000
+        args.iterations, args.population, args.elite, args.max_steps = 3, 12, 3, 200
     env = gymnasium.make("boxbox/TORCS-v0", track="g-track-1", laps=1)
     started = time.perf_counter()
     result = cem(env, args.iterations, args.population, args.elite, args.max_steps, args.seed)

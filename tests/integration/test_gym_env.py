@@ -17,13 +17,9 @@ from gymnasium.utils.env_checker import check_env
 import boxbox.gym
 from boxbox.errors import UsageError
 from boxbox.gym.env import TorcsEnv
-from helpers import processes_mentioning
+from helpers import GRID_IN_UNITS, processes_mentioning
 
 ID = boxbox.gym.ENV_ID
-# observations in units, the grid start, a decision every drive step and two pedals: what
-# `middle_driver` and the figures pinned from the grid below take (the defaults scale, start along
-# the lap and take one pedal column: test_gym_defaults.py)
-GRID_IN_UNITS = dict(raw_observations=True, random_start=False, action_repeat=1, actions=("steer", "throttle", "brake"))
 
 
 def middle_driver(obs) -> np.ndarray:

@@ -322,10 +322,11 @@ class TorcsEnv(gymnasium.Env):
     def _learn_length(self, cfg: RaceConfig) -> float:
         """A track's length, from a race on its grid (TORCS sends the track at the race's start)."""
         assert self.session is not None
-        self._start(RaceOrder(("length", cfg.track, cfg.car), cfg), [], Start())
+        self._start(RaceOrder(("length", cfg.track, cfg.car), cfg), None, Start())  # the spares kept
         return self.lengths[cfg.track]
 
-    def _start(self, order: RaceOrder | None, upcoming: list[RaceOrder], start: Start) -> tuple[Started, State]:
+    def _start(self, order: RaceOrder | None, upcoming: list[RaceOrder] | None,
+               start: Start) -> tuple[Started, State]:
         """The episode's race past TORCS's start countdown (the car cannot move before) and the
         start's launch: the race and the state the episode begins at."""
         assert self.session is not None and order is not None
