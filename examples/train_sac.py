@@ -69,7 +69,7 @@ def make_env() -> gymnasium.Env:
     env = gymnasium.make("boxbox/TORCS-v0", track="g-track-1", laps=1, action_repeat=ACTION_REPEAT, off_track_s=0.5,
                          max_episode_steps=int(EPISODE_S / (0.02 * ACTION_REPEAT)), raw_observations=True,
                          random_start=False, actions=("steer", "throttle", "brake"),
-                         reward_weights=RewardWeights(off_track_m=1.0))
+                         reward_weights=RewardWeights(off_track_m=1.0, off_track_progress=1.0))
     return Driver(env)
 
 

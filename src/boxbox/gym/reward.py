@@ -2,8 +2,9 @@
 
 Reward per drive step: the progress along the track in metres (the change of the distance from
 the start line, wrapped at the line), less `damage_weight` per damage point taken.  A step with the
-car's centre beyond a track edge (not while the env drives a pit stop) earns no forward progress
-(cutting a corner gains nothing; going backwards still counts) and costs `off_track_m`: 0.02 m a
+car's centre beyond a track edge (not while the env drives a pit stop) earns `off_track_progress`
+of its forward progress (0: cutting a corner gains nothing; going backwards still counts) and
+costs `off_track_m`: 0.02 m a
 drive step, 1 m a second, so a spell off the track (at most `off_track_s`, 2 s, before the episode
 ends) costs at most 2 m, what 0.1 s of driving at 20 m/s earns: driving is worth it even for a
 learner that often leaves the track, where standing still earns 0 (docs/gym.md has the arithmetic).
@@ -33,9 +34,10 @@ RACE_END, OUT, DAMAGE, OFF_TRACK, STUCK, FAULT = "race-end", "out", "damage", "o
 class RewardWeights:
     damage_weight: float = 0.1  # metres of progress one damage point costs
     off_track_m: float = 0.02  # metres of progress a drive step off the track costs (1 m a second)
+    off_track_progress: float = 0.0  # the share of forward progress off the track that counts
 
     def __post_init__(self) -> None:
-        for name in ("damage_weight", "off_track_m"):  # frozen: set through object
+        for name in ("damage_weight", "off_track_m", "off_track_progress"):  # frozen: set through object
             object.__setattr__(self, name, validate.finite_number(getattr(self, name), name=name))
 
 
@@ -59,7 +61,8 @@ def default_reward(before: State, after: State, progress: float, weights: Reward
     """`excused`: the env drives (a pit stop): the pit lane is not off the track."""
     damage_m = weights.damage_weight * max(0.0, after.damage - before.damage)
     if not excused and off_track(after):
-        return min(progress, 0.0) - damage_m - weights.off_track_m
+        counted = weights.off_track_progress * progress if progress > 0.0 else progress
+        return counted - damage_m - weights.off_track_m
     return progress - damage_m
 
 

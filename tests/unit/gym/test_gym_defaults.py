@@ -96,8 +96,9 @@ def test_the_off_track_cost_does_not_make_standing_still_optimal():
     assert spell_off == pytest.approx(-2.0)  # forward progress off the track earns nothing
     assert env_step_on + spell_off == pytest.approx(0.0)  # 0.1 s of driving, then the longest spell off: as still
     assert rw.default_reward(on, off, -1.0, w) == pytest.approx(-1.02)  # backwards still counts
-    old = rw.RewardWeights(off_track_m=1.0)
-    assert sum(rw.default_reward(on, off, 0.0, old) for _ in range(spell_steps)) == pytest.approx(-100.0)
+    raw = rw.RewardWeights(off_track_m=1.0, off_track_progress=1.0)  # the raw form: progress off counts
+    assert sum(rw.default_reward(on, off, 0.0, raw) for _ in range(spell_steps)) == pytest.approx(-100.0)
+    assert rw.default_reward(on, off, per_drive_step_m, raw) == pytest.approx(0.4 - 1.0)
     assert rw.default_reward(on, off, 0.4, w, excused=True) == pytest.approx(0.4)  # the pit lane, driven by the env
 
 
