@@ -56,8 +56,8 @@ from boxbox.torcs.checks import check_grid_position, check_race
 from boxbox.torcs.raceprep import RaceConfig
 
 MAX_ACTION_REPEAT = 1000  # 20 s of simulated time per step
-# a decision every 0.1 s (5 drive steps): a lap of g-track-1 in ~800 decisions instead of ~4,000, which
-# PPO could learn (docs/gym.md: at 0.02 s its recipe never passed 60 m in 207,000 steps)
+# a decision every 0.1 s (5 drive steps): a lap of g-track-1 at the shipped robot's pace (41 s) is
+# ~400 decisions instead of ~2,000 (docs/gym.md, "Defaults that learn")
 DEFAULT_ACTION_REPEAT = 5
 MAX_FUEL_L = 1000.0  # beyond any car's tank
 MAX_REPAIR = 100_000.0  # damage points (the car is out at 10000)
@@ -233,8 +233,7 @@ class TorcsEnv(gymnasium.Env):
         self.watch.reset()
         self.state = state
         self.vector = self._vector(state)
-        info = self._reset_info(order, started)
-        return self._observation(), info
+        return self._observation(), self._reset_info(order, started)
 
     def step(self, action):
         if self.state is None or self.session is None:
@@ -325,11 +324,10 @@ class TorcsEnv(gymnasium.Env):
         self._start(RaceOrder(("length", cfg.track, cfg.car), cfg), None, Start())  # the spares kept
         return self.lengths[cfg.track]
 
-    def _start(self, order: RaceOrder | None, upcoming: list[RaceOrder] | None,
-               start: Start) -> tuple[Started, State]:
+    def _start(self, order: RaceOrder, upcoming: list[RaceOrder] | None, start: Start) -> tuple[Started, State]:
         """The episode's race past TORCS's start countdown (the car cannot move before) and the
         start's launch: the race and the state the episode begins at."""
-        assert self.session is not None and order is not None
+        assert self.session is not None
         for _attempt in range(2):  # a TORCS that fails to start once is tried once more
             try:
                 started = self.session.start(order, upcoming)
@@ -378,7 +376,7 @@ class TorcsEnv(gymnasium.Env):
                 "car": cfg.car, "opponents": tuple(f"{m}:{i}" for m, i in cfg.opponents),
                 "grid_position": cfg.grid_position or 1, "skill_level": cfg.skill_level.torcs_name,
                 "initial_fuel_l": float(started.state.fuel_l), "spare": started.spare,
-                "start": order.key.start if isinstance(order.key, Episode) else Start(),
+                "start": self.episode.start if self.episode is not None else Start(),
                 **({"raw_observation": self.observer.shaped(self.vector)} if self.vector is not None else {})}
 
     def _observation(self):
