@@ -55,7 +55,7 @@ from boxbox.torcs import catalog, setup
 from boxbox.torcs.paths import MAX_PYTHON_CARS
 from boxbox.torcs.raceprep import RaceConfig
 
-# TorcsEnv's options the parallel env does not take yet (each reset starts the same race afresh)
+# TorcsEnv's options the parallel env does not take yet (each reset starts the same race afresh, placed by the seed)
 SINGLE_ENV_ONLY = ("grid_position", "pit_fuel_l", "pit_repair", "spares", "sensor_noise")
 ONE_RACE = ("track", "car", "opponents", "skill_level", "initial_fuel_l")  # one value each, not drawn
 
