@@ -228,11 +228,11 @@ class TorcsEnv(gymnasium.Env):
             order = self._order(episode)
             assert order is not None  # (learnt the length when it had to)
             upcoming = [o for o in (self._order(e, learn=False) for e in self._stream.peek(self.spares)) if o]
-            started, state = self._start(order, upcoming, episode.start)
+            started = self._start(order, upcoming)
         self.episode, self.cfg = episode, order.cfg
         self.watch.reset()
-        self.state = state
-        self.vector = self._vector(state)
+        self.state = started.state
+        self.vector = self._vector(started.state)
         return self._observation(), self._reset_info(order, started)
 
     def step(self, action):
@@ -316,17 +316,17 @@ class TorcsEnv(gymnasium.Env):
             slot = (cfg.grid_position or 1) - 1
             cfg = replace(cfg, grid_to_start_m=grid_to_start_m(episode.start.fraction, length_m, slot,
                                                                len(cfg.opponents) + 1))
-        return RaceOrder(episode, cfg, episode.initial_fuel_l)
+        return RaceOrder(episode, cfg, episode.initial_fuel_l, episode.start)
 
     def _learn_length(self, cfg: RaceConfig) -> float:
         """A track's length, from a race on its grid (TORCS sends the track at the race's start)."""
         assert self.session is not None
-        self._start(RaceOrder(("length", cfg.track, cfg.car), cfg), None, Start())  # the spares kept
+        self._start(RaceOrder(("length", cfg.track, cfg.car), cfg), None)  # the spares kept
         return self.lengths[cfg.track]
 
-    def _start(self, order: RaceOrder, upcoming: list[RaceOrder] | None, start: Start) -> tuple[Started, State]:
+    def _start(self, order: RaceOrder, upcoming: list[RaceOrder] | None) -> Started:
         """The episode's race past TORCS's start countdown (the car cannot move before) and the
-        start's launch: the race and the state the episode begins at."""
+        start's launch (driven in the race's set-up: a spare has driven it ahead)."""
         assert self.session is not None
         for _attempt in range(2):  # a TORCS that fails to start once is tried once more
             try:
@@ -334,21 +334,10 @@ class TorcsEnv(gymnasium.Env):
                 self._new_race(started, order.cfg)
                 if self.pit is not None:
                     self.pit.reset()
-                return started, self._launch(started.state, start)
+                return started
             except TorcsGone as exc:
                 error = str(exc)
         raise RaceError(f"TORCS could not start the race ({order.cfg.track}, {order.cfg.car}): {error}")
-
-    def _launch(self, s: State, start: Start) -> State:
-        """The start's launch: its drive steps with its throttle and steering (the assists on)."""
-        assert self.session is not None
-        for _ in range(start.launch_steps):
-            controls, _driving = self._controls(s, start.launch_steer, start.launch_throttle, 0.0, 0.0, 1)
-            nxt = self.session.drive(*controls)
-            if nxt is None:
-                break
-            s = nxt
-        return s
 
     def _new_race(self, started: Started, cfg: RaceConfig) -> None:
         """What the race's track and car decide, rebuilt only when they change."""
@@ -372,7 +361,7 @@ class TorcsEnv(gymnasium.Env):
     def _reset_info(self, order: RaceOrder, started: Started) -> dict[str, Any]:
         """What reset() returns in info: the first state and what the episode's race is."""
         cfg = order.cfg
-        return {"state": self.state, "track": cfg.track, "track_length_m": float(started.track.length_m),
+        return {"state": started.state, "track": cfg.track, "track_length_m": float(started.track.length_m),
                 "car": cfg.car, "opponents": tuple(f"{m}:{i}" for m, i in cfg.opponents),
                 "grid_position": cfg.grid_position or 1, "skill_level": cfg.skill_level.torcs_name,
                 "initial_fuel_l": float(started.state.fuel_l), "spare": started.spare,

@@ -7,8 +7,9 @@ stays where the grid puts it, behind.  A track whose own file sets the grid (alp
 spring, wheel-2: TORCS reads the track's "Starting Grid" over the race file's) starts from its grid.
 TORCS places every car on the track's axis direction at rest (the race file's "initial speed" is
 braked away during the start countdown: 10 m/s there left the car at rest at 0 s, turned 0.21 rad),
-so the speed and heading perturbation is a launch: the reset drives the first drive steps itself,
-with a drawn throttle and steering, and the episode begins after them.
+so the speed and heading perturbation is a launch: the first drive steps, with a drawn throttle and
+steering, driven in the race's set-up (gym/race.py: a spare race drives them ahead, while the last
+episode runs), and the episode begins after them.
 """
 
 from __future__ import annotations
