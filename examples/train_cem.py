@@ -30,9 +30,16 @@ N_FEATURES = 4 + len(AHEAD)
 N_OUTPUTS = 2
 
 
+# the scaled observations (-1..1) stretched so that the Gaussian's first draws (sd 1) steer and brake as
+# much as they need: the angle back to radians, the offset to +-1 at the edges, the speed to 1 at 50 m/s,
+# the range finders to 0..1
+STRETCH = np.array([np.pi / 2, 2.0, 2.0])
+
+
 def features(obs: dict) -> np.ndarray:
-    ahead = obs["track_edges_m"][AHEAD]
-    return np.concatenate([obs["angle_rad"], obs["track_pos"], obs["speed_mps"][:1], [1.0], ahead])
+    ahead = (obs["track_edges_m"][AHEAD] + 1.0) / 2.0
+    scaled = np.concatenate([obs["angle_rad"], obs["track_pos"], obs["speed_mps"][:1]])
+    return np.concatenate([scaled * STRETCH, [1.0], ahead])
 
 
 def act(weights: np.ndarray, obs: dict) -> np.ndarray:
