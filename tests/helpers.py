@@ -84,3 +84,9 @@ def open_page(browser, page_file: Path, ready: str | None = "window.replay && wi
     if ready:
         page.wait_for_function(ready, timeout=30_000)
     return page, errors
+
+
+# The Gymnasium env with observations in units, the grid start, a decision every drive step and two
+# pedals: what the tests that drive by hand in units from the grid take (the env's defaults scale the
+# observations, start along the lap and take one pedal column: tests/unit/gym/test_gym_defaults.py)
+GRID_IN_UNITS = dict(raw_observations=True, random_start=False, action_repeat=1, actions=("steer", "throttle", "brake"))

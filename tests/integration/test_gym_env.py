@@ -17,7 +17,7 @@ from gymnasium.utils.env_checker import check_env
 import boxbox.gym
 from boxbox.errors import UsageError
 from boxbox.gym.env import TorcsEnv
-from helpers import processes_mentioning
+from helpers import GRID_IN_UNITS, processes_mentioning
 
 ID = boxbox.gym.ENV_ID
 
@@ -57,7 +57,7 @@ def test_registered_and_passes_the_gymnasium_checker(overlay):
 
 
 def test_observation_fields_at_the_start(overlay):
-    env = gymnasium.make(ID, track="g-track-1", opponents=["bt:2"])
+    env = gymnasium.make(ID, track="g-track-1", opponents=["bt:2"], **GRID_IN_UNITS)
     obs, info = env.reset(seed=0)
     state = info["state"]
     assert state.sim_time_s >= 0.0  # past the start countdown
@@ -90,7 +90,7 @@ def test_same_seed_same_actions_same_observations_bit_for_bit(overlay):
 
 
 def test_a_lap_ends_the_race_episode(overlay):
-    env = gymnasium.make(ID, track="g-track-1", laps=1, max_episode_steps=20_000)
+    env = gymnasium.make(ID, track="g-track-1", laps=1, max_episode_steps=20_000, **GRID_IN_UNITS)
     obs, _ = env.reset(seed=0)
     total = 0.0
     for _ in range(20_000):
@@ -110,12 +110,12 @@ def test_limits_and_custom_reward(overlay):
         calls.append(info["progress_m"])
         return after.speed_x_mps
 
-    env = gymnasium.make(ID, track="g-track-1", reward_fn=speed_reward, stuck_s=1.0, action_repeat=5)
+    env = gymnasium.make(ID, track="g-track-1", reward_fn=speed_reward, stuck_s=1.0, random_start=False)
     env.reset(seed=0)
     t0 = env.unwrapped.state.sim_time_s
     steps = 0
     while True:
-        _, reward, terminated, truncated, info = env.step(np.array([0.0, 0.0, 1.0], dtype=np.float32))
+        _, reward, terminated, truncated, info = env.step(np.array([0.0, -1.0], dtype=np.float32))  # full brake
         steps += 1
         if terminated:
             break
@@ -172,7 +172,7 @@ def test_resets_leave_nothing_behind(overlay, spares):
 
 
 def test_torcs_killed_mid_episode_is_reported_and_reset_recovers(overlay):
-    env = gymnasium.make(ID, track="g-track-1")
+    env = gymnasium.make(ID, track="g-track-1", **GRID_IN_UNITS)
     obs, _ = env.reset(seed=0)
     for _ in range(50):
         obs, *_ = env.step(middle_driver(obs))
@@ -194,7 +194,7 @@ def test_torcs_killed_mid_episode_is_reported_and_reset_recovers(overlay):
 
 
 def test_a_hung_torcs_truncates_the_step_after_step_timeout_s(overlay):
-    env = gymnasium.make(ID, track="g-track-1", step_timeout_s=1.0, spares=0)
+    env = gymnasium.make(ID, track="g-track-1", step_timeout_s=1.0, spares=0, **GRID_IN_UNITS)
     obs, _ = env.reset(seed=0)
     for _ in range(20):
         obs, *_ = env.step(middle_driver(obs))

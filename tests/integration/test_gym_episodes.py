@@ -63,12 +63,14 @@ def test_sensor_noise_is_drawn_from_the_seed(overlay):
         obs, _ = env.reset(seed=seed)
         seen = [obs]
         for _ in range(30):
-            obs, *_ = env.step(np.array([0.0, 0.3, 0.0], np.float32))
+            obs, *_ = env.step(np.array([0.0, 0.3], np.float32))
             seen.append(obs)
         return np.concatenate(seen)
 
-    noisy = gymnasium.make(ID, track="g-track-1", opponents=["bt:2"], flat=True, sensor_noise=True)
-    clean = gymnasium.make(ID, track="g-track-1", opponents=["bt:2"], flat=True, spares=0)
+    # in units: the noise multiplies the range finders' metres (scaled, their ratio would not be the factor)
+    noisy = gymnasium.make(ID, track="g-track-1", opponents=["bt:2"], flat=True, sensor_noise=True,
+                           raw_observations=True)
+    clean = gymnasium.make(ID, track="g-track-1", opponents=["bt:2"], flat=True, spares=0, raw_observations=True)
     a, b, c, d = episode(noisy, 1), episode(noisy, 1), episode(noisy, 2), episode(clean, 1)
     assert a.tobytes() == b.tobytes() and a.tobytes() != c.tobytes()
     edges = clean.unwrapped.layout.slices["track_edges_m"]

@@ -20,6 +20,7 @@ from pettingzoo.test import parallel_api_test
 import boxbox.gym
 from boxbox.errors import UsageError
 from boxbox.gym.env import NeedsReset
+from helpers import GRID_IN_UNITS
 
 
 def middle(obs, speed_mps: float) -> np.ndarray:
@@ -42,7 +43,7 @@ def test_passes_pettingzoos_parallel_api_test(overlay):
 
 def test_each_car_drives_with_its_own_reward_and_one_ends_while_the_others_go_on(overlay):
     before = session_dirs()
-    env = boxbox.gym.parallel_env(cars=3, track="g-track-1", off_track_s=0.2)
+    env = boxbox.gym.parallel_env(cars=3, track="g-track-1", off_track_s=0.2, **GRID_IN_UNITS)
     obs, infos = env.reset(seed=0)
     states = [infos[a]["state"] for a in env.agents]
     assert len({(s.x_m, s.y_m) for s in states}) == 3 and all(s.sim_time_s >= 0.0 for s in states)  # one instant
@@ -74,7 +75,7 @@ def test_each_car_drives_with_its_own_reward_and_one_ends_while_the_others_go_on
 def test_the_same_actions_give_the_same_race(overlay):
     env = boxbox.gym.parallel_env(cars=2, track="g-track-1", opponents=["bt:2"], flat=True)
     rng = np.random.default_rng(3)
-    actions = rng.uniform([-0.2, 0.3, 0.0], [0.2, 1.0, 0.1], size=(80, 2, 3)).astype(np.float32)
+    actions = rng.uniform([-0.2, -0.1], [0.2, 1.0], size=(80, 2, 2)).astype(np.float32)  # steer, pedal
     runs = []
     for _ in range(2):
         obs, _ = env.reset(seed=1)
@@ -96,8 +97,8 @@ def test_supersuit_vectorises_it(overlay):
     obs, infos = vec.reset(seed=0)
     assert obs.shape == (4, vec.observation_space.shape[0])  # 2 envs x 2 cars
     dones = 0
-    for _ in range(150):  # standing still: stuck after 0.5 s, the envs reset themselves
-        obs, rewards, terminations, truncations, infos = vec.step(np.zeros((4, 3), np.float32))
+    for _ in range(150):  # braking: stuck 0.5 s after the launch, the envs reset themselves
+        obs, rewards, terminations, truncations, infos = vec.step(np.tile(np.float32([0.0, -1.0]), (4, 1)))
         dones += int(terminations.sum())
     assert obs.shape == (4, vec.observation_space.shape[0]) and np.isfinite(obs).all()
     assert dones >= 4
@@ -128,7 +129,7 @@ def test_step_before_reset_and_bad_options_are_refused(overlay):
 
 @pytest.mark.parametrize("how", ["killed", "hung"])
 def test_a_torcs_killed_or_hung_truncates_every_car(overlay, how):
-    env = boxbox.gym.parallel_env(cars=2, track="g-track-1", step_timeout_s=1.0)
+    env = boxbox.gym.parallel_env(cars=2, track="g-track-1", step_timeout_s=1.0, **GRID_IN_UNITS)
     obs, _ = env.reset(seed=0)
     for _ in range(10):
         obs, *_ = env.step({agent: middle(obs[agent], 20.0) for agent in env.agents})

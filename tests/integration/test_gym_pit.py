@@ -6,11 +6,12 @@ import gymnasium
 import numpy as np
 
 import boxbox.gym
+from helpers import GRID_IN_UNITS
 
 
 def test_a_requested_pit_stop_is_driven_by_the_env(overlay):
-    env = gymnasium.make(boxbox.gym.ENV_ID, track="g-track-1", laps=2, actions=("steer", "throttle", "brake", "pit"),
-                         initial_fuel_l=20.0, max_episode_steps=20_000)
+    env = gymnasium.make(boxbox.gym.ENV_ID, track="g-track-1", laps=2, initial_fuel_l=20.0, max_episode_steps=20_000,
+                         **{**GRID_IN_UNITS, "actions": ("steer", "throttle", "brake", "pit")})
     obs, info = env.reset(seed=0)
     assert info["state"].fuel_l == 20.0
     phases, fuel_before, after_stop = [], None, []

@@ -9,6 +9,7 @@ from gymnasium.utils.env_checker import check_env
 
 import boxbox.gym
 from boxbox.gym.render import OTHER_CAR, OWN_CAR
+from helpers import GRID_IN_UNITS
 
 ID = boxbox.gym.ENV_ID
 
@@ -19,7 +20,7 @@ def colour_pixels(image: np.ndarray, colour) -> np.ndarray:
 
 
 def test_pixel_observations_are_the_cars_view_and_pass_the_checker(overlay):
-    env = gymnasium.make(ID, track="g-track-1", opponents=["bt:2"], pixels=True, pixel_size=(64, 80))
+    env = gymnasium.make(ID, track="g-track-1", opponents=["bt:2"], pixels=True, pixel_size=(64, 80), **GRID_IN_UNITS)
     assert env.observation_space == gymnasium.spaces.Box(0, 255, (64, 80, 3), np.uint8)
     check_env(env.unwrapped, skip_render_check=True)
     obs, info = env.reset(seed=0)
@@ -36,7 +37,8 @@ def test_pixel_observations_are_the_cars_view_and_pass_the_checker(overlay):
 
 
 def test_render_draws_the_race_for_record_video(overlay, tmp_path):
-    env = gymnasium.make(ID, track="g-track-1", opponents=["bt:2"], render_mode="rgb_array", action_repeat=5)
+    env = gymnasium.make(ID, track="g-track-1", opponents=["bt:2"], render_mode="rgb_array",
+                         **{**GRID_IN_UNITS, "action_repeat": 5})
     assert env.metadata["render_modes"] == ["rgb_array"] and env.metadata["render_fps"] == 10.0
     check_env(env.unwrapped)  # with the render check
     env.reset(seed=0)

@@ -19,14 +19,17 @@ import psutil
 
 import boxbox.gym
 from boxbox.gym.env import TorcsEnv
+from boxbox.gym.start import LAUNCH_MAX_STEPS
+from boxbox.model.constants import DRIVE_STEP_S
 from helpers import processes_mentioning
 
 ID = boxbox.gym.ENV_ID
 
 
 def actions(n: int, seed: int = 7) -> np.ndarray:
+    """Steer and the one pedal (the env's default actions), mostly on the throttle."""
     rng = np.random.default_rng(seed)
-    return np.clip(rng.normal([0, 0.5, 0.1], 0.5, size=(n, 3)), [-1, 0, 0], [1, 1, 1]).astype(np.float32)
+    return np.clip(rng.normal([0, 0.4], 0.5, size=(n, 2)), -1, 1).astype(np.float32)
 
 
 def test_a_reset_takes_the_spare_made_while_the_episode_ran(overlay):
@@ -37,17 +40,18 @@ def test_a_reset_takes_the_spare_made_while_the_episode_ran(overlay):
     spare = pool.spares[0]
     deadline = time.monotonic() + 20
     while spare.started is None and time.monotonic() < deadline:  # TORCS loads on its own meanwhile
-        env.step(np.array([0.0, 0.0, 1.0], np.float32))
+        env.step(np.array([0.0, -1.0], np.float32))  # full brake
     assert spare.started is not None  # set up by the steps, a message at a time
     _, info = env.reset()
     assert info["spare"] is True and pool.taken == 1 and env.unwrapped.session.race is spare
-    assert info["state"].sim_time_s >= 0.0 and info["state"].sim_time_s < 0.05  # at the start, past the countdown
+    # at the start, past the countdown and the start's launch (up to LAUNCH_MAX_STEPS drive steps)
+    assert 0.0 <= info["state"].sim_time_s < LAUNCH_MAX_STEPS * DRIVE_STEP_S + 0.05
     _, info = env.reset()  # no steps in between: the spare's set-up is finished by the reset
     assert info["spare"] is True and pool.taken == 2
     env.close()
 
 
-def run(env, seed: int, n: int = 300) -> bytes:
+def run(env, seed: int | None, n: int = 300) -> bytes:
     obs, _ = env.reset(seed=seed)
     seen = [obs]
     for a in actions(n):
@@ -64,7 +68,8 @@ def test_same_seed_same_episode_with_the_spare_and_without(overlay):
     spared = gymnasium.make(ID, spares=1, **kw)
     first = run(fresh, 11)
     assert run(spared, 11) == first  # a fresh TORCS (the first reset)
-    assert run(spared, 11) == first  # the spare made while the last episode ran
+    second = run(fresh, None)  # the next episode of the seed: another start along the lap
+    assert run(spared, None) == second != first  # the spare made while the last episode ran
     assert spared.unwrapped.session.pool.taken == 1
     assert run(fresh, 11) == first
     fresh.close()
@@ -72,7 +77,9 @@ def test_same_seed_same_episode_with_the_spare_and_without(overlay):
 
 
 def test_explicit_reset_options_discard_a_spare_made_for_another_race(overlay):
-    env = gymnasium.make(ID, track="g-track-1")
+    # on the grid: every episode of g-track-1 the same race, so the spare made for the next one serves the one after
+    # (a start drawn along the lap makes each episode's race its own)
+    env = gymnasium.make(ID, track="g-track-1", random_start=False)
     _, info = env.reset(seed=0)
     assert (info["track"], round(info["track_length_m"])) == ("g-track-1", 2058)
     pool = env.unwrapped.session.pool
@@ -111,7 +118,7 @@ def test_close_and_drop_leave_no_spare_behind(overlay):
     assert not folder.exists() and not any(psutil.pid_exists(p) for p in pids)
     env = TorcsEnv(track="g-track-1")
     env.reset()
-    env.step(np.zeros(3, np.float32))  # the spare spawned, still loading
+    env.step(np.zeros(2, np.float32))  # the spare spawned, still loading
     folder = env.session.dir
     pids = [p.pid for p in torcs_children(folder)]
     assert len(pids) == 2
@@ -126,7 +133,7 @@ import numpy as np, gymnasium, boxbox.gym
 env = gymnasium.make("boxbox/TORCS-v0", track="g-track-1")
 env.reset(seed=0)
 for _ in range(30):
-    env.step(np.zeros(3, np.float32))
+    env.step(np.zeros(2, np.float32))
 session = env.unwrapped.session
 session.settle()
 print(session.dir, session.pid, session.pool.spares[0].proc.pid, flush=True)

@@ -14,7 +14,7 @@ import time
 import pytest
 
 from boxbox.gym.env import TorcsEnv
-from helpers import BOXBOX, ROOT, processes_mentioning, run_boxbox
+from helpers import BOXBOX, GRID_IN_UNITS, ROOT, processes_mentioning, run_boxbox
 
 GROUP = re.compile(r"\((\w+)([^()]*)\)")
 ANGLES = [-45 + 5 * i for i in range(19)]  # not SCR's default: the server must use these
@@ -100,7 +100,7 @@ def test_an_scr_client_drives_restarts_and_is_shut_down_at_the_race_end(server):
     assert len(s["track"]) == 19 and len(s["opponents"]) == 36 and len(s["wheelSpinVel"]) == 4
     assert s["focus"] == [-1.0] * 5
     # the same race in the env, with the client's angles, sees the same (TORCS is deterministic)
-    env = TorcsEnv(track="g-track-1", opponents=["bt:2"], track_sensor_angles_deg=ANGLES)
+    env = TorcsEnv(track="g-track-1", opponents=["bt:2"], track_sensor_angles_deg=ANGLES, **GRID_IN_UNITS)
     obs, info = env.reset()
     env.close()
     assert s["track"] == pytest.approx(obs["track_edges_m"].tolist(), rel=1e-5)

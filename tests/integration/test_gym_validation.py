@@ -17,7 +17,7 @@ from boxbox.errors import UsageError
 from boxbox.gym.env import TorcsEnv
 
 ID = boxbox.gym.ENV_ID
-BRAKE = np.array([0.0, 0.0, 1.0], dtype=np.float32)
+BRAKE = np.array([0.0, -1.0], dtype=np.float32)  # steer, pedal: full brake
 
 
 def affinity_of_a_new_thread() -> set[int]:
@@ -104,8 +104,8 @@ def test_reset_options_and_actions_it_cannot_take_are_refused(overlay):
     with pytest.raises(UsageError, match=r"reset\(\) does not take 'laps' \(reset options: track, car, opponents"):
         env.reset(options={"laps": 2})
     env.reset(options={})
-    for action in (np.zeros(8, dtype=np.float32), np.zeros(2, dtype=np.float32), "steer"):
-        with pytest.raises(ValueError, match=r"give 3 numbers, shape \(3,\) \(steer, throttle, brake\)"):
+    for action in (np.zeros(8, dtype=np.float32), np.zeros(3, dtype=np.float32), "steer"):
+        with pytest.raises(ValueError, match=r"give 2 numbers, shape \(2,\) \(steer, pedal\)"):
             env.unwrapped.step(action)  # past Gymnasium's checker: the env's own refusal
     _, _, terminated, _, _ = env.step(BRAKE)  # the episode goes on
     assert not terminated

@@ -7,7 +7,7 @@ import xml.etree.ElementTree as ET
 import pytest
 
 from boxbox.model.skill import SkillLevel
-from boxbox.torcs.racefile import robot_xml, with_skill_level
+from boxbox.torcs.racefile import grid, grid_offset_m, race_xml, robot_xml, with_skill_level
 
 DRIVER_FILE = """<?xml version="1.0" encoding="UTF-8"?>
 <!-- the author's comment stays -->
@@ -82,3 +82,23 @@ def test_grid_puts_the_python_cars_at_their_slot():
                                  Entry("bt", 2)]
     with pytest.raises(ValueError, match="outside the grid"):
         grid(1, field, 5)
+
+
+def test_the_starting_grid_is_placed_where_the_race_file_says():
+    entries = grid(1, [("bt", 2)])
+    base = race_xml("g-track-1", "road", 1, entries)
+    section = '<section name="Starting Grid"><attnum name="rows" val="2"/><attnum name="distance to start" val="25"/>'
+    assert section in base and '<attnum name="initial speed" val="0"/>' in base  # the grid every race has
+    placed = race_xml("g-track-1", "road", 1, entries, to_start_m=1234.56, start_speed_mps=3.0)
+    assert '<attnum name="distance to start" val="1234.56"/>' in placed and '"initial speed" val="3"' in placed
+    assert [grid_offset_m(i) for i in range(4)] == [0.0, 10.0, 20.0, 30.0]  # rows of 2, staggered 10 m, 20 m apart
+
+
+def test_tracks_that_place_their_own_grid_are_known():
+    from boxbox.torcs import catalog
+
+    if not catalog.tracks():
+        pytest.skip("TORCS's tracks are not installed")
+    assert catalog.track_sets_grid("alpine-1") and catalog.track_sets_grid("spring")
+    assert not catalog.track_sets_grid("g-track-1")
+    assert not catalog.track_sets_grid("e-track-2")  # its section is a comment

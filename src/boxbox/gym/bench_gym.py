@@ -29,6 +29,8 @@ import numpy as np
 import psutil
 
 from boxbox.gym import ENV_ID
+from boxbox.gym.env import DEFAULT_ACTION_REPEAT
+from boxbox.model.constants import DRIVE_STEP_S
 
 # gym_torcs and its forks, as their users report them (see docs/gym.md for the threads)
 GYM_TORCS_STEPS_PER_S = "5-23"
@@ -190,6 +192,8 @@ def run_bench(track: str = "g-track-1", steps: int = 100_000, episode_steps: int
         Row("env steps/s, 1 env on 1 core, random actions", f"{bare:,.0f}", ">= 10,000 (aim 20,000)",
             f"{GYM_TORCS_STEPS_PER_S} ({GYM_TORCS_SOURCES})"),
         Row(f"the same with a reset every {episode_steps} steps", f"{with_resets:,.0f}"),
+        Row(f"the first in race time: simulated s a wall s (action_repeat {DEFAULT_ACTION_REPEAT}: drive steps of "
+            f"{DRIVE_STEP_S} s an env step)", f"{bare * DEFAULT_ACTION_REPEAT * DRIVE_STEP_S:,.0f}"),
         *old.row("no spare (spares=0: TORCS started at each reset)"),
         *new.row("a spare race (spares=1, the default)", "<= 3 ms"),
         Row(f"env steps/s, AsyncVectorEnv of {vector_envs} on {cores} cores (all envs)", f"{vec:,.0f}"),

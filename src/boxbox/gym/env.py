@@ -5,7 +5,9 @@
 Each `reset` starts a fresh race (a new TORCS process: a spare made ready while the last episode
 ran, gym/spare.py, or one started then, ~25 ms), its track, car and the rest drawn from the options
 (gym/episodes.py); each `step` answers the pending drive call with the action's controls and
-returns at the next one (`action_repeat` drive calls of 0.02 s each with the same action).
+returns at the next one (`action_repeat` drive calls of 0.02 s each with the same action: by
+default 5, a decision every 0.1 s).  A seeded reset starts the car anywhere along the lap
+(gym/start.py); the observations are scaled to [-1, 1] (their units in `info["raw_observation"]`).
 Spaces: gym/spaces.py; reward and termination: gym/reward.py; sensors: gym/sensors.py;
 docs/gym.md has it all with the figures.
 """
@@ -35,15 +37,28 @@ from boxbox.gym.race import MAX_STEP_TIMEOUT_S, STEP_TIMEOUT_S_DEFAULT, RaceOrde
 from boxbox.gym.render import Drawing, check_pixel_size, check_render_mode, pixel_space, render_fps
 from boxbox.gym.sensors import SCR_TRACK_ANGLES_DEG, TrackEdges, opponent_sectors
 from boxbox.gym.session import Session
-from boxbox.gym.spaces import ACTION_RANGES, DEFAULT_ACTIONS, ActionReader, ObservationLayout, Observer, action_space
+from boxbox.gym.spaces import (
+    ACTION_RANGES,
+    DEFAULT_ACTIONS,
+    PEDALS,
+    ActionReader,
+    ObservationLayout,
+    Observer,
+    RaceScale,
+    action_space,
+)
 from boxbox.gym.spare import MAX_SPARES
+from boxbox.gym.start import Start, grid_to_start_m
 from boxbox.model import Car, PitOrder, State, Track
 from boxbox.model.skill import SkillLevel
-from boxbox.torcs import setup
+from boxbox.torcs import catalog, setup
 from boxbox.torcs.checks import check_grid_position, check_race
 from boxbox.torcs.raceprep import RaceConfig
 
 MAX_ACTION_REPEAT = 1000  # 20 s of simulated time per step
+# a decision every 0.1 s (5 drive steps): a lap of g-track-1 at the shipped robot's pace (41 s) is
+# ~400 decisions instead of ~2,000 (docs/gym.md, "Defaults that learn")
+DEFAULT_ACTION_REPEAT = 5
 MAX_FUEL_L = 1000.0  # beyond any car's tank
 MAX_REPAIR = 100_000.0  # damage points (the car is out at 10000)
 DEFAULT_SPARES = 1  # spare races made ready ahead (docs/gym.md: one keeps resets at a few ms)
@@ -78,6 +93,9 @@ def checked_actions(actions: Any, assists: Any) -> tuple[tuple[str, ...], tuple[
     """The action columns (each at most once, at least one) and the assists (each at most once),
     checked together."""
     names = _chosen(actions, tuple(ACTION_RANGES), "actions", at_least_one=True)
+    if "pedal" in names and any(p in names for p in PEDALS):
+        validate.fail(f"{names!r}: 'pedal' is throttle and brake in one column; give 'pedal' or 'throttle' and "
+                      "'brake', not both.", "actions")
     helpers = _chosen(assists, ASSISTS, "assists", at_least_one=False)
     check_assists(helpers, names)
     return names, helpers
@@ -139,7 +157,7 @@ class TorcsEnv(gymnasium.Env):
     metadata = {"render_modes": ["rgb_array"], "render_fps": 50.0}  # render_fps: this env's own (action_repeat)
 
     def __init__(self, track: str = "g-track-1", car: str = "car1-trb1", opponents=(), laps: int = 1, *,
-                 action_repeat: int = 1, actions: tuple[str, ...] = DEFAULT_ACTIONS,
+                 action_repeat: int = DEFAULT_ACTION_REPEAT, actions: tuple[str, ...] = DEFAULT_ACTIONS,
                  assists: tuple[str, ...] = ("gears",), flat: bool = False,
                  track_sensor_angles_deg: tuple[float, ...] = SCR_TRACK_ANGLES_DEG,
                  reward_fn: rw.RewardFn | None = None, reward_weights: rw.RewardWeights | None = None,
@@ -148,7 +166,8 @@ class TorcsEnv(gymnasium.Env):
                  initial_fuel_l: float | None = None, pit_fuel_l: float | None = None, pit_repair: float | None = None,
                  cpu: int | None = None, render_mode: str | None = None, pixels: bool = False,
                  pixel_size: tuple[int, int] | None = None, spares: int = DEFAULT_SPARES,
-                 sensor_noise: bool = False, step_timeout_s: float = STEP_TIMEOUT_S_DEFAULT) -> None:
+                 sensor_noise: bool = False, step_timeout_s: float = STEP_TIMEOUT_S_DEFAULT,
+                 random_start: bool = True, raw_observations: bool = False) -> None:
         # every option checked before anything is set up (validate.py: the command line's checks)
         self.actions, self.assist_names = checked_actions(actions, assists)
         self.action_repeat = validate.whole_number(action_repeat, 1, MAX_ACTION_REPEAT, name="action_repeat")
@@ -161,20 +180,22 @@ class TorcsEnv(gymnasium.Env):
         self.spares = validate.whole_number(spares, 0, MAX_SPARES, name="spares")
         self.sensor_noise = validate.flag(sensor_noise, name="sensor_noise")
         flat = validate.flag(flat, name="flat")
+        random_start = validate.flag(random_start, name="random_start")
+        scaled = not validate.flag(raw_observations, name="raw_observations")
         # pixels (gym/render.py): render() draws the race top-down; pixels=True observes the car's view
         self.render_mode = check_render_mode(render_mode)
         self.metadata = {**self.metadata, "render_fps": render_fps(self.action_repeat)}
         self.pixels = validate.flag(pixels, name="pixels")
         self.drawing = Drawing(check_pixel_size(pixel_size, self.pixels))
-        self.episodes = Episodes(laps, track=track, car=car, opponents=opponents, grid_position=grid_position,
-                                 skill_level=skill_level, initial_fuel_l=initial_fuel_l)
+        self.episodes = Episodes(laps, random_start, track=track, car=car, opponents=opponents,
+                                 grid_position=grid_position, skill_level=skill_level, initial_fuel_l=initial_fuel_l)
         self._stream: EpisodeStream | None = None  # the episodes drawn from the seed, from the first reset
         self.episode: Episode | None = None  # the episode running
         self.cfg = self.episodes.config(self.episodes.first())  # the race running (until the first reset: the first's)
         self._edges: dict[int, tuple[Track, TrackEdges]] = {}  # by track (decoded once per session)
         self.layout = ObservationLayout.make(len(self.angles_deg))
-        self.observer = Observer(self.layout, flat)
-        self.observation_space = self.layout.flat_space() if flat else self.layout.dict_space()
+        self.observer = Observer(self.layout, flat, scaled)
+        self.observation_space = self.layout.space(flat, scaled)
         if self.drawing.pixel_size is not None:
             self.observation_space = pixel_space(self.drawing.pixel_size)
         self.action_space = action_space(self.actions)
@@ -183,6 +204,7 @@ class TorcsEnv(gymnasium.Env):
         self.track: Track | None = None  # the race's track and car, known from the first reset
         self.car: Car | None = None
         self.length_m = 0.0
+        self.lengths: dict[str, float] = {}  # each track's, from its first race (a start along it needs it)
         self.state: State | None = None
         self.vector: np.ndarray | None = None  # None with pixels
         self.edges: TrackEdges | None = None
@@ -197,18 +219,20 @@ class TorcsEnv(gymnasium.Env):
         if seed is not None or self._stream is None:
             self._stream = EpisodeStream(self.episodes, stream_seed(self.np_random))
         episode = replace(self._stream.next(), **chosen)
-        order = self._order(episode)  # an unknown track given to reset() is refused here, before TORCS
-        upcoming = [self._order(e) for e in self._stream.peek(self.spares)]
+        self.episodes.config(episode)  # an unknown track given to reset() is refused here, before TORCS
         if self.session is None:
             self.session = Session(setup.ensure_ready(), cpu=self.cpu, on_pit=self._pit_order, spares=self.spares,
                                    step_timeout_s=self.step_timeout_s)
         self.ended = None
         with self.session.pin:
+            order = self._order(episode)
+            assert order is not None  # (learnt the length when it had to)
+            upcoming = [o for o in (self._order(e, learn=False) for e in self._stream.peek(self.spares)) if o]
             started = self._start(order, upcoming)
         self.episode, self.cfg = episode, order.cfg
         self.watch.reset()
-        self.state = state = started.state
-        self.vector = self._vector(state)
+        self.state = started.state
+        self.vector = self._vector(started.state)
         return self._observation(), self._reset_info(order, started)
 
     def step(self, action):
@@ -227,6 +251,8 @@ class TorcsEnv(gymnasium.Env):
             self.vector = None if self.pixels else self._vector(s)  # the car's view needs no range finders
         self.ended = reason
         info = {"state": s, "progress_m": progress, "termination": reason, "fault": fault}
+        if self.vector is not None:
+            info["raw_observation"] = self.observer.shaped(self.vector)
         if self.pit is not None:
             info["pit"] = self.pit.phase
         return self._observation(), total, *step_ends(reason), info
@@ -277,16 +303,35 @@ class TorcsEnv(gymnasium.Env):
         return self.session.pid if self.session is not None else None
 
     # --- pieces --------------------------------------------------------------------------------
-    def _order(self, episode: Episode) -> RaceOrder:
-        return RaceOrder(episode, self.episodes.config(episode), episode.initial_fuel_l)
+    def _order(self, episode: Episode, learn: bool = True) -> RaceOrder | None:
+        """The episode's race, its grid placed for the episode's start.  A start along a track not
+        raced yet needs its length: raced once on its grid to learn it, or (`learn` off) None."""
+        cfg = self.episodes.config(episode)
+        if episode.start.fraction is not None and not catalog.track_sets_grid(cfg.track):
+            length_m = self.lengths.get(cfg.track)
+            if length_m is None:
+                if not learn:
+                    return None
+                length_m = self._learn_length(cfg)
+            slot = (cfg.grid_position or 1) - 1
+            cfg = replace(cfg, grid_to_start_m=grid_to_start_m(episode.start.fraction, length_m, slot,
+                                                               len(cfg.opponents) + 1))
+        return RaceOrder(episode, cfg, episode.initial_fuel_l, episode.start)
 
-    def _start(self, order: RaceOrder, upcoming: list[RaceOrder]) -> Started:
-        """The episode's race at 0 s, past TORCS's start countdown (the car cannot move before)."""
+    def _learn_length(self, cfg: RaceConfig) -> float:
+        """A track's length, from a race on its grid (TORCS sends the track at the race's start)."""
+        assert self.session is not None
+        self._start(RaceOrder(("length", cfg.track, cfg.car), cfg), None)  # the spares kept
+        return self.lengths[cfg.track]
+
+    def _start(self, order: RaceOrder, upcoming: list[RaceOrder] | None) -> Started:
+        """The episode's race past TORCS's start countdown (the car cannot move before) and the
+        start's launch (driven in the race's set-up: a spare has driven it ahead)."""
         assert self.session is not None
         for _attempt in range(2):  # a TORCS that fails to start once is tried once more
             try:
                 started = self.session.start(order, upcoming)
-                self._new_race(started)
+                self._new_race(started, order.cfg)
                 if self.pit is not None:
                     self.pit.reset()
                 return started
@@ -294,8 +339,10 @@ class TorcsEnv(gymnasium.Env):
                 error = str(exc)
         raise RaceError(f"TORCS could not start the race ({order.cfg.track}, {order.cfg.car}): {error}")
 
-    def _new_race(self, started: Started) -> None:
+    def _new_race(self, started: Started, cfg: RaceConfig) -> None:
         """What the race's track and car decide, rebuilt only when they change."""
+        self.lengths[cfg.track] = float(started.track.length_m)
+        self.observer.use(RaceScale.of(started.track.length_m, started.car, cfg.laps))
         car_changed = started.car != self.car
         if started.track is not self.track:
             self.track = started.track
@@ -317,7 +364,9 @@ class TorcsEnv(gymnasium.Env):
         return {"state": started.state, "track": cfg.track, "track_length_m": float(started.track.length_m),
                 "car": cfg.car, "opponents": tuple(f"{m}:{i}" for m, i in cfg.opponents),
                 "grid_position": cfg.grid_position or 1, "skill_level": cfg.skill_level.torcs_name,
-                "initial_fuel_l": float(started.state.fuel_l), "spare": started.spare}
+                "initial_fuel_l": float(started.state.fuel_l), "spare": started.spare,
+                "start": self.episode.start if self.episode is not None else Start(),
+                **({"raw_observation": self.observer.shaped(self.vector)} if self.vector is not None else {})}
 
     def _observation(self):
         """The numbers (Dict or flat), or with pixels the car's view."""

@@ -8,6 +8,7 @@ Each of the options `track`, `car`, `opponents`, `grid_position`, `skill_level` 
 - `OneOf(a, b, ..., weights=(wa, wb, ...))`, or a dict `{a: wa, b: wb}`: drawn with those weights;
 - `Uniform(low, high)` for `initial_fuel_l`: litres drawn uniformly in [low, high].
 
+With `random_start` each episode also draws where along the lap it starts (gym/start.py).
 The draws come from a generator seeded from the env's `np_random` when `reset(seed=...)` seeds it
 (`EpisodeStream`), one episode after another, so the same seed gives the same episodes, whatever
 the sensor noise or the steps (drawn from `np_random` itself) consumed in between; the env draws
@@ -26,6 +27,7 @@ import numpy as np
 
 from boxbox import validate
 from boxbox.errors import UsageError
+from boxbox.gym.start import GRID_START, Start, draw_start
 from boxbox.model.skill import SkillLevel
 from boxbox.torcs import setup
 from boxbox.torcs.checks import check_grid_position, check_race
@@ -85,6 +87,7 @@ class Episode:
     grid_position: int | str | None
     skill_level: str
     initial_fuel_l: float | None
+    start: Start = GRID_START  # where along the lap, and the launch (gym/start.py)
 
 
 def parse_draw(value: Any, one: Callable[[Any], Any], name: str, *, list_is_one: bool = False,
@@ -182,8 +185,9 @@ def check_reset_options(options: Any) -> None:
 class Episodes:
     """The env's episode options, checked (against the installed TORCS too), and the races they make."""
 
-    def __init__(self, laps: int, **options: Any) -> None:
+    def __init__(self, laps: int, random_start: bool = False, **options: Any) -> None:
         self.laps = validate.laps(laps, name="laps")
+        self.random_start = random_start
         self.draws = {key: parse_draw(options[key], CHECKS[key], key, list_is_one=key == "opponents",
                                       numbers=(0, MAX_FUEL_L) if key == "initial_fuel_l" else None)
                       for key in EPISODE_KEYS}
@@ -197,7 +201,9 @@ class Episodes:
         return tuple(k for k, d in self.draws.items() if d.span is not None or len(d.values) > 1)
 
     def draw(self, rng: np.random.Generator) -> Episode:
-        return Episode(**{key: self.draws[key].pick(rng) for key in EPISODE_KEYS})
+        """The next episode: its options, then (with `random_start`) its start."""
+        picked = {key: self.draws[key].pick(rng) for key in EPISODE_KEYS}
+        return Episode(**picked, start=draw_start(rng) if self.random_start else GRID_START)
 
     def explicit(self, options: Any) -> dict[str, Any]:
         """reset(options=...)'s values, checked: one value per key (UsageError for an unknown key)."""

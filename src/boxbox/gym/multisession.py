@@ -44,10 +44,13 @@ class MultiSession(Session):
         self.order = RaceOrder("multi", cfg, initial_fuel_l)  # every reset: the same race
         self.multi: MultiRace | None = None  # the race running (`race` too, which stop() and close() kill)
 
-    def start_all(self) -> tuple[Track, list[Car], dict[int, State]]:
+    def start_all(self, cfg: RaceConfig | None = None) -> tuple[Track, list[Car], dict[int, State]]:
         """A fresh TORCS (the last race killed first), served up to its first batch of drive steps:
-        the track, each Python car's constants and each car's first state."""
+        the track, each Python car's constants and each car's first state.  `cfg`: this race's
+        (its starting grid placed elsewhere), else the session's."""
         self.stop()
+        if cfg is not None:
+            self.order = RaceOrder("multi", cfg, self.order.initial_fuel_l)
         self.race = self.multi = self._new_race(self.order)  # killed by stop() or close() if it fails half way
         return self.multi.start_all()
 

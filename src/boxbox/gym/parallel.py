@@ -11,16 +11,20 @@ Agents `car_0` .. `car_{n-1}` are the Python cars, in grid order; each observes,
 ends as the single env's car does (the same options, spaces, reward and limits).  One `step` moves
 every car `action_repeat` drive steps: the session (gym/multisession.py) answers all the cars' drive
 calls of a simulation step together.  A car whose episode ends leaves `agents`; TORCS keeps it in
-the race, braking, while the others go on.  When the race ends every car left ends with it.
+the race, braking, while the others go on.  When the race ends every car left ends with it;
+`max_episode_steps` truncates every car left.  A seeded reset starts the grid anywhere along the lap
+(car_0 at the drawn point) and drives each car's own launch (gym/start.py), as the single env does.
 """
 
 from __future__ import annotations
 
 import functools
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
 from gymnasium import spaces
+from gymnasium.utils import seeding
 from pettingzoo import ParallelEnv
 
 from boxbox import validate
@@ -28,6 +32,7 @@ from boxbox.errors import RaceError, UsageError
 from boxbox.gym import reward as rw
 from boxbox.gym.assists import Assists
 from boxbox.gym.env import (
+    DEFAULT_ACTION_REPEAT,
     MAX_ACTION_REPEAT,
     NeedsReset,
     checked_actions,
@@ -42,13 +47,15 @@ from boxbox.gym.multisession import Controls, MultiSession
 from boxbox.gym.race import STEP_TIMEOUT_S_DEFAULT, TorcsGone
 from boxbox.gym.render import CAR_COLOURS, Drawing, check_pixel_size, check_render_mode, pixel_space, render_fps
 from boxbox.gym.sensors import SCR_TRACK_ANGLES_DEG, TrackEdges, opponent_sectors
-from boxbox.gym.spaces import DEFAULT_ACTIONS, ActionReader, ObservationLayout, Observer, action_space
+from boxbox.gym.spaces import DEFAULT_ACTIONS, ActionReader, ObservationLayout, Observer, RaceScale, action_space
+from boxbox.gym.start import GRID_START, Start, draw_start, grid_to_start_m
 from boxbox.model import Car, State, Track
 from boxbox.model.skill import SkillLevel
-from boxbox.torcs import setup
+from boxbox.torcs import catalog, setup
 from boxbox.torcs.paths import MAX_PYTHON_CARS
+from boxbox.torcs.raceprep import RaceConfig
 
-# TorcsEnv's options the parallel env does not take yet (each reset starts the same race afresh)
+# TorcsEnv's options the parallel env does not take yet (each reset starts the same race afresh, placed by the seed)
 SINGLE_ENV_ONLY = ("grid_position", "pit_fuel_l", "pit_repair", "spares", "sensor_noise")
 ONE_RACE = ("track", "car", "opponents", "skill_level", "initial_fuel_l")  # one value each, not drawn
 
@@ -76,6 +83,15 @@ class Racer:
         self.watch = rw.Watch(limits)
         self.state: State | None = None
         self.action: tuple[float, float, float, float, int, bool] = (0.0, 0.0, 0.0, 0.0, 1, False)
+        self.start = GRID_START
+        self.vector: np.ndarray | None = None  # the last observation in units (None with pixels)
+
+    def launching(self, step: int) -> Controls:
+        """The controls of the start's launch at its drive step `step` (coasting after it)."""
+        start = self.start
+        self.action = ((start.launch_steer, start.launch_throttle, 0.0, 0.0, 1, False) if step < start.launch_steps
+                       else (0.0, 0.0, 0.0, 0.0, 1, False))
+        return self.controls()
 
     def controls(self) -> Controls:
         assert self.state is not None
@@ -91,7 +107,7 @@ class TorcsParallelEnv(ParallelEnv):
                 "is_parallelizable": True}
 
     def __init__(self, cars: int = 2, track: str = "g-track-1", car: str = "car1-trb1", opponents=(), laps: int = 1,
-                 *, action_repeat: int = 1, actions: tuple[str, ...] = DEFAULT_ACTIONS,
+                 *, action_repeat: int = DEFAULT_ACTION_REPEAT, actions: tuple[str, ...] = DEFAULT_ACTIONS,
                  assists: tuple[str, ...] = ("gears",), flat: bool = False,
                  track_sensor_angles_deg: tuple[float, ...] = SCR_TRACK_ANGLES_DEG,
                  reward_fn: rw.RewardFn | None = None, reward_weights: rw.RewardWeights | None = None,
@@ -99,6 +115,7 @@ class TorcsParallelEnv(ParallelEnv):
                  skill_level: str | SkillLevel = "semi-pro", initial_fuel_l: float | None = None,
                  cpu: int | None = None, render_mode: str | None = None, pixels: bool = False,
                  pixel_size: tuple[int, int] | None = None, step_timeout_s: float = STEP_TIMEOUT_S_DEFAULT,
+                 random_start: bool = True, raw_observations: bool = False, max_episode_steps: int | None = None,
                  **single_env_only: Any) -> None:
         refuse_single_env_options(dict(zip(ONE_RACE, (track, car, opponents, skill_level, initial_fuel_l),
                                            strict=True)), single_env_only)
@@ -115,16 +132,20 @@ class TorcsParallelEnv(ParallelEnv):
         self.cpu = checked_cpu(cpu)
         self.step_timeout_s = checked_step_timeout_s(step_timeout_s)
         flat = validate.flag(flat, name="flat")
+        self.random_start = validate.flag(random_start, name="random_start")
+        scaled = not validate.flag(raw_observations, name="raw_observations")
+        self.max_episode_steps = (None if max_episode_steps is None else
+                                  validate.whole_number(max_episode_steps, 1, None, name="max_episode_steps"))
         self.render_mode = check_render_mode(render_mode)
         self.metadata = {**self.metadata, "render_fps": render_fps(self.action_repeat)}
         self.pixels = validate.flag(pixels, name="pixels")
         self.drawing = Drawing(check_pixel_size(pixel_size, self.pixels))
         self.cfg = race_config(track, car, opponents, laps, skill_level, cars=n)
         self.layout = ObservationLayout.make(len(self.angles_deg))
-        self.observer = Observer(self.layout, flat)
+        self.observer = Observer(self.layout, flat, scaled)
         self.possible_agents = [f"car_{i}" for i in range(n)]
         self.agents: list[str] = []
-        space = self.layout.flat_space() if flat else self.layout.dict_space()
+        space = self.layout.space(flat, scaled)
         obs_space = pixel_space(self.drawing.pixel_size) if self.drawing.pixel_size is not None else space
         self.observation_spaces = dict.fromkeys(self.possible_agents, obs_space)
         self.action_spaces = dict.fromkeys(self.possible_agents, action_space(self.actions))
@@ -133,6 +154,9 @@ class TorcsParallelEnv(ParallelEnv):
         self.track: Track | None = None
         self.edges: TrackEdges | None = None
         self.racers: dict[str, Racer] = {}
+        self.np_random: np.random.Generator | None = None  # seeded by reset(seed=...), as Gymnasium's envs
+        self.length_m: float | None = None  # the track's, from its first race (a start along it needs it)
+        self.steps = 0  # env steps of the episode (max_episode_steps)
         self.colour_of: dict[int, tuple[int, int, int]] = {}  # TORCS car index -> colour
 
     @functools.cache  # noqa: B019  (PettingZoo asks for the same object each time)
@@ -145,19 +169,22 @@ class TorcsParallelEnv(ParallelEnv):
 
     # --- the PettingZoo API --------------------------------------------------------------------
     def reset(self, seed: int | None = None, options: dict | None = None):
-        """A fresh race, past the start countdown.  `seed` and `options` change nothing yet (the race
-        is deterministic; PettingZoo's own test passes options it does not know)."""
+        """A fresh race past the start countdown, the grid where the seed puts it, each car's launch
+        driven (`options` changes nothing: PettingZoo's own test passes options it does not know)."""
+        if seed is not None or self.np_random is None:
+            self.np_random, _ = seeding.np_random(seed)
+        starts = [draw_start(self.np_random) if self.random_start else GRID_START for _ in self.possible_agents]
         if self.session is None:
             self.session = MultiSession(self.cfg, setup.ensure_ready(), cpu=self.cpu,
                                         initial_fuel_l=self.initial_fuel_l, step_timeout_s=self.step_timeout_s)
         with self.session.pin:
-            states = self._start()
+            self._start(starts)
         self.agents = list(self.possible_agents)
+        self.steps = 0
         for racer in self.racers.values():
-            racer.state = states[racer.robot]
             racer.watch.reset()
-        return ({name: self._observation(name) for name in self.agents},
-                {name: {"state": self.racers[name].state} for name in self.agents})
+        obs = {name: self._observation(name) for name in self.agents}
+        return obs, {name: self._info(name, {"start": self.racers[name].start}) for name in self.agents}
 
     def step(self, actions: dict[str, Any]):
         if self.session is None or not self.racers:
@@ -174,11 +201,15 @@ class TorcsParallelEnv(ParallelEnv):
             self.racers[name].action = self.reader.read(actions[name])  # the ended cars' actions are ignored
         with self.session.pin:
             totals, progress, reasons, fault = self._drive(live)
+        self.steps += 1
+        over = self.max_episode_steps is not None and self.steps >= self.max_episode_steps
         obs = {name: self._observation(name) for name in live}
         ends = {name: step_ends(reasons[name]) for name in live}
-        infos = {name: {"state": self.racers[name].state, "progress_m": progress[name],
-                        "termination": reasons[name], "fault": fault} for name in live}
-        self.agents = [name for name in live if reasons[name] is None]
+        if over:  # every car still going is truncated
+            ends = {name: (term, trunc or not term) for name, (term, trunc) in ends.items()}
+        infos = {name: self._info(name, {"progress_m": progress[name], "termination": reasons[name], "fault": fault})
+                 for name in live}
+        self.agents = [name for name in live if not any(ends[name])]
         return (obs, totals, {name: end[0] for name, end in ends.items()},
                 {name: end[1] for name, end in ends.items()}, infos)
 
@@ -202,29 +233,66 @@ class TorcsParallelEnv(ParallelEnv):
         return self.session.pid if self.session is not None else None
 
     # --- pieces --------------------------------------------------------------------------------
-    def _start(self) -> dict[int, State]:
-        """A fresh race past TORCS's start countdown: each car's state by robot."""
+    def _start(self, starts: list[Start]) -> None:
+        """The race with the grid where car_0's start puts it (a track not raced yet raced once on
+        its grid first, to learn its length), then each car's launch."""
+        cfg = self.cfg
+        if starts[0].fraction is not None and not catalog.track_sets_grid(cfg.track):
+            if self.length_m is None:
+                self._start_race(cfg)
+            assert self.length_m is not None
+            cfg = replace(cfg, grid_to_start_m=grid_to_start_m(starts[0].fraction, self.length_m, 0,
+                                                               len(cfg.robots) + len(cfg.opponents)))
+        self._start_race(cfg)
+        for racer, start in zip(self.racers.values(), starts, strict=True):
+            racer.start = start
+        self._launch(max(start.launch_steps for start in starts))
+
+    def _start_race(self, cfg: RaceConfig) -> None:
+        """A fresh race past TORCS's start countdown: its racers at their first states."""
         assert self.session is not None
         error = ""
         for _attempt in range(2):  # a TORCS that fails to start once is tried once more
             try:
-                track, cars, first = self.session.start_all()
+                track, cars, first = self.session.start_all(cfg)
                 states: dict[int, State] | None = first
                 if track is not self.track:
                     self._new_track(track)
+                self.observer.use(RaceScale.of(track.length_m, cars[0], cfg.laps))
                 self.racers = {f"car_{i}": Racer(i, car, self.assist_names, self.limits) for i, car in enumerate(cars)}
                 self._colours(cars, first)
                 while states is not None and min(s.sim_time_s for s in states.values()) < 0.0:
                     states = self.session.drive_all({})  # cars left out brake: the countdown
                 if states is not None and len(states) == len(cars):
-                    return states
+                    for racer in self.racers.values():
+                        racer.state = states[racer.robot]
+                    return
                 error = "the race ended before it started"
             except TorcsGone as exc:
                 error = str(exc)
         raise RaceError(f"TORCS could not start the race ({self.cfg.track}, {self.cfg.car}): {error}")
 
+    def _launch(self, steps: int) -> None:
+        """The cars' launches, `steps` drive steps (a car past its own launch coasts)."""
+        assert self.session is not None
+        for step in range(steps):
+            states = self.session.drive_all({r.robot: r.launching(step) for r in self.racers.values()})
+            if states is None:
+                raise RaceError(f"the race ({self.cfg.track}) ended in the cars' launch")
+            for racer in self.racers.values():
+                racer.state = states.get(racer.robot, racer.state)
+
+    def _info(self, name: str, more: dict[str, Any]) -> dict[str, Any]:
+        """A car's info: its state, its observation in units (not with pixels) and `more`."""
+        racer = self.racers[name]
+        info = {"state": racer.state, **more}
+        if racer.vector is not None:
+            info["raw_observation"] = self.observer.shaped(racer.vector)
+        return info
+
     def _new_track(self, track: Track) -> None:
         self.track = track
+        self.length_m = float(track.length_m)
         self.edges = TrackEdges(track, self.angles_deg)
         if self.render_mode is not None or self.pixels:
             self.drawing.new_track(track)
@@ -282,7 +350,8 @@ class TorcsParallelEnv(ParallelEnv):
             return self.drawing.observation(racer.state, racer.car)  # itself red, every other car blue
         assert self.edges is not None
         s = racer.state
-        return self.observer.observation(self.observer.vector(s, self.edges.ranges(s), opponent_sectors(s)))
+        racer.vector = self.observer.vector(s, self.edges.ranges(s), opponent_sectors(s))
+        return self.observer.observation(racer.vector)
 
 
 def parallel_env(cars: int = 2, **kwargs) -> TorcsParallelEnv:

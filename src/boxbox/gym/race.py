@@ -29,6 +29,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from boxbox.errors import RaceError
+from boxbox.gym.start import GRID_START, Start
 from boxbox.model import Car, PitOrder, State, Track
 from boxbox.torcs import messages, wire
 from boxbox.torcs.messages import HSIZE, TrackChunks, decode_state, pack_controls
@@ -62,17 +63,18 @@ class TorcsGone(Exception):
 class Started:
     track: Track
     car: Car
-    state: State  # the first drive step's state, at 0 s (past the start countdown)
+    state: State  # the first drive step's state, past the start countdown and the start's launch
     spare: bool = False  # the race was made ready ahead, as a spare
 
 
 @dataclass(frozen=True)
 class RaceOrder:
     """A race to make ready: `key` names it (equal keys are the same race, so a spare is taken
-    for it), `cfg` and the start fuel say what it is."""
+    for it), `cfg`, the start fuel and the start's launch say what it is."""
     key: Hashable
     cfg: RaceConfig = field(compare=False)
     initial_fuel_l: float | None = field(default=None, compare=False)
+    start: Start = field(default=GRID_START, compare=False)
 
 
 class SessionResources:
@@ -124,6 +126,7 @@ class GymRace:
         self._out = bytearray(messages.REPLY_BYTES)  # the replies, packed
         self._controls = memoryview(self._out)[:HSIZE + wire.CONTROLS_REC.size]  # a DRIVE's reply
         self._step = 0
+        self._launched = 0  # drive steps of the start's launch driven
         self._track: tuple[Track, Car] | None = None
         self._chunks: dict[int, TrackChunks] = {}  # NEW_TRACK's, by robot
 
@@ -164,11 +167,16 @@ class GymRace:
         if kind == wire.DRIVE:
             self._step = step
             state = decode_state(self._buf, count)
-            if state.sim_time_s >= 0.0:
+            start = self.order.start
+            if state.sim_time_s >= 0.0 and self._launched < start.launch_steps:  # part of the set-up: a spare's too
+                self._launched += 1
+                self._send_controls(start.launch_steer, start.launch_throttle, 0.0, 0.0, 1, False)
+            elif state.sim_time_s >= 0.0:
                 assert self._track is not None
                 self.started = Started(self._track[0], self._track[1], state)
                 return True
-            self._send_controls(0.0, 0.0, 0.0, 0.0, 0, False)  # the countdown: the car cannot move yet
+            else:
+                self._send_controls(0.0, 0.0, 0.0, 0.0, 0, False)  # the countdown: the car cannot move yet
         elif kind in (wire.END_RACE, wire.SHUTDOWN):
             raise TorcsGone("the race ended before it started")
         elif not self._answer_setup(kind, robot, step, count, n):

@@ -1,9 +1,14 @@
 """The default reward and the reasons an episode ends.
 
 Reward per drive step: the progress along the track in metres (the change of the distance from
-the start line, wrapped at the line), less `damage_weight` per damage point taken and less
-`off_track_m` for a step with the car's centre beyond a track edge (not while the env drives a pit
-stop).  A callable `reward_fn(previous_state, state, info) -> float` replaces it (info holds
+the start line, wrapped at the line), less `damage_weight` per damage point taken.  A step with the
+car's centre beyond a track edge (not while the env drives a pit stop) earns `off_track_progress`
+of its forward progress (0: cutting a corner gains nothing; going backwards still counts) and
+costs `off_track_m`: 0.02 m a
+drive step, 1 m a second, so a spell off the track (at most `off_track_s`, 2 s, before the episode
+ends) costs at most 2 m, what 0.1 s of driving at 20 m/s earns: driving is worth it even for a
+learner that often leaves the track, where standing still earns 0 (docs/gym.md has the arithmetic).
+A callable `reward_fn(previous_state, state, info) -> float` replaces it (info holds
 `progress_m` and `pit`, whether the env drove the step).
 """
 
@@ -28,10 +33,11 @@ RACE_END, OUT, DAMAGE, OFF_TRACK, STUCK, FAULT = "race-end", "out", "damage", "o
 @dataclass(frozen=True)
 class RewardWeights:
     damage_weight: float = 0.1  # metres of progress one damage point costs
-    off_track_m: float = 1.0  # metres of progress a drive step off the track costs
+    off_track_m: float = 0.02  # metres of progress a drive step off the track costs (1 m a second)
+    off_track_progress: float = 0.0  # the share of forward progress off the track that counts
 
     def __post_init__(self) -> None:
-        for name in ("damage_weight", "off_track_m"):  # frozen: set through object
+        for name in ("damage_weight", "off_track_m", "off_track_progress"):  # frozen: set through object
             object.__setattr__(self, name, validate.finite_number(getattr(self, name), name=name))
 
 
@@ -53,10 +59,11 @@ def off_track(s: State) -> bool:
 def default_reward(before: State, after: State, progress: float, weights: RewardWeights,
                    excused: bool = False) -> float:
     """`excused`: the env drives (a pit stop): the pit lane is not off the track."""
-    reward = progress - weights.damage_weight * max(0.0, after.damage - before.damage)
+    damage_m = weights.damage_weight * max(0.0, after.damage - before.damage)
     if not excused and off_track(after):
-        reward -= weights.off_track_m
-    return reward
+        counted = weights.off_track_progress * progress if progress > 0.0 else progress
+        return counted - damage_m - weights.off_track_m
+    return progress - damage_m
 
 
 @dataclass

@@ -180,7 +180,9 @@ class ScrServer:
         host = validate.text(host, "host address", "127.0.0.1", name="host")
         self.answer_timeout_s = validate.finite_number(answer_timeout_s, 0.001, 60, name="answer_timeout_s")
         self.client_timeout_s = validate.client_timeout_s(client_timeout_s, name="client_timeout_s")
-        self.env_kwargs = dict(env_kwargs, actions=ACTION_ORDER, assists=(), off_track_s=None, stuck_s=None)
+        # SCR's race: a client's action every drive step, the sensors in their units, the grid start
+        self.env_kwargs = dict(env_kwargs, actions=ACTION_ORDER, assists=(), off_track_s=None, stuck_s=None,
+                               action_repeat=1, raw_observations=True, random_start=False)
         TorcsEnv(**self.env_kwargs).close()  # bad input fails here, before a client waits on it
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         try:

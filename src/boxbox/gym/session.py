@@ -52,9 +52,10 @@ class Session:
         self.cores = usable_cpus()  # at the start: where the spares may load (the thread moves later)
         self.idle = IdleShares()
 
-    def start(self, order: RaceOrder, upcoming: Sequence[RaceOrder] = ()) -> Started:
+    def start(self, order: RaceOrder, upcoming: Sequence[RaceOrder] | None = ()) -> Started:
         """The race `order` asks for, at its first drive step (the last race killed first): a spare
-        made ready for it when there is one, else a fresh TORCS.  Then spares for `upcoming`."""
+        made ready for it when there is one, else a fresh TORCS.  Then spares for `upcoming` (None:
+        the spares stay as they are)."""
         self.stop()
         taken = self.pool.take(order) if self.pool is not None else None
         if taken is not None:
@@ -67,7 +68,7 @@ class Session:
             started = race.prepare()
         race.on_pit = self.on_pit
         self.race = race
-        if self.pool is not None:
+        if self.pool is not None and upcoming is not None:
             self.pool.plan(upcoming)
         return started
 

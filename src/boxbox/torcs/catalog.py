@@ -89,6 +89,20 @@ def has_pit_lane(track: str) -> bool:
     return bool(m and re.search(r'<attstr\s+name="entry"\s+val="[^"]+"', m.group(1)))
 
 
+@cache
+def track_sets_grid(track: str) -> bool:
+    """Whether the track's file places the starting grid itself (a "Starting Grid" section with a
+    "distance to start", as alpine-1's), which TORCS reads over the race file's."""
+    category = tracks().get(track)
+    path = system_torcs().data_dir / "tracks" / str(category) / track / f"{track}.xml"
+    try:
+        text = re.sub(r"<!--.*?-->", "", path.read_text(errors="replace"), flags=re.S)  # e-track-2's is a comment
+    except OSError:
+        return False
+    m = re.search(r'<section\s+name="Starting Grid"\s*>(.*?)</section>', text, re.S | re.I)
+    return bool(m and re.search(r'name="distance to start"', m.group(1)))
+
+
 def check_track(name: str) -> str:
     """The track's category; UsageError naming the nearest tracks when unknown."""
     known = tracks()

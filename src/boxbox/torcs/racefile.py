@@ -40,7 +40,26 @@ def _str(name: str, value: str) -> str:
     return f"<attstr name={quoteattr(name)} val={quoteattr(value)}/>"
 
 
-def race_xml(track: str, category: str, laps: int, entries: list[Entry]) -> str:
+# The starting grid the race file gives (a track's own "Starting Grid" section overrides it):
+# the pole GRID_TO_START_M behind the start line, the others in rows of GRID_ROWS side by side,
+# each row GRID_ROW_GAP_M behind the last, each car of a row GRID_STAGGER_M behind the one before
+GRID_TO_START_M = 25.0
+GRID_ROWS = 2
+GRID_ROW_GAP_M = 20.0
+GRID_STAGGER_M = 10.0
+
+
+def grid_offset_m(slot_index: int) -> float:
+    """How far behind the pole the car of grid slot `slot_index` (0: the pole) stands, as TORCS's
+    race engine places the race file's grid."""
+    return slot_index // GRID_ROWS * GRID_ROW_GAP_M + slot_index % GRID_ROWS * GRID_STAGGER_M
+
+
+def race_xml(track: str, category: str, laps: int, entries: list[Entry], to_start_m: float = GRID_TO_START_M,
+             start_speed_mps: float = 0.0) -> str:
+    """The race file; `to_start_m` (the pole's distance behind the start line) and `start_speed_mps`
+    (every car's speed when placed) are its starting grid's, which TORCS's race engine reads unless
+    the track's own file sets them (tracks/<category>/<name>/<name>.xml, section "Starting Grid")."""
     drivers = "\n".join(
         f'    <section name="{i}">{_num("idx", e.idx)}{_str("module", e.module)}</section>'
         for i, e in enumerate(entries, start=1))
@@ -55,9 +74,9 @@ def race_xml(track: str, category: str, laps: int, entries: list[Entry]) -> str:
   <section name="{RACE_NAME}">
     {_num("distance", 0)}{_str("type", "race")}{_str("starting order", "drivers list")}
     {_str("restart", "yes")}{_num("laps", laps)}{_str("display mode", "results only")}
-    <section name="Starting Grid">{_num("rows", 2)}{_num("distance to start", 25)}
-      {_num("distance between columns", 20)}{_num("offset within a column", 10)}
-      {_num("initial speed", 0)}{_num("initial height", 0.2)}</section>
+    <section name="Starting Grid">{_num("rows", GRID_ROWS)}{_num("distance to start", to_start_m)}
+      {_num("distance between columns", GRID_ROW_GAP_M)}{_num("offset within a column", GRID_STAGGER_M)}
+      {_num("initial speed", start_speed_mps)}{_num("initial height", 0.2)}</section>
   </section>
   <section name="Drivers">{_num("maximum number", 40)}
 {drivers}

@@ -15,7 +15,7 @@ from boxbox.model.skill import DEFAULT_SKILL_LEVEL, SkillLevel
 from boxbox.options import LearningMode
 from boxbox.robot.base import RaceOptions
 from boxbox.torcs.paths import ROBOT_MODULE
-from boxbox.torcs.racefile import grid, race_xml, robot_xml, with_skill_level
+from boxbox.torcs.racefile import GRID_TO_START_M, grid, race_xml, robot_xml, with_skill_level
 from boxbox.torcs.rundir import RunDir
 from boxbox.torcs.setup import Overlay
 from boxbox.torcs.timing import MIN_SPEED_MPS, TimeModel
@@ -52,6 +52,10 @@ class RaceConfig:
     keep_runs: int | None = None  # automatic run dirs kept (None: $BOXBOX_KEEP_RUNS or 50)
     skill_level: SkillLevel = DEFAULT_SKILL_LEVEL  # for every car in the race, boxbox's and TORCS's
     grid_position: int | None = None  # the Python cars' first grid slot (1 = pole, the default)
+    # the starting grid: the pole's distance behind the start line and every car's speed when placed
+    # (the Gymnasium env draws them per episode: a start anywhere along the track)
+    grid_to_start_m: float = GRID_TO_START_M
+    start_speed_mps: float = 0.0
     # the robots' learned data: on (the shared store), fresh (a new store in the run dir), off
     # (none); None: options.learning_dir as given. Kept per skill level either way.
     learning: LearningMode | None = None
@@ -106,7 +110,8 @@ def prepare_local_dir(run_dir: RunDir, overlay: Overlay, cfg: RaceConfig) -> Pat
     (drivers / f"{ROBOT_MODULE}.xml").write_text(robot_xml([(n, cfg.car) for n in cfg.names], cfg.skill_level))
     write_driver_files(local, overlay.torcs.data_dir, cfg.opponents, cfg.skill_level)
     entries = grid(len(cfg.robots), cfg.opponents, cfg.grid_position)
-    run_dir.race_file.write_text(race_xml(cfg.track, cfg.category, cfg.laps, entries))
+    run_dir.race_file.write_text(race_xml(cfg.track, cfg.category, cfg.laps, entries, cfg.grid_to_start_m,
+                                          cfg.start_speed_mps))
     return local
 
 

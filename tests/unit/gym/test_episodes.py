@@ -23,8 +23,9 @@ def draws(**options):
 class Unchecked(ep.Episodes):
     """Episodes without the installed TORCS (the integration tests check names against it)."""
 
-    def __init__(self, **options) -> None:
+    def __init__(self, random_start: bool = False, **options) -> None:
         self.laps = 1
+        self.random_start = random_start
         self.draws = draws(**options)
         self._configs = {}
 

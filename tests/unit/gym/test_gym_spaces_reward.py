@@ -25,7 +25,7 @@ def test_the_flat_vector_is_gymnasiums_flattening_of_the_dict():
     layout = ObservationLayout.make(n_track_sensors=19)
     assert set(layout.sizes) == set(OBSERVATIONS)
     dict_space, flat_space = layout.dict_space(), layout.flat_space()
-    obs = Observer(layout, flat=False)
+    obs = Observer(layout, flat=False, scaled=False)  # the units (raw_observations=True; scaling: test_gym_defaults)
     s = state(angle_rad=0.1, damage=12.0, dist_from_start_m=345.0, rpm=500.0, fuel_l=40.0, gear=3.0, laps=2.0,
               to_middle_m=2.5, to_left_m=5.0, to_right_m=10.0, speed_x_mps=30.0, speed_y_mps=-1.0,
               spin_fr_rps=1.0, spin_fl_rps=2.0, spin_rr_rps=3.0, spin_rl_rps=4.0)
@@ -41,7 +41,7 @@ def test_the_flat_vector_is_gymnasiums_flattening_of_the_dict():
 
 def test_each_observation_is_where_its_entry_says_and_the_docs_table_is_made_from_the_entries():
     layout = ObservationLayout.make(n_track_sensors=5)
-    obs = Observer(layout, flat=False)
+    obs = Observer(layout, flat=False, scaled=False)
     s = state(angle_rad=0.1, damage=12.0, dist_from_start_m=345.0, fuel_l=40.0, gear=3.0, laps=2.0,
               speed_x_mps=30.0, speed_y_mps=-1.0, spin_fr_rps=1.0, spin_fl_rps=2.0, spin_rr_rps=3.0, spin_rl_rps=4.0)
     d = obs.observation(obs.vector(s, np.arange(5.0), np.arange(36.0)))
@@ -86,7 +86,8 @@ def test_default_reward_charges_damage_and_leaving_the_track():
     w = rw.RewardWeights(damage_weight=0.1, off_track_m=1.0)
     on = state(to_left_m=3.0, to_right_m=4.0)
     assert rw.default_reward(on, on._replace(damage=50.0), 2.0, w) == pytest.approx(2.0 - 5.0)
-    assert rw.default_reward(on, on._replace(to_left_m=-0.1), 2.0, w) == pytest.approx(1.0)
+    # off the track forward progress earns nothing (test_gym_defaults has the default's arithmetic)
+    assert rw.default_reward(on, on._replace(to_left_m=-0.1), 2.0, w) == pytest.approx(-1.0)
     assert rw.default_reward(on._replace(damage=9.0), on._replace(damage=9.0), 0.5, w) == pytest.approx(0.5)
 
 

@@ -111,6 +111,10 @@ def test_the_parallel_env_refuses_the_single_envs_options_in_one_line(no_setup):
                                                 "race at each reset; give one value"),
         ({"opponents": [[], ["bt:1"]]}, "the parallel env races the same race at each reset"),
         ({"pixel_size": 96}, "set pixels=True"),
+        ({"max_episode_steps": 0}, "Invalid value for 'max_episode_steps'"),
+        ({"random_start": "no"}, "Invalid value for 'random_start': 'no' is not True or False"),
+        ({"raw_observations": None}, "Invalid value for 'raw_observations'"),
+        ({"actions": ("steer", "pedal", "throttle")}, "give 'pedal' or 'throttle' and 'brake', not both"),
     ]
     for kwargs, words in cases:
         with pytest.raises(UsageError) as refused:
