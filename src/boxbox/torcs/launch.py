@@ -304,8 +304,7 @@ class RaceLaunch:
 
     def _stop_processes(self) -> None:
         kill_group(self.torcs)
-        self._let_a_dropped_host_end()
-        self.host_ended = self.host.poll() if self.host is not None else None
+        self.host_ended = self._host_end_code()
         kill_group(self.host, tree=True)
         if self.torcs is not None and self.torcs.stdout is not None:
             self.torcs.stdout.close()
@@ -341,16 +340,22 @@ class RaceLaunch:
                     f"a race: a robot may not signal boxbox; the results so far are kept (run dir {self.run_dir})")
         return f"{INTERRUPTED} (run dir {self.run_dir})"
 
-    def _let_a_dropped_host_end(self) -> None:
-        """A host whose connection TORCS saw drop may be dying still: the kernel closes a killed
-        process's sockets before its parent can reap it, and on a busy machine that gap outlasted
-        TORCS's own ending (a SIGKILLed host read as alive, "though it still ran"). Up to 1 s for it,
-        only in that ending; a host that cut its own socket (os.closerange) stays alive and is killed."""
+    def _host_end_code(self) -> int | None:
+        """The host's exit status when the race ended, None while it still ran. A host whose
+        connection TORCS saw drop may be dying still: the kernel closes a killed process's sockets
+        before its parent can reap it, and on a busy machine that gap outlasted TORCS's own ending (a
+        SIGKILLed host read as alive, "though it still ran"). So up to HOST_EXIT_WAIT_S for a death by
+        a signal, only in that ending; a host that cut its own socket (os.closerange) and exited on
+        its own after (status 1) still ran when the connection dropped."""
         if self.host is None or self.host.poll() is not None:
-            return
-        if "BOXBOX-FAULT host-gone" in self.run_dir.read_text(self.run_dir.torcs_err):
-            with contextlib.suppress(subprocess.TimeoutExpired):
-                self.host.wait(timeout=HOST_EXIT_WAIT_S)
+            return self.host.poll() if self.host is not None else None
+        if "BOXBOX-FAULT host-gone" not in self.run_dir.read_text(self.run_dir.torcs_err):
+            return None
+        try:
+            code = self.host.wait(timeout=HOST_EXIT_WAIT_S)
+        except subprocess.TimeoutExpired:
+            return None
+        return code if code < 0 else None
 
     def _host_stopped(self) -> bool:
         """The host still ran when the race was over: the launcher killed it (diagnosis.Ending)."""
