@@ -347,10 +347,11 @@ class RaceLaunch:
         SIGKILLed host read as alive, "though it still ran"). So up to HOST_EXIT_WAIT_S for a death by
         a signal, only in that ending; a host that cut its own socket (os.closerange) and exited on
         its own after (status 1) still ran when the connection dropped."""
-        if self.host is None or self.host.poll() is not None:
-            return self.host.poll() if self.host is not None else None
-        if "BOXBOX-FAULT host-gone" not in self.run_dir.read_text(self.run_dir.torcs_err):
+        if self.host is None:
             return None
+        code = self.host.poll()
+        if code is not None or "BOXBOX-FAULT host-gone" not in self.run_dir.read_text(self.run_dir.torcs_err):
+            return code
         try:
             code = self.host.wait(timeout=HOST_EXIT_WAIT_S)
         except subprocess.TimeoutExpired:
