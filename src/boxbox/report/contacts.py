@@ -360,7 +360,8 @@ def cause_rows(races: list[RaceContacts]) -> list[dict]:
     return rows
 
 
-AHEAD_HOW = ("the car ahead sliding, from 0.5 s or more before", "the car ahead sliding, from under 0.5 s before",
+AHEAD_HOW = (f"the car ahead sliding, from {EARLY_SLIDE_S} s or more before",
+             f"the car ahead sliding, from under {EARLY_SLIDE_S} s before",
              "in a turn, the car ahead not sliding", "on a straight, the car ahead not sliding")
 
 

@@ -46,10 +46,10 @@ Progress = Callable[[int, float], None]  # (leader laps done, sim time)
 INTERRUPTED = "the race was interrupted (Ctrl-C, SIGTERM or SIGHUP); TORCS was stopped, the results so far are kept"
 # the host dead of SIGKILL with no fault said and nobody in the race sending it: the kernel's OOM
 # killer, or an operator's kill -9 (a robot's own excess of memory is a MemoryError: memory_limit_gib)
-HOST_EXIT_WAIT_S = 1.0  # a SIGKILLed host is reaped within ms idle; 1 s covers a loaded machine
 HOST_KILLED = ("the robot host was killed by SIGKILL with no fault of its robot said "
                "(the kernel's OOM killer, or kill -9)")
 SOCK_PREFIX = "boxbox-sock-"
+HOST_EXIT_WAIT_S = 1.0  # a SIGKILLed host is reaped within ms idle; 1 s covers a loaded machine
 GDB_TIMEOUT_S = 20.0  # a backtrace of a stalled TORCS (gdb attaching and reading symbols takes 1-3 s)
 
 
