@@ -29,7 +29,7 @@ def mismatch(base: dict, run: dict) -> str | None:
     """What keeps two checked bench documents from being compared, in one line, or None."""
     (laps_b, tracks_b, cars_b), (laps_r, tracks_r, cars_r) = shape(base), shape(run)
     if laps_b != laps_r:
-        return f"it raced {laps_b} laps, this run {laps_r}"
+        return f"it raced {laps_b} lap{'s' if laps_b != 1 else ''}, this run {laps_r}"
     if tracks_b != tracks_r:
         return f"it raced other tracks ({_differ(tracks_b, tracks_r)})"
     if cars_b != cars_r:
@@ -84,7 +84,7 @@ class TableComparison:
         t = self.total
         out = [f"against {base_name} ({self.base.robot} there, {self.run.robot} here): misses "
                f"{t.base_misses} -> {t.run_misses}, table damage {t.base_damage:,} -> {t.run_damage:,}, "
-               f"summed time over the {t.cells} cells both finished {t.base_s:.3f} -> {t.run_s:.3f} s"
+               f"summed time over the cells both finished ({t.cells}) {t.base_s:.3f} -> {t.run_s:.3f} s"
                + (f" (ratio {t.ratio:.5f})" if t.ratio else "")]
         out.append(f"now missing ({len(self.new_misses)})" + (":" if self.new_misses else ""))
         out += [f"  {b.car} {b.track}: {b.text()} -> {r.text()} ({'; '.join(r.reasons)})" for b, r in self.new_misses]

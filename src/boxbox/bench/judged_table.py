@@ -54,7 +54,8 @@ class Cell:
 
     def text(self) -> str:
         """As docs/pace.md writes it: 'time (damage where any) / the fastest Debian robot', or 'N laps (damage)'."""
-        shown = f"{self.time_s:.3f}" if self.time_s is not None else f"{self.laps} laps"
+        laps = f"{self.laps} lap{'s' if self.laps != 1 else ''}"
+        shown = f"{self.time_s:.3f}" if self.time_s is not None else laps
         if self.damage:
             shown += f" ({self.damage})"
         if self.debian_time_s is not None:
