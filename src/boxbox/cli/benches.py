@@ -128,7 +128,7 @@ def _print_judged(doc: dict, against=None, markdown: bool = False) -> None:
 @click.command("bench-table")
 @click.argument("run", type=BenchRunFile())
 @click.option("--against", type=BenchRunFile(),
-              help="An earlier `boxbox bench --json` file of the same tracks, cars and laps to set RUN against.")
+              help="An earlier `boxbox bench --json` file of the same tracks, cars and laps to set FILE against.")
 @click.option("--markdown", is_flag=True, help="The table as docs/pace.md writes it (misses in bold).")
 def bench_table(run, against, markdown) -> None:
     """The judged table of a `boxbox bench --json` file, without racing: the misses, damage, summed time per car.
