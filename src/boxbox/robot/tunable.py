@@ -152,8 +152,10 @@ def read_setup(path: str | Path) -> dict:
     except (OSError, UnicodeDecodeError) as exc:
         raise UsageError(f"{path}: cannot be read: {exc}") from None
     for key, value in data.items():
-        if not isinstance(value, bool | int | float | str):
-            raise UsageError(f"{path}: {key} must be a number, true/false or a string, not a {type(value).__name__}")
+        numbers = isinstance(value, list) and all(isinstance(v, int | float) for v in value)  # gear_ratios = [...]
+        if not (isinstance(value, bool | int | float | str) or numbers):
+            raise UsageError(f"{path}: {key} must be a number, true/false, a string or a list of numbers, "
+                             f"not a {type(value).__name__}")
     return data
 
 

@@ -15,14 +15,13 @@ from pathlib import Path
 from boxbox.errors import UsageError
 from boxbox.model import Car, CarSetup
 from boxbox.model.car import AWD, FWD, RWD
-from boxbox.model.car_setup import setup_from
+from boxbox.model.car_setup import GEAR_SETTINGS, setup_from
 from boxbox.model.constants import INCH_M, POUND_KG
 
 NUMBER = re.compile(r"\s*[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?")
 Place = tuple[str, str]  # (section path, key) in a car's parameter file
 DIFFERENTIALS = {RWD: "Rear Differential", FWD: "Front Differential", AWD: "Central Differential"}
 DRIVETRAINS = {"RWD": RWD, "FWD": FWD, "4WD": AWD}
-SETUP_GEARS = 8  # forward gears TORCS 1.3.7 can have (its MAX_GEARS of 10 less reverse and neutral)
 DAMPERS = {"slow_bump": "slow bump", "slow_rebound": "slow rebound", "fast_bump": "fast bump",
            "fast_rebound": "fast rebound"}
 # the SI value of one of each unit the car files write these settings in (TORCS's lbs is the pound
@@ -37,7 +36,7 @@ def places(drivetrain: int) -> dict[str, list[Place]]:
     (a front or rear value is both wheels' of the axle)."""
     diff = DIFFERENTIALS[drivetrain]
     out = {"front_wing_angle_rad": [("Front Wing", "angle")], "rear_wing_angle_rad": [("Rear Wing", "angle")],
-           **{f"gear_ratio_{i}": [(f"Gearbox/gears/{i}", "ratio")] for i in range(1, SETUP_GEARS + 1)},
+           **{name: [(f"Gearbox/gears/{i}", "ratio")] for i, name in enumerate(GEAR_SETTINGS, start=1)},
            "final_drive_ratio": [(diff, "ratio")], "diff_max_slip_bias": [(diff, "max slip bias")],
            "diff_locking_torque_nm": [(diff, "locking input torque")],
            "diff_locking_brake_torque_nm": [(diff, "locking brake input torque")],
