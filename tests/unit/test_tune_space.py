@@ -61,12 +61,25 @@ def test_log_range_from_zero_starts_above_it():
     assert distributions(param_space(R), ["x"])["x"].low == pytest.approx(0.002)
 
 
-@pytest.mark.parametrize("names, message", [(["gian"], "did you mean gain"), (["free"], "no finite declared range"),
+@pytest.mark.parametrize("names, message", [(["gian"], "did you mean gain?"), (["free"], "has no range to search"),
                                             (["nothing"], "is not a parameter"), ([], "at least one")])
-def test_pick_refuses_unknown_names_listing_valid_ones(names, message):
+def test_pick_refuses_unknown_names_naming_the_nearest_and_where_all_are_listed(names, message):
     with pytest.raises(UsageError, match=message) as info:
         param_space(GainRobot).pick(names)
-    assert "searchable: gain, steps, wide, mode" in str(info.value)
+    assert str(info.value).endswith("`boxbox params` lists every one, with its range")
+
+
+def test_a_studys_unknown_name_is_a_short_line_with_the_nearest_of_the_cars_and_the_robots():
+    from boxbox.tune.space import tune_space
+
+    space = tune_space(TutorialRobot, "car1-trb1", "boxbox")
+    with pytest.raises(UsageError) as info:
+        space.pick(["gear_ratio"])
+    assert str(info.value) == ("--params: 'gear_ratio' is not a parameter of robot boxbox (did you mean gear_ratio_6, "
+                               "gear_ratio_5 or gear_ratio_4?); `boxbox params --car car1-trb1` lists every one, "
+                               "with its range")
+    with pytest.raises(UsageError, match="did you mean rear_spring_npm.*`boxbox params --robot my.py:Mine --car"):
+        tune_space(TutorialRobot, "car1-trb1", "my.py:Mine").pick(["rear_springs"])
 
 
 def test_robot_without_declaration():
