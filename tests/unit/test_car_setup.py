@@ -180,3 +180,44 @@ def test_a_study_searches_each_gear_as_a_parameter_of_its_own():
     assert (dists["gear_ratio_1"].low, dists["gear_ratio_1"].high) == (0.5, 5.0)
     options = race_options({"gear_ratio_2": 1.7, "mu_scale": 1.0})  # a trial's values
     assert options.car_setup == {"gear_ratio_2": 1.7} and options.robot_args == {"set": {"mu_scale": 1.0}}
+
+
+def test_a_studys_unknown_name_is_a_short_line_with_the_nearest_of_the_cars_and_the_robots():
+    from boxbox.errors import UsageError
+    from boxbox.robot.tutorial import TutorialRobot
+    from boxbox.tune.space import tune_space
+
+    with pytest.raises(UsageError) as info:
+        tune_space(TutorialRobot, "test-car", "boxbox").pick(["gear_ratio"])
+    assert str(info.value) == ("--params: 'gear_ratio' is not a parameter of robot boxbox (did you mean gear_ratio_2, "
+                               "gear_ratio_1 or learn_gain?); `boxbox params --car test-car` lists every one, with its "
+                               "range")
+    with pytest.raises(UsageError, match=r"mean final_drive_ratio\?\); `boxbox params --robot my.py:Mine --car"):
+        tune_space(TutorialRobot, "test-car", "my.py:Mine").pick(["final_drive"])
+
+
+def test_params_lists_the_cars_settings_by_part_with_unit_range_and_value(test_car):
+    from click.testing import CliRunner
+
+    from boxbox.cli import main_group
+    from boxbox.model.car_setup import SCALAR_NAMES
+
+    result = CliRunner().invoke(main_group, ["params", "--car", "test-car", "--set", "gear_ratios=2.8",
+                                             "--set", "final_drive_ratio=4.2"], standalone_mode=False,
+                                terminal_width=200)
+    assert result.exception is None, result.output
+    table = result.output[result.output.index("car setup: test-car"):]
+    rows = {cells[1]: cells for line in table.splitlines()
+            if len(cells := [c.strip() for c in line.split("│")[1:-1]]) == 6}
+    assert rows["gear_ratio_1"] == ["gearbox", "gear_ratio_1", "2.8", "", "0.5 to 5", "--set"]
+    assert rows["gear_ratio_2"] == ["", "gear_ratio_2", "1.9", "", "0 to 5", "car"]
+    assert rows["final_drive_ratio"][2:] == ["4.2", "", "1 to 10", "--set"]
+    assert rows["front_wing_angle_rad"] == ["wings", "front_wing_angle_rad", "-", "rad", "not in the car's files", ""]
+    assert rows["rear_wing_angle_rad"][2:] == ["0.20944", "rad", "0.0872665 to 0.349066", "car"]
+    assert rows["front_spring_npm"][2:] == ["98218.8", "N/m", "17858 to 160722", "car"]
+    assert rows["front_anti_roll_npm"][4] == "fixed"
+    assert set(SCALAR_NAMES) < set(rows)  # every field of CarSetup
+    assert "mu_scale" in result.output  # and the robot's parameters, above
+    bad = CliRunner().invoke(main_group, ["params", "--car", "test-car", "--set", "gear_ratio_1=9"],
+                             standalone_mode=False)
+    assert "gear_ratio_1=9 is outside test-car's range 0.5 to 5" in str(bad.exception)

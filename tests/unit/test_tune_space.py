@@ -69,19 +69,6 @@ def test_pick_refuses_unknown_names_naming_the_nearest_and_where_all_are_listed(
     assert str(info.value).endswith("`boxbox params` lists every one, with its range")
 
 
-def test_a_studys_unknown_name_is_a_short_line_with_the_nearest_of_the_cars_and_the_robots():
-    from boxbox.tune.space import tune_space
-
-    space = tune_space(TutorialRobot, "car1-trb1", "boxbox")
-    with pytest.raises(UsageError) as info:
-        space.pick(["gear_ratio"])
-    assert str(info.value) == ("--params: 'gear_ratio' is not a parameter of robot boxbox (did you mean gear_ratio_6, "
-                               "gear_ratio_5 or gear_ratio_4?); `boxbox params --car car1-trb1` lists every one, "
-                               "with its range")
-    with pytest.raises(UsageError, match="did you mean rear_spring_npm.*`boxbox params --robot my.py:Mine --car"):
-        tune_space(TutorialRobot, "car1-trb1", "my.py:Mine").pick(["rear_springs"])
-
-
 def test_robot_without_declaration():
     class Plain(Robot):
         name = "plain"

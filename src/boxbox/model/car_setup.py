@@ -15,6 +15,12 @@ FORWARD_GEARS_MAX = 8  # forward gears TORCS 1.3.7 can have (its MAX_GEARS of 10
 # each gear's ratio as a setting of its own (--set gear_ratio_2=2.1, a study's parameter)
 GEAR_SETTINGS = tuple(f"gear_ratio_{i}" for i in range(1, FORWARD_GEARS_MAX + 1))
 GEARS_EXAMPLE = "gear_ratios=3.0,2.1,1.6 (from first gear on) or gear_ratio_2=2.1 (one gear)"
+# a setting's unit, by how its name ends (none of these: a ratio or a share, no unit)
+UNITS = (("_rad", "rad"), ("_nspm", "N s/m"), ("_npm", "N/m"), ("_nm", "N m"), ("_pa", "Pa"), ("_m", "m"))
+# a setting's group, by a word in its name (the first that matches; CarSetup's fields come in these groups)
+GROUPS = (("wing", "wings"), ("gear", "gearbox"), ("final_drive", "gearbox"), ("diff", "differential"),
+          ("brake", "brakes"), ("anti_roll", "anti-roll bars"), ("spring", "springs"), ("bump", "dampers"),
+          ("rebound", "dampers"), ("ride_height", "ride height"))
 
 
 @dataclass(frozen=True, slots=True)
@@ -119,3 +125,13 @@ def setup_from(values: dict[str, Any], base: CarSetup | None = None) -> CarSetup
     if ratios is not setup.gear_ratios:
         changes["gear_ratios"] = ratios
     return dataclasses.replace(setup, **changes)
+
+
+def unit_of(name: str) -> str:
+    """The unit of setting `name` (CarSetup's field or a gear_ratio_N), "" for a ratio or a share."""
+    return next((unit for end, unit in UNITS if name.endswith(end)), "")
+
+
+def group_of(name: str) -> str:
+    """What part of the car setting `name` sets (wings, gearbox, ..., ride height)."""
+    return next(group for word, group in GROUPS if word in name)

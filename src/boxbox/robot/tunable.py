@@ -62,6 +62,18 @@ class ParamSpace:
             return math.isfinite(b.lo) and math.isfinite(b.hi) and b.lo < b.hi
         return False
 
+    def range_text(self, name: str) -> str:
+        """What a study searches `name` over, as text ("" for a name it cannot search)."""
+        if not self.searchable(name):
+            return ""
+        kind = self.kind(name)
+        if kind is bool:
+            return "false, true"
+        if kind is str:
+            return ", ".join(map(str, self.choices[name]))
+        b = self.bound(name)
+        return f"{b.lo:g} to {b.hi:g}{' (log)' if b.log else ''}"
+
     def searchable_names(self) -> list[str]:
         return [n for n in self.defaults if self.searchable(n)]
 
