@@ -145,6 +145,8 @@ def test_gear_ratios_are_settings_whole_or_one_gear_at_a_time_over_the_robots_an
     assert setup_from(options.car_setup).gear_ratios == (2.8, 1.8, None, 1.1)  # gear 3: the car's own
     robots = CarSetup(gear_ratios=(2.5, 1.7, 1.3))
     assert setup_from({"gear_ratio_2": 1.9}, robots).gear_ratios == (2.5, 1.9, 1.3)  # one gear over the robot's
+    listed = CarSetup(gear_ratios=[2.5, 1.7])  # type: ignore[arg-type]
+    assert setup_from({"gear_ratio_2": 1.9}, listed).gear_ratios == (2.5, 1.9)
     assert setup_from({"gear_ratios": [3.0]}, robots).gear_ratios == (3.0,)  # all of them in place of the robot's
     assert setup_from({"gear_ratios": 3}).gear_ratios == (3,)
     assert setup_from({}, robots) == robots

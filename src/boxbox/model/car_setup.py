@@ -117,7 +117,7 @@ def setup_from(values: dict[str, Any], base: CarSetup | None = None) -> CarSetup
     changes: dict[str, Any] = {k: v for k, v in values.items() if k in SCALAR_NAMES}
     ratios = gear_ratios_of(values["gear_ratios"]) if "gear_ratios" in values else setup.gear_ratios
     gears = {GEAR_SETTINGS.index(k): v for k, v in values.items() if k in GEAR_SETTINGS}
-    if gears and (ratios is None or isinstance(ratios, tuple)):
+    if gears and (ratios is None or isinstance(ratios, tuple | list)):  # a robot's answer may hold a list
         merged = list(ratios or ()) + [None] * (max(gears) + 1 - len(ratios or ()))
         for index, value in gears.items():
             merged[index] = value
