@@ -47,3 +47,17 @@ void bb_box(unsigned char *image, long h, long w, double col, double row, double
         }
     }
 }
+
+/* bb_strip: the dashboard strip (gym/dashboard.py lays it out): `template` (its background and
+ * ticks, `size` bytes) copied over `strip`, then three bars on rows r0..r1 (end excluded), each the
+ * columns [c0, c1) of its pair in `cols` (6 numbers) in its colour of `colours` (3 RGB). */
+void bb_strip(unsigned char *strip, const unsigned char *template, long size, long w, long r0, long r1,
+              const long *cols, const unsigned char *colours) {
+    memcpy(strip, template, (size_t)size);
+    for (long bar = 0; bar < 3; bar++) {
+        long c0 = cols[2 * bar], c1 = cols[2 * bar + 1];
+        const unsigned char *colour = colours + 3 * bar;
+        for (long r = r0; r < r1; r++)
+            for (long c = c0; c < c1; c++) memcpy(strip + 3 * (r * w + c), colour, 3);
+    }
+}

@@ -25,6 +25,7 @@ from gymnasium import spaces
 
 from boxbox import validate
 from boxbox.gym import raycast
+from boxbox.gym.dashboard import FRAME_ROWS, Dashboard, view_rows
 from boxbox.model import Car, State, Track
 from boxbox.model.constants import DRIVE_STEP_S
 from boxbox.model.state import CAR_STATE_NO_SIMU
@@ -72,6 +73,8 @@ def load() -> ctypes.CDLL | None:
             lib.bb_view.restype = None
             lib.bb_box.argtypes = [p, n, n, d, d, d, d, d, d, p]
             lib.bb_box.restype = None
+            lib.bb_strip.argtypes = [p, p, n, n, n, n, p, p]
+            lib.bb_strip.restype = None
         _lib = lib
     return _lib
 
@@ -234,14 +237,15 @@ def cars_of(state: State, length_m: float, width_m: float, colour=OWN_CAR, other
 
 class Overview:
     """The whole race (`render_mode="rgb_array"`): the raster reduced to at most `longest_px` pixels
-    on its longer side (each side a multiple of 16), every car drawn on it."""
+    on its longer side (each side a multiple of 16), every car drawn on it; `strip_rows` more rows
+    below it for the dashboard."""
 
-    def __init__(self, raster: TrackRaster, longest_px: int = OVERVIEW_PX) -> None:
+    def __init__(self, raster: TrackRaster, longest_px: int = OVERVIEW_PX, strip_rows: int = 0) -> None:
         h, w = raster.image.shape[:2]
         step = max(1, math.ceil(max(h, w) / longest_px))
         small = raster.image[::step, ::step]
         h16, w16 = max(16, small.shape[0] // 16 * 16), max(16, small.shape[1] // 16 * 16)
-        self.image = np.zeros((h16, w16, 3), dtype=np.uint8)
+        self.image = np.zeros((h16 + strip_rows, w16, 3), dtype=np.uint8)
         self.image[: min(h16, small.shape[0]), : min(w16, small.shape[1])] = small[:h16, :w16]
         self.raster, self.m_per_px = raster, raster.m_per_px * step
         self.lib = load()
@@ -256,6 +260,12 @@ class Overview:
             draw_box(out, col, row, math.cos(car.yaw_rad), -math.sin(car.yaw_rad), half_len, half_wid, car.colour,
                      self.lib)
         return out
+
+
+def view_width_m(size: tuple[int, int], ahead_m: float | None, car_row: float = VIEW_CAR_ROW) -> float:
+    """Metres across a view of `size` (height, width) whose top row is `ahead_m` ahead of the car
+    (square pixels); None: VIEW_WIDTH_M (42 m ahead at a square size)."""
+    return VIEW_WIDTH_M if ahead_m is None else ahead_m * size[1] / (car_row * size[0])
 
 
 class CarView:
@@ -358,29 +368,49 @@ def pixel_space(size: tuple[int, int]) -> spaces.Box:
 
 class Drawing:
     """What an env draws of its race: the track raster (made once a track), the whole race for
-    render() and, with pixels, each car's view as its observation."""
+    render() and, with pixels, each car's view as its observation; `view_ahead_m` sets how far
+    ahead the view sees (None: view_width_m's default), `dashboard` draws the dashboard strip
+    over the view's last rows and `frame_dashboard` below render()'s frame (gym/dashboard.py)."""
 
-    def __init__(self, pixel_size: tuple[int, int] | None) -> None:
+    def __init__(self, pixel_size: tuple[int, int] | None, view_ahead_m: float | None = None,
+                 dashboard: bool = False, frame_dashboard: bool = False) -> None:
         self.pixel_size = pixel_size  # None: no pixel observation
+        self.view_ahead_m, self.dashboard, self.frame_dashboard = view_ahead_m, dashboard, frame_dashboard
         self.track: Track | None = None
         self.overview: Overview | None = None
         self.view: CarView | None = None
+        self.strips: dict[tuple[int, int, int], Dashboard] = {}  # by (rows, width, top gear)
 
     def new_track(self, track: Track) -> None:
         if track is self.track:
             return
         raster = raster_of(track)
-        self.track, self.overview = track, Overview(raster)
-        self.view = CarView(raster, self.pixel_size) if self.pixel_size is not None else None
+        self.track, self.overview = track, Overview(raster, strip_rows=FRAME_ROWS if self.frame_dashboard else 0)
+        size = self.pixel_size
+        self.view = CarView(raster, size, view_width_m(size, self.view_ahead_m)) if size is not None else None
 
-    def observation(self, state: State, car: Car, others=None) -> np.ndarray:
-        """The car's view (heading up), the car itself in OWN_CAR, the others in their colours."""
+    def observation(self, state: State, car: Car, others=None, steer: float = 0.0) -> np.ndarray:
+        """The car's view (heading up), the car itself in OWN_CAR, the others in their colours; the
+        dashboard (its `steer` the last action's) over its last rows."""
         assert self.view is not None
-        return self.view.frame(state.x_m, state.y_m, state.yaw_rad,
-                               cars_of(state, car.length_m, car.width_m, OWN_CAR, others))
+        out = self.view.frame(state.x_m, state.y_m, state.yaw_rad,
+                              cars_of(state, car.length_m, car.width_m, OWN_CAR, others))
+        if self.dashboard:
+            self._strip(view_rows(out.shape[0]), out.shape[1], car).draw(out, state.speed_x_mps, steer, state.gear)
+        return out
 
-    def frame(self, state: State | None, car: Car | None, colour=OWN_CAR, others=None) -> np.ndarray | None:
-        """The whole race seen from above, or None before the first reset."""
+    def frame(self, state: State | None, car: Car | None, colour=OWN_CAR, others=None,
+              steer: float = 0.0) -> np.ndarray | None:
+        """The whole race seen from above (the dashboard below it), or None before the first reset."""
         if self.overview is None or state is None or car is None:
             return None
-        return self.overview.frame(cars_of(state, car.length_m, car.width_m, colour, others))
+        out = self.overview.frame(cars_of(state, car.length_m, car.width_m, colour, others))
+        if self.frame_dashboard:
+            self._strip(FRAME_ROWS, out.shape[1], car).draw(out, state.speed_x_mps, steer, state.gear)
+        return out
+
+    def _strip(self, rows: int, width: int, car: Car) -> Dashboard:
+        key = (rows, width, car.max_gear)
+        if key not in self.strips:
+            self.strips[key] = Dashboard(rows, width, car.max_gear, load())
+        return self.strips[key]
