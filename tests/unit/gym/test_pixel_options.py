@@ -130,7 +130,7 @@ def test_the_strip_shows_speed_steering_and_gear_as_bars(raster):
     left, right, ahead = strip(steer=0.5), strip(steer=-1.0), strip(steer=0.0)
     middle = 36 + 18
     assert columns_of(left, STEER_BAR).max() < middle < columns_of(right, STEER_BAR).min()
-    assert (len(columns_of(right, STEER_BAR)), len(columns_of(left, STEER_BAR))) == (17, 8)  # full lock, half
+    assert (len(columns_of(right, STEER_BAR)), len(columns_of(left, STEER_BAR))) == (17, 9)  # full lock, half
     assert len(columns_of(ahead, STEER_BAR)) == 0 and middle in columns_of(ahead, TICK)
     lit = [columns_of(strip(gear=g), GEAR_LIT).mean() for g in (-1, 0, 1, 2, 6)]
     assert lit == sorted(lit) and len(set(lit)) == 5  # R, N, 1, 2, ... left to right
@@ -140,11 +140,14 @@ def test_the_c_strip_draws_what_numpy_draws():
     fast, slow = Dashboard(12, 96, 6, render.load()), Dashboard(12, 96, 6)
     if fast.lib is None:
         pytest.skip("no C compiler")
-    for speed, steer, gear in [(0, 0, 1), (50, 0.5, 3), (100, -1, 6), (-20, 0.2, -1), (150, 2, 9), (30, -0.01, 0)]:
+    nan = float("nan")
+    for speed, steer, gear in [(0, 0, 1), (50, 0.5, 3), (100, -1, 6), (-20, 0.2, -1), (150, 2, 9), (30, -0.01, 0),
+                               (35.3, 0.25, -7), (1.5, -0.75, 2.4), (nan, nan, nan)]:
         a, b = np.full((40, 96, 3), 7, np.uint8), np.full((40, 96, 3), 7, np.uint8)
-        fast.draw(a, speed, steer, gear)
-        slow.draw(b, speed, steer, gear)
-        assert np.array_equal(a, b) and (a[:-12] == 7).all()
+        fast.draw(a, a.ctypes.data, speed, steer, gear)
+        slow.draw(b, 0, speed, steer, gear)
+        assert np.array_equal(a, b) and (a[:-12] == 7).all(), (speed, steer, gear)
+        assert (a[-12:] != 7).all()  # the whole strip drawn
 
 
 def test_render_frames_get_the_strip_below_the_race():
@@ -171,6 +174,22 @@ def test_the_view_sees_as_far_ahead_as_asked(raster):
     assert not (near.frame(20.0, 0.0, 0.0, [me, ahead_90]) == OTHER_CAR).all(axis=2).any()
     seen = np.argwhere((far.frame(20.0, 0.0, 0.0, [me, ahead_90]) == OTHER_CAR).all(axis=2))
     assert len(seen) and abs(seen[:, 0].mean() - (67.2 - 90.0 / (100.0 / 67.2))) < 1.5  # 90 m of 100 up the view
+    slow = CarView(raster, width_m=render.view_width_m((96, 96), 100.0), use_c=False)
+    if far.lib is not None:  # the C loop reads the coarser raster as numpy does
+        for x, y, yaw in [(20.0, 0.0, 0.0), (230.0, 40.0, 2.1), (-40.0, 60.0, -1.2)]:
+            assert np.array_equal(far.frame(x, y, yaw, [me]), slow.frame(x, y, yaw, [me]))
+    assert far.image_m_per_px == 1.0 and near.image is raster.image  # every second pixel at 1.5 m a view pixel
     drawing = Drawing((96, 96), view_ahead_m=100.0)
     drawing.new_track(OVAL)
     assert drawing.view is not None and drawing.view.m_per_px == pytest.approx(100.0 / 67.2)
+
+
+@pytest.mark.parametrize("size", [(8, 8), (8, 1024), (1024, 9)])
+def test_the_strip_fits_the_smallest_and_widest_views(size):
+    rows = view_rows(size[0])
+    for lib in (render.load(), None):
+        strip = Dashboard(rows, size[1], 6, lib)
+        image = np.full((*size, 3), 7, np.uint8)
+        strip.draw(image, image.ctypes.data, 100.0, -1.0, 6.0)
+        assert (image[:-rows] == 7).all() and (image[-rows:] != 7).all()
+        assert len(columns_of(image[-rows:], GEAR_LIT)) >= 1  # the top gear lit, inside the image
