@@ -1,7 +1,8 @@
-"""examples/train_sac.py (Stable-Baselines3's SAC, the rl extra) at a tiny scale: `./boxbox install-rl`
-installs the extra when .venv lacks it, the example trains for a few hundred steps, and what it saves
-is whole: the learning curve has a row per episode, the plot is a PNG, and the saved model, loaded
-again, drives the env exactly as the policy did at the end of training (the summary's rollout)."""
+"""examples/train_sac.py and train_ppo.py (Stable-Baselines3, the rl extra) at a tiny scale:
+`./boxbox install-rl` installs the extra when .venv lacks it, each example trains for a few hundred
+steps, and what it saves is whole: the learning curve has a row per episode, the plot is a PNG, and
+the saved model, loaded again (examples/evaluate.py for PPO's), drives the env exactly as the policy
+did at the end of training (the summary's rollout)."""
 
 from __future__ import annotations
 
@@ -78,3 +79,25 @@ def test_sac_example_trains_saves_and_reloads(tmp_path, overlay, rl_python):
     # TORCS is deterministic: the reloaded policy drives the same metres, to the same end
     assert reloaded == {k: summary[k] for k in reloaded}, (reloaded, summary)
     assert reloaded["progress_m"] != 0.0  # it drove (a policy that never moves would be stuck at 0 m)
+
+
+def test_ppo_example_trains_and_evaluate_drives_its_model_the_same(tmp_path, overlay, rl_python):
+    proc = subprocess.run([rl_python, str(ROOT / "examples" / "train_ppo.py"), "--out", str(tmp_path), "--steps", "256",
+                           "--n-steps", "32", "--eval-every", "128"], capture_output=True, text=True, timeout=300,
+                          cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    # 4 envs x 32 steps a rollout: learning stops at the first whole rollout past 256 steps
+    assert summary["algorithm"] == "PPO" and summary["envs"] == 4 and summary["steps"] == 256, summary
+    with (tmp_path / "curve.csv").open() as f:
+        assert "eval" in {r["kind"] for r in csv.DictReader(f)}  # rollouts at 128 and 256 steps
+    assert (tmp_path / "curve.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+    check = subprocess.run([rl_python, str(ROOT / "examples" / "evaluate.py"), str(tmp_path / "model.zip"),
+                            "--tracks", "g-track-1"], capture_output=True, text=True, timeout=120, cwd=tmp_path)
+    assert check.returncode == 0, check.stderr
+    reloaded = json.loads(check.stdout.strip().splitlines()[-1])
+    assert reloaded["track"] == "g-track-1" and reloaded["algorithm"] == "PPO"
+    # TORCS is deterministic: the reloaded policy drives the same metres, to the same end, as the last rollout
+    assert {k: reloaded[k] for k in ("progress_m", "termination", "lap_completed")} == \
+        {k: summary[k] for k in ("progress_m", "termination", "lap_completed")}, (reloaded, summary)

@@ -1,0 +1,107 @@
+"""What the learning examples share: a deterministic rollout, a CSV curve that stops training once a
+rollout laps, and its plot. Used by train_ppo.py and train_sac.py (run from this folder or by path)."""
+
+from __future__ import annotations
+
+import csv
+import time
+from pathlib import Path
+
+import gymnasium
+from stable_baselines3.common.base_class import BaseAlgorithm
+from stable_baselines3.common.callbacks import BaseCallback
+
+DRIVE_STEP_S = 0.02  # TORCS's simulation step
+
+
+def rollout(model: BaseAlgorithm, env: gymnasium.Env) -> dict:
+    """One deterministic episode: did it complete the lap, how far it went, the lap time."""
+    obs, _ = env.reset(seed=0)
+    episode_return, progress_m, done, steps = 0.0, 0.0, False, 0
+    while not done:
+        obs, reward, terminated, truncated, info = env.step(model.predict(obs, deterministic=True)[0])
+        episode_return, progress_m, steps = episode_return + float(reward), progress_m + info["progress_m"], steps + 1
+        done = terminated or truncated
+    lap = info["termination"] == "race-end"
+    return {"lap_completed": lap, "episode_return": round(episode_return, 1), "progress_m": round(progress_m, 1),
+            "termination": info["termination"] or "time-limit", "episode_steps": steps,
+            "lap_time_s": round(info["state"].last_lap_time_s, 3) if lap else None}
+
+
+class Curve(BaseCallback):
+    """A CSV row per training episode (of every env of a vector env) and per deterministic rollout
+    (every `eval_every` env steps and after a training episode that completed the lap); training
+    stops once a rollout laps."""
+
+    COLUMNS = ["steps", "wall_s", "kind", "episode_return", "progress_m", "lap_completed", "termination",
+               "lap_time_s"]
+
+    def __init__(self, path: Path, eval_env: gymnasium.Env, eval_every: int):
+        super().__init__()
+        self.file = path.open("w", newline="")
+        self.rows = csv.DictWriter(self.file, self.COLUMNS, extrasaction="ignore")
+        self.rows.writeheader()
+        self.eval_env, self.eval_every, self.next_eval = eval_env, eval_every, eval_every
+        self.started = time.perf_counter()
+        self.returns: list[float] = []
+        self.progress: list[float] = []
+        self.final: dict | None = None
+        self.best_progress_m = 0.0
+
+    def write(self, kind: str, row: dict) -> None:
+        row = {**row, "steps": self.num_timesteps, "wall_s": round(time.perf_counter() - self.started, 2),
+               "kind": kind, "lap_completed": int(row["lap_completed"])}
+        self.rows.writerow(row)
+        self.file.flush()
+        if kind == "eval":
+            print(f"{row['steps']} steps, {row['wall_s']:.0f} s, rollout: {row['progress_m']:.0f} m "
+                  f"({row['termination']}, lap {row.get('lap_time_s')})", flush=True)
+
+    def _on_step(self) -> bool:
+        infos, rewards, dones = self.locals["infos"], self.locals["rewards"], self.locals["dones"]
+        if not self.returns:
+            self.returns, self.progress = [0.0] * len(infos), [0.0] * len(infos)
+        lapped = False
+        for i, info in enumerate(infos):
+            self.returns[i] += float(rewards[i])
+            self.progress[i] += info["progress_m"]
+            if dones[i]:
+                lapped = lapped or info["termination"] == "race-end"
+                self.write("train", {"episode_return": round(self.returns[i], 1), "progress_m": round(self.progress[i], 1),
+                                     "lap_completed": info["termination"] == "race-end",
+                                     "termination": info["termination"] or "time-limit"})
+                self.returns[i] = self.progress[i] = 0.0
+        if lapped or self.num_timesteps >= self.next_eval:
+            self.next_eval = self.num_timesteps + self.eval_every
+            result = rollout(self.model, self.eval_env)
+            self.best_progress_m = max(self.best_progress_m, result["progress_m"])
+            self.write("eval", result)
+            if result["lap_completed"]:
+                self.final = result
+                return False
+        return True
+
+    def _on_training_end(self) -> None:
+        self.file.close()
+
+
+def plot(csv_path: Path, png_path: Path, lap_m: float, title: str, action_repeat: int) -> None:
+    """The curve: progress of each training episode and each rollout against env steps."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    with csv_path.open() as f:
+        rows = list(csv.DictReader(f))
+    fig, ax = plt.subplots(figsize=(7, 3.6), dpi=110)
+    for kind, style, label in (("train", ".", "training episode"), ("eval", "x", "deterministic rollout")):
+        steps = [int(r["steps"]) for r in rows if r["kind"] == kind]
+        ax.plot(steps, [float(r["progress_m"]) for r in rows if r["kind"] == kind], style, ms=3, label=label)
+    ax.axhline(lap_m, color="grey", ls="--", lw=1, label=f"a lap ({lap_m:.0f} m)")
+    ax.set(xlabel=f"env steps (an action every {DRIVE_STEP_S * action_repeat:.2f} s of race)",
+           ylabel="progress in the episode (m)", title=title)
+    ax.legend(loc="upper left", fontsize=8)
+    fig.tight_layout()
+    fig.savefig(png_path)
+    plt.close(fig)
