@@ -49,6 +49,7 @@ from boxbox.gym.spaces import (
 )
 from boxbox.gym.spare import MAX_SPARES
 from boxbox.gym.start import Start, grid_to_start_m
+from boxbox.gym.teacher import Teacher, teacher_spec
 from boxbox.model import Car, PitOrder, State, Track
 from boxbox.model.skill import SkillLevel
 from boxbox.torcs import catalog, setup
@@ -167,7 +168,7 @@ class TorcsEnv(gymnasium.Env):
                  cpu: int | None = None, render_mode: str | None = None, pixels: bool = False,
                  pixel_size: tuple[int, int] | None = None, spares: int = DEFAULT_SPARES,
                  sensor_noise: bool = False, step_timeout_s: float = STEP_TIMEOUT_S_DEFAULT,
-                 random_start: bool = True, raw_observations: bool = False) -> None:
+                 random_start: bool = True, raw_observations: bool = False, teacher=None) -> None:
         # every option checked before anything is set up (validate.py: the command line's checks)
         self.actions, self.assist_names = checked_actions(actions, assists)
         self.action_repeat = validate.whole_number(action_repeat, 1, MAX_ACTION_REPEAT, name="action_repeat")
@@ -190,6 +191,9 @@ class TorcsEnv(gymnasium.Env):
         self.episodes = Episodes(laps, random_start, track=track, car=car, opponents=opponents,
                                  grid_position=grid_position, skill_level=skill_level, initial_fuel_l=initial_fuel_l)
         self._stream: EpisodeStream | None = None  # the episodes drawn from the seed, from the first reset
+        # a robot's own action for each state, in info["teacher_action"] (gym/teacher.py)
+        spec = teacher_spec(teacher)
+        self.teacher = Teacher(spec, self.actions, self.episodes.laps) if spec is not None else None
         self.episode: Episode | None = None  # the episode running
         self.cfg = self.episodes.config(self.episodes.first())  # the race running (until the first reset: the first's)
         self._edges: dict[int, tuple[Track, TrackEdges]] = {}  # by track (decoded once per session)
@@ -233,7 +237,11 @@ class TorcsEnv(gymnasium.Env):
         self.watch.reset()
         self.state = started.state
         self.vector = self._vector(started.state)
-        return self._observation(), self._reset_info(order, started)
+        info = self._reset_info(order, started)
+        if self.teacher is not None:
+            self.teacher.new_race(started.track, started.car)
+            info["teacher_action"] = self.teacher.action(started.state)
+        return self._observation(), info
 
     def step(self, action):
         if self.state is None or self.session is None:
@@ -255,6 +263,8 @@ class TorcsEnv(gymnasium.Env):
             info["raw_observation"] = self.observer.shaped(self.vector)
         if self.pit is not None:
             info["pit"] = self.pit.phase
+        if self.teacher is not None:
+            info["teacher_action"] = self.teacher.action(s)
         return self._observation(), total, *step_ends(reason), info
 
     def _drive(self, steer: float, throttle: float, brake: float, clutch: float,
