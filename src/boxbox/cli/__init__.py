@@ -24,7 +24,7 @@ COMMANDS = {
     **dict.fromkeys(("bench", "bench-speed", "bench-pits", "bench-field", "bench-telemetry", "bench-learning"),
                     "benches"),
     **dict.fromkeys(("report", "contacts"), "report"), "replay": "replay",
-    **dict.fromkeys(("sweep", "soak"), "reliability"), **dict.fromkeys(("scr-server", "bench-gym"), "gym"),
+    **dict.fromkeys(("sweep", "soak"), "reliability"), **dict.fromkeys(("scr-server", "bench-gym", "dataset"), "gym"),
     "limit": "limit", **dict.fromkeys(("tune", "bench-tune"), "tune"), "new-robot": "new_robot",
 }
 
