@@ -325,7 +325,7 @@ class TorcsEnv(gymnasium.Env):
                 length_m = self._learn_length(cfg)
             slot = (cfg.grid_position or 1) - 1
             cfg = replace(cfg, grid_to_start_m=grid_to_start_m(episode.start.fraction, length_m, slot,
-                                                               len(cfg.opponents) + 1))
+                                                               len(cfg.robots) + len(cfg.opponents)))
         return RaceOrder(episode, cfg, episode.initial_fuel_l, episode.start)
 
     def _learn_length(self, cfg: RaceConfig) -> float:
@@ -372,7 +372,7 @@ class TorcsEnv(gymnasium.Env):
         """What reset() returns in info: the first state and what the episode's race is."""
         cfg = order.cfg
         return {"state": started.state, "track": cfg.track, "track_length_m": float(started.track.length_m),
-                "car": cfg.car, "opponents": tuple(f"{m}:{i}" for m, i in cfg.opponents),
+                "car": cfg.car, "opponents": (*(f"{m}:{i}" for m, i in cfg.opponents), *cfg.robots[1:]),
                 "grid_position": cfg.grid_position or 1, "skill_level": cfg.skill_level.torcs_name,
                 "initial_fuel_l": float(started.state.fuel_l), "spare": started.spare,
                 "start": self.episode.start if self.episode is not None else Start(),

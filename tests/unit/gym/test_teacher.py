@@ -62,3 +62,10 @@ def test_the_teacher_drives_the_state_in_the_env_columns_and_a_fault_is_the_race
     with pytest.raises(RaceError, match=r"\(teacher\) failed: RuntimeError: deliberate failure in on_track"):
         Teacher("robots.faulty:RaisesInOnTrack", ("steer",), laps=1).new_race(track, car)
     assert RaisesInDrive and RaisesInOnTrack  # imported by spec above
+
+
+def test_an_opponent_is_a_python_robot_unless_it_is_a_torcs_module_and_a_number():
+    from boxbox.gym.hosted import split_opponents
+
+    python = ["boxbox", "my_robot.py:Fast", "robots.faulty:RaisesInDrive", "middle", "a/b.py:C"]
+    assert split_opponents(["bt:2", *python[:3], " berniw:3 ", *python[3:]]) == (["bt:2", " berniw:3 "], python)
