@@ -32,6 +32,7 @@ from boxbox.gym.episodes import (
     add_scr_noise,
     stream_seed,
 )
+from boxbox.gym.hosted import split_opponents
 from boxbox.gym.pitstop import PitStop
 from boxbox.gym.race import MAX_STEP_TIMEOUT_S, STEP_TIMEOUT_S_DEFAULT, RaceOrder, Started, TorcsGone
 from boxbox.gym.render import Drawing, check_pixel_size, check_render_mode, pixel_space, render_fps
@@ -79,6 +80,9 @@ def race_config(track: str, car: str, opponents, laps: int, skill_level: str | S
     car = validate.text(car, "car name", "car1-trb1", name="car")
     laps = validate.laps(laps, name="laps")
     entries = validate.opponent_list(opponents, name="opponents")
+    if python_robots := split_opponents(entries)[1]:
+        validate.fail(f"{python_robots[0]!r}: the parallel env races TORCS robots only ('bt:2'); a Python robot "
+                      "races against boxbox/TORCS-v0's one car", "opponents")
     level = skill_level if isinstance(skill_level, SkillLevel) else SkillLevel.parse(
         validate.skill_level(skill_level, name="skill_level"))
     position = validate.grid_position(grid_position, name="grid_position")

@@ -269,7 +269,12 @@ class GymRace:
     def _relay(self, n: int) -> None:
         """A Python opponent's message, answered by its robot host (gym/hosted.py)."""
         assert self.hosted is not None
-        answer = self.hosted.relay(self._buf, n)
+        try:
+            answer = self.hosted.relay(self._buf, n)
+        except RaceError:
+            self.kill()  # the bridge waits for an answer that will not come: the race is over
+            self.ended = True
+            raise
         if answer is not None:
             self._send(answer)
 

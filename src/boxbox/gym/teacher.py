@@ -14,7 +14,8 @@ drives it.  Its car setup and start fuel are asked for (a robot may keep what it
 applied, the car is the env's.  The robot decides once per step (every `action_repeat` drive steps),
 as the learner does: fed back as the action, its controls are held as long as the learner's are.
 A robot that raises, exits or returns invalid controls is a RaceError with the line `boxbox race`
-gives (torcs/host.py's checks).
+gives (torcs/host.py's checks).  It runs in the env's process, as the learner's own code does: a
+robot that hangs hangs the env (an opponent, gym/hosted.py, has a process of its own).
 """
 
 from __future__ import annotations

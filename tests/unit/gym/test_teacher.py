@@ -69,3 +69,7 @@ def test_an_opponent_is_a_python_robot_unless_it_is_a_torcs_module_and_a_number(
 
     python = ["boxbox", "my_robot.py:Fast", "robots.faulty:RaisesInDrive", "middle", "a/b.py:C"]
     assert split_opponents(["bt:2", *python[:3], " berniw:3 ", *python[3:]]) == (["bt:2", " berniw:3 "], python)
+    from boxbox.gym import parallel_env
+
+    with pytest.raises(UsageError, match="'boxbox': the parallel env races TORCS robots only"):
+        parallel_env(opponents=["bt:1", "boxbox"])
