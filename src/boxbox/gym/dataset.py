@@ -35,6 +35,7 @@ from boxbox.errors import UsageError
 
 DEFAULT_DATASET = "boxbox/robot-v0"
 DEFAULT_EPISODES = 10
+UNLIMITED = 1 << 62  # steps, when only --episodes bounds the recording
 MINARI_ROOT = "MINARI_DATASETS_PATH"  # where minari.load_dataset looks (else ~/.minari/datasets)
 
 
@@ -156,11 +157,11 @@ def record(rec: Recording, root: Path, replace: bool = False,
         assert isinstance(env.action_space, gymnasium.spaces.Box)
         noisy = action_noise(np.random.default_rng(rec.seed), env.action_space, noise)
         buffers, steps = [], 0
-        budget = rec.steps if rec.steps is not None else None
+        budget = rec.steps if rec.steps is not None else UNLIMITED
         for i, options in enumerate(rec.episode_options()):
-            if (rec.episodes is not None and i >= rec.episodes) or (budget is not None and steps >= budget):
+            if (rec.episodes is not None and i >= rec.episodes) or steps >= budget:
                 break
-            left = budget - steps if budget is not None else 1 << 62
+            left = budget - steps
             buffers.append(record_episode(env, rec.seed + i, options, noisy, left, on_step))
             steps += len(buffers[-1])
         root.mkdir(parents=True, exist_ok=True)
