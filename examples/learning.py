@@ -67,7 +67,8 @@ class Curve(BaseCallback):
             self.progress[i] += info["progress_m"]
             if dones[i]:
                 lapped = lapped or info["termination"] == "race-end"
-                self.write("train", {"episode_return": round(self.returns[i], 1), "progress_m": round(self.progress[i], 1),
+                self.write("train", {"episode_return": round(self.returns[i], 1),
+                                     "progress_m": round(self.progress[i], 1),
                                      "lap_completed": info["termination"] == "race-end",
                                      "termination": info["termination"] or "time-limit"})
                 self.returns[i] = self.progress[i] = 0.0

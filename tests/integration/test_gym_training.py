@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import csv
 import json
+import os
 import subprocess
 import sys
 import tomllib
@@ -15,7 +16,7 @@ from pathlib import Path
 
 import pytest
 
-from helpers import ROOT
+from helpers import ROOT, run_boxbox
 
 STEPS = 300
 # the deterministic rollout of the saved model, in a fresh interpreter: the example's own rollout()
@@ -101,3 +102,21 @@ def test_ppo_example_trains_and_evaluate_drives_its_model_the_same(tmp_path, ove
     # TORCS is deterministic: the reloaded policy drives the same metres, to the same end, as the last rollout
     assert {k: reloaded[k] for k in ("progress_m", "termination", "lap_completed")} == \
         {k: summary[k] for k in ("progress_m", "termination", "lap_completed")}, (reloaded, summary)
+
+
+def test_bc_example_trains_from_a_recorded_dataset_and_drives(tmp_path, overlay, rl_python):
+    """examples/train_bc.py on 200 steps `boxbox dataset` recorded: the policy saved, its rollout reported."""
+    env = {"MINARI_DATASETS_PATH": str(tmp_path / "minari")}
+    recorded = run_boxbox("dataset", "boxbox/tiny-v0", "--steps", "200", "--noise", "0.1", env=env)
+    assert recorded.returncode == 0, recorded.stderr
+    proc = subprocess.run([rl_python, str(ROOT / "examples" / "train_bc.py"), "--dataset", "boxbox/tiny-v0",
+                           "--out", str(tmp_path / "bc"), "--epochs", "2"], capture_output=True, text=True,
+                          timeout=300, cwd=tmp_path, env={**os.environ, **env})
+    assert proc.returncode == 0, proc.stderr
+    summary = json.loads((tmp_path / "bc" / "summary.json").read_text())
+    assert summary["pairs"] == 201 and summary["loss"] > 0 and summary["rollout"]["steps"] > 0
+    assert {"progress_m", "lap_completed", "lap_time_s", "termination"} <= set(summary["rollout"])
+    import torch
+
+    saved = torch.load(tmp_path / "bc" / "policy.pt")
+    assert saved["act_size"] == 2 and saved["env"]["action_repeat"] == 2 and saved["env"]["teacher"] == "boxbox"

@@ -25,7 +25,7 @@ COMMANDS = {
                      "bench-table"),
                     "benches"),
     **dict.fromkeys(("report", "contacts"), "report"), "replay": "replay",
-    **dict.fromkeys(("sweep", "soak"), "reliability"), **dict.fromkeys(("scr-server", "bench-gym"), "gym"),
+    **dict.fromkeys(("sweep", "soak"), "reliability"), **dict.fromkeys(("scr-server", "bench-gym", "dataset"), "gym"),
     "limit": "limit", **dict.fromkeys(("tune", "bench-tune"), "tune"), "new-robot": "new_robot",
 }
 

@@ -1,4 +1,4 @@
-"""`boxbox scr-server` and `boxbox bench-gym`: the Gymnasium env's commands (in boxbox.gym)."""
+"""`boxbox scr-server`, `boxbox bench-gym` and `boxbox dataset`: the Gymnasium env's commands (in boxbox.gym)."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import click
 
 from boxbox import validate
 from boxbox.cli.common import err, out, ready
-from boxbox.cli.types import LAPS, CommaList, FiniteFloatRange, OutputFile, WholeNumber
+from boxbox.cli.types import LAPS, CommaList, FiniteFloatRange, GridPosition, OutputDir, OutputFile, WholeNumber
 
 
 @click.command("scr-server")
@@ -88,3 +88,54 @@ def bench_gym(track, steps, episode_steps, envs, vector_steps, episodes, policy_
     out.print(table)
     if json_file:
         write_json_atomic(json_file, [asdict(r) for r in rows], indent=1)
+
+
+@click.command("dataset")
+@click.argument("dataset_id", metavar="DATASET_ID", default="boxbox/robot-v0")
+@click.option("--robot", default="boxbox", show_default=True,
+              help="The robot that drives, as --robot of boxbox race takes it (e.g. my_robot.py:MyRobot).")
+@click.option("--tracks", type=CommaList("TRACK,..."), default="g-track-1", show_default=True,
+              help="Tracks, gone round in turn episode by episode.")
+@click.option("--cars", type=CommaList("CAR,..."), default="car1-trb1", show_default=True, help="Cars, in turn.")
+@click.option("--grid", type=CommaList("SLOT,...", item=GridPosition()), default="1", show_default=True,
+              help="Grid slots (1 .. 40 or last), in turn: with --opponents, where the car starts among them.")
+@click.option("--opponents", type=CommaList("MODULE:IDX,...", unique=False), default="",
+              help="TORCS robots in every episode, e.g. bt:2,berniw:3.")
+@click.option("--episodes", type=WholeNumber(1, None), default=None,
+              help="Episodes to record, each one race of --laps from a start drawn from its seed [default: 10, "
+                   "or as many as --steps takes].")
+@click.option("--steps", type=WholeNumber(1, None), default=None,
+              help="Steps to record in all (the last episode cut there); with --episodes, the first reached.")
+@click.option("--noise", type=FiniteFloatRange(*validate.ACTION_NOISE), default=0.0, show_default=True,
+              help="Gaussian noise on the robot's action, in each column's half range (0.1: a tenth of full steering "
+                   "lock), so the data holds recoveries.")
+@click.option("--seed", type=WholeNumber(0, 2**32 - 1), default=0, show_default=True,
+              help="Episode i is seeded seed+i (its start point); the noise's seed too.")
+@click.option("--laps", type=LAPS, default=1, show_default=True, help="Race length in laps.")
+@click.option("--action-repeat", type=WholeNumber(1, 1000), default=validate.DATASET_ACTION_REPEAT, show_default=True,
+              help="Drive steps per env step (the env's is 5; the shipped robot laps with 2 or 3, docs/gym.md).")
+@click.option("--dir", "root", type=OutputDir(), default=None,
+              help="The Minari datasets folder (default: $MINARI_DATASETS_PATH, else ~/.minari/datasets).")
+@click.option("--replace", is_flag=True, help="Replace a dataset of that id (never a link, a file or another folder).")
+def dataset(dataset_id, robot, tracks, cars, grid, opponents, episodes, steps, noise, seed, laps, action_repeat,
+            root, replace) -> None:
+    """Record a robot driving through boxbox/TORCS-v0 as a Minari dataset (offline RL, imitation).
+
+    \b
+    Example: boxbox dataset boxbox/robot-v0 --tracks g-track-1,e-track-2 --steps 20000 --noise 0.1
+    then minari.load_dataset("boxbox/robot-v0"); infos["teacher_action"] is the robot's own action.
+    """
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from boxbox.gym.dataset import DEFAULT_EPISODES, Recording, datasets_root, record
+
+    place = datasets_root(root)
+    rec = Recording(dataset_id=dataset_id, robot=robot, tracks=tuple(tracks), cars=tuple(cars), grid=tuple(grid),
+                    opponents=tuple(opponents), episodes=episodes or (None if steps else DEFAULT_EPISODES), steps=steps,
+                    noise=noise, seed=seed, laps=laps, action_repeat=action_repeat)
+    ready()
+    with Progress(TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(), TextColumn("steps"),
+                  TimeElapsedColumn(), console=err, transient=True) as bar:
+        task = bar.add_task(f"dataset {dataset_id}", total=steps)
+        folder, n_episodes, n_steps = record(rec, place, replace, lambda: bar.advance(task))
+    out.print(f"{dataset_id}: {n_episodes} episode(s), {n_steps} steps of {robot} (noise {noise:g}) in {folder}")

@@ -32,6 +32,7 @@ from boxbox.gym.episodes import (
     add_scr_noise,
     stream_seed,
 )
+from boxbox.gym.hosted import split_opponents
 from boxbox.gym.pitstop import PitStop
 from boxbox.gym.pixelobs import check_pixel_options
 from boxbox.gym.race import MAX_STEP_TIMEOUT_S, STEP_TIMEOUT_S_DEFAULT, RaceOrder, Started, TorcsGone
@@ -50,6 +51,7 @@ from boxbox.gym.spaces import (
 )
 from boxbox.gym.spare import MAX_SPARES
 from boxbox.gym.start import Start, grid_to_start_m
+from boxbox.gym.teacher import Teacher, teacher_spec
 from boxbox.model import Car, PitOrder, State, Track
 from boxbox.model.skill import SkillLevel
 from boxbox.torcs import catalog, setup
@@ -79,6 +81,9 @@ def race_config(track: str, car: str, opponents, laps: int, skill_level: str | S
     car = validate.text(car, "car name", "car1-trb1", name="car")
     laps = validate.laps(laps, name="laps")
     entries = validate.opponent_list(opponents, name="opponents")
+    if python_robots := split_opponents(entries)[1]:
+        validate.fail(f"{python_robots[0]!r}: the parallel env races TORCS robots only ('bt:2'); a Python robot "
+                      "races against boxbox/TORCS-v0's one car", "opponents")
     level = skill_level if isinstance(skill_level, SkillLevel) else SkillLevel.parse(
         validate.skill_level(skill_level, name="skill_level"))
     position = validate.grid_position(grid_position, name="grid_position")
@@ -169,7 +174,8 @@ class TorcsEnv(gymnasium.Env):
                  pixel_size: tuple[int, int] | None = None, spares: int = DEFAULT_SPARES,
                  sensor_noise: bool = False, step_timeout_s: float = STEP_TIMEOUT_S_DEFAULT,
                  random_start: bool = True, raw_observations: bool = False, pixels_only: bool = True,
-                 dashboard: bool = False, view_ahead_m: float | None = None) -> None:
+                 dashboard: bool = False, view_ahead_m: float | None = None,
+                 teacher=None) -> None:
         # every option checked before anything is set up (validate.py: the command line's checks)
         self.actions, self.assist_names = checked_actions(actions, assists)
         self.action_repeat = validate.whole_number(action_repeat, 1, MAX_ACTION_REPEAT, name="action_repeat")
@@ -194,6 +200,9 @@ class TorcsEnv(gymnasium.Env):
         self.episodes = Episodes(laps, random_start, track=track, car=car, opponents=opponents,
                                  grid_position=grid_position, skill_level=skill_level, initial_fuel_l=initial_fuel_l)
         self._stream: EpisodeStream | None = None  # the episodes drawn from the seed, from the first reset
+        # a robot's own action for each state, in info["teacher_action"] (gym/teacher.py)
+        spec = teacher_spec(teacher)
+        self.teacher = Teacher(spec, self.actions, self.episodes.laps) if spec is not None else None
         self.episode: Episode | None = None  # the episode running
         self.cfg = self.episodes.config(self.episodes.first())  # the race running (until the first reset: the first's)
         self._edges: dict[int, tuple[Track, TrackEdges]] = {}  # by track (decoded once per session)
@@ -235,7 +244,11 @@ class TorcsEnv(gymnasium.Env):
         self.watch.reset()
         self.state, self.steer = started.state, 0.0
         self.vector = self._vector(started.state)
-        return self._observation(), self._reset_info(order, started)
+        info = self._reset_info(order, started)
+        if self.teacher is not None:
+            self.teacher.new_race(started.track, started.car)
+            info["teacher_action"] = self.teacher.action(started.state)
+        return self._observation(), info
 
     def step(self, action):
         if self.state is None or self.session is None:
@@ -258,6 +271,8 @@ class TorcsEnv(gymnasium.Env):
             info["raw_observation"] = self.observer.shaped(self.vector)
         if self.pit is not None:
             info["pit"] = self.pit.phase
+        if self.teacher is not None:
+            info["teacher_action"] = self.teacher.action(s)
         return self._observation(), total, *step_ends(reason), info
 
     def _drive(self, steer: float, throttle: float, brake: float, clutch: float,
@@ -318,7 +333,7 @@ class TorcsEnv(gymnasium.Env):
                 length_m = self._learn_length(cfg)
             slot = (cfg.grid_position or 1) - 1
             cfg = replace(cfg, grid_to_start_m=grid_to_start_m(episode.start.fraction, length_m, slot,
-                                                               len(cfg.opponents) + 1))
+                                                               len(cfg.robots) + len(cfg.opponents)))
         return RaceOrder(episode, cfg, episode.initial_fuel_l, episode.start)
 
     def _learn_length(self, cfg: RaceConfig) -> float:
@@ -365,7 +380,7 @@ class TorcsEnv(gymnasium.Env):
         """What reset() returns in info: the first state and what the episode's race is."""
         cfg = order.cfg
         return {"state": started.state, "track": cfg.track, "track_length_m": float(started.track.length_m),
-                "car": cfg.car, "opponents": tuple(f"{m}:{i}" for m, i in cfg.opponents),
+                "car": cfg.car, "opponents": (*(f"{m}:{i}" for m, i in cfg.opponents), *cfg.robots[1:]),
                 "grid_position": cfg.grid_position or 1, "skill_level": cfg.skill_level.torcs_name,
                 "initial_fuel_l": float(started.state.fuel_l), "spare": started.spare,
                 "start": self.episode.start if self.episode is not None else Start(),

@@ -27,10 +27,12 @@ import numpy as np
 
 from boxbox import validate
 from boxbox.errors import UsageError
+from boxbox.gym.hosted import split_opponents
 from boxbox.gym.start import GRID_START, Start, draw_start
 from boxbox.model.skill import SkillLevel
+from boxbox.robot.base import RaceOptions
 from boxbox.torcs import setup
-from boxbox.torcs.checks import check_grid_position, check_race
+from boxbox.torcs.checks import check_grid_position, check_race, check_robots
 from boxbox.torcs.raceprep import RaceConfig
 
 MAX_FUEL_L = 1000.0  # beyond any car's tank
@@ -215,9 +217,14 @@ class Episodes:
         key = (episode.track, episode.car, episode.opponents, episode.grid_position, episode.skill_level)
         cfg = self._configs.get(key)
         if cfg is None:
-            category, opps = check_race(episode.track, episode.car, 1, episode.opponents, laps=self.laps)
-            cfg = RaceConfig(track=episode.track, category=category, car=episode.car, laps=self.laps, robots=["gym"],
-                             robot_names=["gym"], opponents=opps, telemetry=False,
+            torcs_robots, python_robots = split_opponents(episode.opponents)  # (Python ones: gym/hosted.py)
+            category, opps = check_race(episode.track, episode.car, 1 + len(python_robots), torcs_robots,
+                                        laps=self.laps)
+            names = check_robots(python_robots, RaceOptions(laps=self.laps), episode.track, episode.car) \
+                if python_robots else []
+            cfg = RaceConfig(track=episode.track, category=category, car=episode.car, laps=self.laps,
+                             robots=["gym", *python_robots], robot_names=["gym", *names], opponents=opps,
+                             telemetry=False,
                              skill_level=SkillLevel.parse(episode.skill_level),
                              grid_position=check_grid_position(episode.grid_position, len(opps)))
             self._configs[key] = cfg

@@ -29,6 +29,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from boxbox.errors import RaceError
+from boxbox.gym.hosted import HostedRobots
 from boxbox.gym.start import GRID_START, Start
 from boxbox.model import Car, PitOrder, State, Track
 from boxbox.torcs import messages, wire
@@ -129,6 +130,7 @@ class GymRace:
         self._launched = 0  # drive steps of the start's launch driven
         self._track: tuple[Track, Car] | None = None
         self._chunks: dict[int, TrackChunks] = {}  # NEW_TRACK's, by robot
+        self.hosted: HostedRobots | None = None  # the Python opponents' robot host (gym/hosted.py)
 
     # --- making it ready ---------------------------------------------------------------------
     def prepare(self) -> Started:
@@ -146,6 +148,10 @@ class GymRace:
             return True
         if self.proc is None:
             self.listener = self._listen()
+            if self.cfg.robot_names[0] == "gym" and len(self.cfg.robots) > 1:  # (the parallel env's cars: car_i)
+                self.hosted = HostedRobots(self.cfg, self.run, self.cpu, SETPRIV)
+                with self.shared.lock:  # killed by the session's clean-up too
+                    self.shared.running.append(self.hosted.proc)
             self._spawn()
         if self.conn is None:
             self.conn = self._accept(block)
@@ -164,7 +170,9 @@ class GymRace:
     def _setup_message(self, n: int) -> bool:
         """Answer one set-up message; True at the first drive step at 0 s."""
         kind, robot, step, count = wire.HEADER.unpack_from(self._buf, 0)
-        if kind == wire.DRIVE:
+        if robot > 0 and self.hosted is not None:
+            self._relay(n)
+        elif kind == wire.DRIVE:
             self._step = step
             state = decode_state(self._buf, count)
             start = self.order.start
@@ -241,10 +249,13 @@ class GymRace:
             return None
         self._send_controls(steer, accel, brake, clutch, gear, pit)
         while True:
-            if not self._recv_in_race():
+            n = self._recv_in_race()
+            if not n:
                 return None
             kind, robot, step, count = wire.HEADER.unpack_from(self._buf, 0)
-            if kind == wire.DRIVE:
+            if robot > 0 and self.hosted is not None:
+                self._relay(n)
+            elif kind == wire.DRIVE:
                 self._step = step
                 return decode_state(self._buf, count)
             if kind == wire.PIT_CMD:
@@ -254,6 +265,18 @@ class GymRace:
                 self.ended = True
                 self._reply(wire.ACK, robot, step)
                 return None
+
+    def _relay(self, n: int) -> None:
+        """A Python opponent's message, answered by its robot host (gym/hosted.py)."""
+        assert self.hosted is not None
+        try:
+            answer = self.hosted.relay(self._buf, n)
+        except RaceError:
+            self.kill()  # the bridge waits for an answer that will not come: the race is over
+            self.ended = True
+            raise
+        if answer is not None:
+            self._send(answer)
 
     def _send_controls(self, steer: float, accel: float, brake: float, clutch: float, gear: int, pit: bool) -> None:
         pack_controls(self._out, 0, 0, self._step, steer, accel, brake, clutch, gear, pit)
@@ -274,6 +297,8 @@ class GymRace:
         if proc is not None:
             with contextlib.suppress(ProcessLookupError, PermissionError):
                 os.killpg(proc.pid, signal.SIGKILL)
+        if self.hosted is not None:
+            self.hosted.kill()
 
     def reap(self, block: bool = True) -> bool:
         """After `kill`: collect TORCS, close the sockets, remove the race's folder.  Without
@@ -285,6 +310,10 @@ class GymRace:
             self.proc.wait()
             with self.shared.lock, contextlib.suppress(ValueError):
                 self.shared.running.remove(self.proc)
+        if self.hosted is not None:
+            with self.shared.lock, contextlib.suppress(ValueError):
+                self.shared.running.remove(self.hosted.proc)
+            self.hosted.close()
         for sock in (self.conn, self.listener):
             if sock is not None:
                 sock.close()
@@ -343,17 +372,16 @@ class GymRace:
                 if time.monotonic() > deadline:
                     raise TorcsGone(f"TORCS did not connect within {CONNECT_TIMEOUT_S:.0f} s") from None
 
-    def _recv_in_race(self) -> bool:
-        """The next message into the buffer; False (and the race ended) when TORCS has ended the
-        race and exited cleanly, TorcsGone when it went otherwise."""
+    def _recv_in_race(self) -> int:
+        """The next message into the buffer, its size; 0 (and the race ended) when TORCS has ended
+        the race and exited cleanly, TorcsGone when it went otherwise."""
         try:
-            self._recv()
+            return self._recv()
         except TorcsGone:
             if self.proc is not None and self.proc.poll() == 0:
                 self.ended = True
-                return False
+                return 0
             raise
-        return True
 
     def _recv(self) -> int:
         assert self.conn is not None

@@ -19,7 +19,7 @@ import traceback
 from time import perf_counter_ns
 
 from boxbox.model import Car, Controls, Opponent, PitOrder, State, Track
-from boxbox.robot.base import RaceOptions
+from boxbox.robot.base import RaceOptions, Robot
 from boxbox.robot.loader import load_robot_class
 from boxbox.torcs import messages, wire
 from boxbox.torcs.car_setup import apply_setup, car_settings, checked_setup
@@ -100,6 +100,32 @@ def check_start_fuel(fuel, car: Car) -> None:
                                           f"({car.tank_l:g} l): return at most car.tank_l, or None for the car's own")
 
 
+def robot_call(where: str, fn, *args):
+    """A robot call: any exception, or its sys.exit(), becomes a RobotFault naming the call."""
+    try:
+        return fn(*args)
+    except CallAbandoned:
+        raise
+    except BaseException as exc:  # noqa: BLE001  (a robot's SystemExit is its fault too)
+        raise RobotFault.from_exception(exc, f"in {where}") from exc
+
+
+def robot_drive(robot: Robot, state: State, step: int, max_gear: int) -> Controls:
+    """The robot's controls for the drive step, checked: a RobotFault naming the step for a raise,
+    an exit or invalid controls (the robot host's, and the env's teacher's, gym/teacher.py)."""
+    try:
+        c = robot.drive(state)
+    except CallAbandoned:
+        raise
+    except BaseException as exc:  # noqa: BLE001  (a robot's SystemExit is its fault too)
+        raise RobotFault.from_exception(exc, f"in drive, step {step}, t={state.sim_time_s:.2f} s") from exc
+    problem = c.problem(max_gear) if type(c) is Controls else f"drive() returned {type(c).__name__}, not Controls"
+    if problem:
+        raise RobotFault("invalid-controls", f"drive() returned invalid controls: {problem} "
+                                             f"(step {step}, t={state.sim_time_s:.2f} s)")
+    return c
+
+
 class Host:
     """Answers the bridge's messages with robot calls; tells the launcher what it sees (HostLink)."""
 
@@ -155,15 +181,7 @@ class Host:
                            sim_time_s=last.sim_time_s if last else 0.0, traceback=fault.tb)
         report_fault(self.run_dir, self.link, self.fault)
 
-    @staticmethod
-    def _call(where: str, fn, *args):
-        """A robot call: any exception, or its sys.exit(), becomes a RobotFault naming the call."""
-        try:
-            return fn(*args)
-        except CallAbandoned:
-            raise
-        except BaseException as exc:  # noqa: BLE001  (a robot's SystemExit is its fault too)
-            raise RobotFault.from_exception(exc, f"in {where}") from exc
+    _call = staticmethod(robot_call)
 
     # --- the loop ------------------------------------------------------------------------
     def serve(self, conn: socket.socket) -> None:
@@ -260,18 +278,7 @@ class Host:
             self._check_breakdown(slot, state)
         if step == 1:
             slot.start_fuel_l = state.fuel_l
-        try:
-            c = slot.robot.drive(state)
-        except CallAbandoned:
-            raise
-        except BaseException as exc:  # noqa: BLE001  (a robot's SystemExit is its fault too)
-            raise RobotFault.from_exception(exc, f"in drive, step {step}, t={state.sim_time_s:.2f} s") from exc
-        problem = c.problem(slot.max_gear) if type(c) is Controls else \
-            f"drive() returned {type(c).__name__}, not Controls"
-        if problem:
-            raise RobotFault("invalid-controls", f"drive() returned invalid controls: {problem} "
-                                                 f"(step {step}, t={state.sim_time_s:.2f} s)")
-        return c
+        return robot_drive(slot.robot, state, step, slot.max_gear)
 
     @staticmethod
     def _check_breakdown(slot: HostedCar, state: State) -> None:

@@ -27,7 +27,8 @@ ANYTHING = st.recursive(SCALARS, lambda inner: st.one_of(st.lists(inner, max_siz
 OPTIONS = ["track", "car", "opponents", "laps", "action_repeat", "actions", "assists", "flat",
            "track_sensor_angles_deg", "reward_fn", "reward_weights", "max_damage", "off_track_s", "stuck_s",
            "skill_level", "grid_position", "initial_fuel_l", "pit_fuel_l", "pit_repair", "cpu", "render_mode", "pixels",
-           "pixel_size", "spares", "sensor_noise", "step_timeout_s", "pixels_only", "dashboard", "view_ahead_m"]
+           "pixel_size", "spares", "sensor_noise", "step_timeout_s", "pixels_only", "dashboard", "view_ahead_m",
+           "teacher"]
 
 
 class SetUp(Exception):
