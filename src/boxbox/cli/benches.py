@@ -25,6 +25,29 @@ DEFAULT_ROBOTS = "boxbox,bt:2,berniw:3,inferno:3,olethros:2"
 JOBS = WholeNumber(1, 64)
 
 
+class ClusterAddress(click.ParamType):
+    """--cluster: 'auto' or a Ray head's HOST:PORT, with Ray installed (exit 2 before any race otherwise)."""
+
+    name = "ADDRESS"
+
+    def convert(self, value, param, ctx):
+        from boxbox.bench.cluster import check_address, require_ray
+        from boxbox.errors import UsageError
+
+        try:
+            address = check_address(value)
+            require_ray()
+        except UsageError as exc:
+            self.fail(str(exc), param, ctx)
+        return address
+
+
+cluster_option = click.option(
+    "--cluster", type=ClusterAddress(), default=None,
+    help="Race on the Ray cluster at ADDRESS ('auto': the one this machine joined, or the head's HOST:PORT), "
+         "each race a task on a free CPU of any node, instead of --jobs here (docs/cluster.md).")
+
+
 @click.command("bench")
 @click.option("--tracks", type=CommaList("TRACK,..."), default=DEFAULT_TRACKS, show_default=True,
               help="Tracks, comma separated, or 'all'.")
@@ -37,6 +60,7 @@ JOBS = WholeNumber(1, 64)
 @click.option("--laps", type=LAPS, default=3, show_default=True, help="Race length in laps.")
 @click.option("--together", is_flag=True, help="All robots in one race per track and car (default: each alone).")
 @click.option("--jobs", type=JOBS, default=None, help="Races run in parallel (default: the number of CPUs).")
+@cluster_option
 @bench_race_options
 @click.option("--json", "json_file", type=OutputFile(), help="Write the rows as JSON.")
 @click.option("--csv", "csv_file", type=OutputFile(), help="Write the rows as CSV.")
@@ -45,7 +69,7 @@ JOBS = WholeNumber(1, 64)
 @click.option("--no-limit", is_flag=True, help="Skip the limit lap per track (`boxbox limit`) and the gaps to it.")
 @skill_level_option
 @step_budget_option
-def bench(tracks, cars, robots, laps, together, jobs, no_cache, learning, settings, json_file, csv_file,
+def bench(tracks, cars, robots, laps, together, jobs, cluster, no_cache, learning, settings, json_file, csv_file,
           grid_position, no_limit, skill_level, step_budget_ms) -> None:
     """Race robots on tracks (each alone by default) and compare times; results are cached.
 
@@ -64,7 +88,7 @@ def bench(tracks, cars, robots, laps, together, jobs, no_cache, learning, settin
                      robots=robots, laps=laps, together=together, jobs=jobs or os.cpu_count() or 1,
                      use_cache=not no_cache, learning=learning, settings=parse_set(settings) if settings else None,
                      skill_level=skill_level, grid_position=_grid_slot(grid_position, robots, together),
-                     limit=not no_limit, match_cars=True, step_budget_ms=int(step_budget_ms))
+                     limit=not no_limit, match_cars=True, step_budget_ms=int(step_budget_ms), cluster=cluster)
     plan(spec)  # every name checked before anything races
     result = run_bench(spec, overlay, err)
     out.print(result.table())
@@ -198,6 +222,7 @@ def bench_telemetry(track, laps, runs, robot, json_file, skill_level) -> None:
 @click.option("--laps", type=LapLengths(), default="10", show_default=True,
               help="Race length in laps, or several (8,10,12 or 6-14: a summary per track over them).")
 @click.option("--jobs", type=JOBS, default=1, show_default=True, help="Races run in parallel.")
+@cluster_option
 @click.option("--repeats", type=WholeNumber(1, 20), default=1, show_default=True,
               help="Race each length this many times, the robot's start fuel 0.05 l more each time (less "
                    "where the tank is full): the spread of places that is the field's chaos, not the robot.")
@@ -208,7 +233,7 @@ def bench_telemetry(track, laps, runs, robot, json_file, skill_level) -> None:
                    "set against it race by race, with how much of the difference chance alone makes.")
 @skill_level_option
 @step_budget_option
-def bench_field(tracks, robot, laps, jobs, repeats, no_cache, learning, settings, json_file, against,
+def bench_field(tracks, robot, laps, jobs, cluster, repeats, no_cache, learning, settings, json_file, against,
                 skill_level, step_budget_ms) -> None:
     """The robot from last of ten behind nine TORCS robots, and inferno:3 from the same slot.
 
@@ -231,7 +256,7 @@ def bench_field(tracks, robot, laps, jobs, repeats, no_cache, learning, settings
     overlay = ready()
     spec = FieldSpec(tracks=expand_all(tracks, list(catalog.tracks())), robot=robot, laps=laps[0], jobs=jobs,
                      use_cache=not no_cache, learning=learning, settings=parse_set(settings) if settings else None,
-                     skill_level=skill_level, step_budget_ms=int(step_budget_ms))
+                     skill_level=skill_level, step_budget_ms=int(step_budget_ms), cluster=cluster)
     if against is not None:
         _check_against(against, spec.tracks, laps, repeats)
     if len(laps) > 1 or repeats > 1:
