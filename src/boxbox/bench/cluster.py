@@ -42,17 +42,17 @@ INSTALL_HINT = "--cluster needs Ray, which boxbox installs only on request: run 
 
 def require_ray() -> None:
     """A UsageError (exit 2, before anything races) when the cluster extra is not installed."""
-    import importlib.util
-
-    if importlib.util.find_spec("ray") is None:
-        raise UsageError(INSTALL_HINT)
+    try:
+        import ray  # noqa: F401
+    except ImportError:
+        raise UsageError(INSTALL_HINT) from None
 
 
 def check_address(address: str) -> str:
     """'auto' (the cluster this machine joined) or HOST:PORT of a head, as RAY_ADDRESS takes them."""
     address = address.strip()
     host, _, port = address.rpartition(":")
-    if address == "auto" or (host and port.isdigit() and 0 < int(port) < 65536):
+    if address == "auto" or (host and "/" not in host and " " not in host and port.isdigit() and 0 < int(port) < 65536):
         return address
     raise UsageError(f"--cluster {address!r}: give 'auto' (the cluster this machine joined with `ray start`) or "
                      "the head's HOST:PORT, e.g. 10.0.0.5:6379")
@@ -78,12 +78,13 @@ def travelling_jobs(todo: list[RaceJob]) -> tuple[list[RaceJob], dict[str, Any]]
     """The jobs as a node runs them and the runtime environment they need: a robot from a file is
     named by its path in its folder, which goes to the nodes as the job's working_dir."""
     folders = {Path(where).resolve().parent for job in todo for where in map(_robot_file, job.python_specs) if where}
-    if len(folders) > 1:
-        raise UsageError("on a cluster the robots' files travel as one folder; put them in one folder, got "
-                         + ", ".join(sorted(map(str, folders))))
     if not folders:
         return list(todo), {}
-    folder = folders.pop()
+    # the folder that holds every robot file (one of theirs: never an ancestor nobody named, like ~)
+    folder = Path(os.path.commonpath(folders))
+    if folder not in folders:
+        raise UsageError("on a cluster the robots' files travel as one folder (with its subfolders); put them in "
+                         "one, got " + ", ".join(sorted(map(str, folders))))
 
     def on_node(spec: str) -> str:
         where = _robot_file(spec)

@@ -26,20 +26,26 @@ JOBS = WholeNumber(1, 64)
 
 
 class ClusterAddress(click.ParamType):
-    """--cluster: 'auto' or a Ray head's HOST:PORT, with Ray installed (exit 2 before any race otherwise)."""
+    """--cluster: 'auto' or a Ray head's HOST:PORT (Ray itself is looked for when the command runs: `_need_ray`)."""
 
     name = "ADDRESS"
 
     def convert(self, value, param, ctx):
-        from boxbox.bench.cluster import check_address, require_ray
+        from boxbox.bench.cluster import check_address
         from boxbox.errors import UsageError
 
         try:
-            address = check_address(value)
-            require_ray()
+            return check_address(value)
         except UsageError as exc:
             self.fail(str(exc), param, ctx)
-        return address
+
+
+def _need_ray(cluster: str | None) -> None:
+    """With --cluster, Ray installed: else one line saying how, exit 2, before anything is set up or raced."""
+    if cluster:
+        from boxbox.bench.cluster import require_ray
+
+        require_ray()
 
 
 cluster_option = click.option(
@@ -83,6 +89,7 @@ def bench(tracks, cars, robots, laps, together, jobs, cluster, no_cache, learnin
     from boxbox.robot.params import parse_set
     from boxbox.torcs import catalog
 
+    _need_ray(cluster)
     overlay = ready()  # first: 'all' and every name are read from the installed TORCS
     spec = BenchSpec(tracks=expand_all(tracks, list(catalog.tracks())), cars=expand_all(cars, catalog.cars()),
                      robots=robots, laps=laps, together=together, jobs=jobs or os.cpu_count() or 1,
@@ -253,6 +260,7 @@ def bench_field(tracks, robot, laps, jobs, cluster, repeats, no_cache, learning,
     from boxbox.robot.params import parse_set
     from boxbox.torcs import catalog
 
+    _need_ray(cluster)
     overlay = ready()
     spec = FieldSpec(tracks=expand_all(tracks, list(catalog.tracks())), robot=robot, laps=laps[0], jobs=jobs,
                      use_cache=not no_cache, learning=learning, settings=parse_set(settings) if settings else None,
