@@ -192,6 +192,22 @@ def test_a_node_lost_mid_bench_leaves_every_race_once(cluster, tmp_path):
     assert "3 raced" in stderr
 
 
+def test_ctrl_c_stops_this_benchs_races_and_leaves_the_cluster_running(cluster, tmp_path):
+    bench = subprocess.Popen([sys.executable, "-m", "boxbox.cli", "bench", "--robots", "boxbox", "--tracks",
+                              "g-track-1,michigan", "--laps", "3", "--no-limit", "--no-cache", "--cluster",
+                              cluster.address], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                             env=dict(os.environ, COLUMNS="200", **cluster.auth))
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and bench.poll() is None and \
+            not all(cluster.pids(token, "torcs") for token in cluster.tokens):
+        time.sleep(0.1)
+    bench.send_signal(signal.SIGINT)
+    _, stderr = bench.communicate(timeout=120)
+    assert bench.returncode == 130 and "the bench was stopped" in stderr, stderr
+    assert not [pid for token in cluster.tokens for pid in cluster.pids(token, "torcs")]
+    assert all(cluster.pids(token, "raylet") for token in cluster.tokens)  # the cluster runs on
+
+
 def test_a_node_without_torcs_says_so_in_one_line(cluster, tmp_path):
     bare = cluster.start_node(env={"BOXBOX_TORCS_LIB": str(tmp_path / "no-torcs")})
     try:

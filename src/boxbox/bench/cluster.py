@@ -37,6 +37,7 @@ CANCEL_WAIT_S = 30.0
 # never uploaded with a robot's folder: the environments and caches a project folder tends to hold
 WORKING_DIR_EXCLUDES = [".git", ".venv", "venv", "__pycache__", "*.pyc", ".mypy_cache", ".ruff_cache",
                         ".pytest_cache", "node_modules"]
+HEAD_CONNECT_TIMEOUT_S = 5.0  # a head on the network answers a connection within a second
 INSTALL_HINT = "--cluster needs Ray, which boxbox installs only on request: run `./boxbox install-cluster`"
 
 
@@ -101,21 +102,47 @@ def _robot_file(spec: str) -> str:
 
 
 def _connect(ray, address: str, runtime_env: dict[str, Any]) -> None:
+    _check_reachable(address)
     # RAY_ADDRESS, when set, overrides the address ray.init is given: --cluster is the one asked for
     os.environ["RAY_ADDRESS"] = address
     try:
         ray.init(address=address, runtime_env=runtime_env or None, logging_level=logging.ERROR, log_to_driver=False,
                  configure_logging=True)
     except (ConnectionError, RuntimeError, ValueError) as exc:
-        raise UsageError(f"no Ray cluster at --cluster {address}: {str(exc).splitlines()[0] if str(exc) else exc}; "
+        said = str(exc).strip().splitlines()[0].rstrip(".") if str(exc).strip() else type(exc).__name__
+        raise UsageError(f"no Ray cluster at --cluster {address}: {said}; "
                          "start one (docs/cluster.md) or give its head's HOST:PORT") from None
+
+
+def _check_reachable(address: str) -> None:
+    """One line at once when nothing listens at the head's address: ray.init would try for minutes."""
+    import socket
+
+    head = address
+    if address == "auto":
+        try:  # the address `ray start` on this machine recorded (Ray's own look-up; None: no cluster joined)
+            from ray._private.services import canonicalize_bootstrap_address
+
+            head = canonicalize_bootstrap_address("auto") or ""
+        except Exception:
+            return  # left to ray.init, which says it in its own words
+        if not head:
+            raise UsageError("--cluster auto: this machine has joined no Ray cluster (`ray start`, docs/cluster.md); "
+                             "give the head's HOST:PORT")
+    host, _, port = head.rpartition(":")
+    try:
+        socket.create_connection((host, int(port)), timeout=HEAD_CONNECT_TIMEOUT_S).close()
+    except OSError as exc:
+        raise UsageError(f"--cluster {address}: no Ray head answers at {head} ({exc.strerror or exc}); start one "
+                         "(docs/cluster.md) or check the address and the network") from None
 
 
 def _set_up_nodes(ray) -> None:
     """One set-up task pinned to each live node with a CPU; one line per node that lacks something."""
     from ray.util.scheduling_strategies import NodeAffinitySchedulingStrategy
 
-    setup_task = ray.remote(num_cpus=1, max_retries=0)(set_up_node)
+    # no CPU asked: a node busy with others' tasks answers all the same (set-up is quick once done)
+    setup_task = ray.remote(num_cpus=0, max_retries=0)(set_up_node)
     nodes = [n for n in ray.nodes() if n.get("Alive") and n.get("Resources", {}).get("CPU", 0) >= 1]
     refs = [setup_task.options(scheduling_strategy=NodeAffinitySchedulingStrategy(n["NodeID"], soft=False)).remote()
             for n in nodes]

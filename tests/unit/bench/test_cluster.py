@@ -4,12 +4,14 @@ races on a real two-node cluster: tests/integration/test_cluster.py.)"""
 
 from __future__ import annotations
 
+import socket
 import subprocess
 import sys
+import time
 
 import pytest
 
-from boxbox.bench.cluster import check_address, travelling_jobs
+from boxbox.bench.cluster import _check_reachable, check_address, travelling_jobs
 from boxbox.bench.solo import BenchSpec, plan
 from boxbox.errors import UsageError
 
@@ -79,3 +81,14 @@ def test_robots_from_two_folders_are_refused_before_any_race(tmp_path):
     a, b = _robot_file(tmp_path / "x", "a"), _robot_file(tmp_path / "y", "b")
     with pytest.raises(UsageError, match="one folder"):
         travelling_jobs(_jobs(f"{a}:R", f"{b}:R"))
+
+
+def test_a_head_that_does_not_answer_is_one_line_at_once():
+    """ray.init tries an address nobody listens at for minutes, printing as it goes."""
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]  # bound, not listening: refused
+        started = time.monotonic()
+        with pytest.raises(UsageError, match=f"no Ray head answers at 127.0.0.1:{port}"):
+            _check_reachable(f"127.0.0.1:{port}")
+    assert time.monotonic() - started < 5
