@@ -26,6 +26,7 @@ from typing import Any
 from rich.console import Console
 
 from boxbox.bench.solo import BenchBar, RaceJob, RaceOutcomes, race_job, stopped_error
+from boxbox.cache import cache_dir
 from boxbox.errors import BoxboxError, UsageError
 
 # a race whose node (or worker) is lost runs again on another node this many times at most; a
@@ -38,6 +39,7 @@ CANCEL_WAIT_S = 30.0
 WORKING_DIR_EXCLUDES = [".git", ".venv", "venv", "__pycache__", "*.pyc", ".mypy_cache", ".ruff_cache",
                         ".pytest_cache", "node_modules"]
 HEAD_CONNECT_TIMEOUT_S = 5.0  # a head on the network answers a connection within a second
+CACHE_MARK = "CACHE/"  # a travelling job's run dir under the cache: each node's own (~/.cache/boxbox)
 INSTALL_HINT = "--cluster needs Ray, which boxbox installs only on request: run `./boxbox install-cluster`"
 
 
@@ -77,10 +79,12 @@ def race_on_cluster(todo: list[RaceJob], address: str, n_cached: int, console: C
 
 def travelling_jobs(todo: list[RaceJob]) -> tuple[list[RaceJob], dict[str, Any]]:
     """The jobs as a node runs them and the runtime environment they need: a robot from a file is
-    named by its path in its folder, which goes to the nodes as the job's working_dir."""
+    named by its path in its folder, which goes to the nodes as the job's working_dir; a run dir
+    in the cache (bench-field's) by its place there, as each node has its own cache."""
+    todo = [dataclasses.replace(job, run_dir=_in_cache(job.run_dir)) for job in todo]
     folders = {Path(where).resolve().parent for job in todo for where in map(_robot_file, job.python_specs) if where}
     if not folders:
-        return list(todo), {}
+        return todo, {}
     # the folder that holds every robot file (one of theirs: never an ancestor nobody named, like ~)
     folder = Path(os.path.commonpath(folders))
     if folder not in folders:
@@ -93,6 +97,13 @@ def travelling_jobs(todo: list[RaceJob]) -> tuple[list[RaceJob], dict[str, Any]]
 
     sent = [dataclasses.replace(job, python_specs=[on_node(s) for s in job.python_specs]) for job in todo]
     return sent, {"working_dir": str(folder), "excludes": WORKING_DIR_EXCLUDES}
+
+
+def _in_cache(run_dir: str) -> str:
+    """A run dir under this machine's cache as CACHE/relative path (a node puts it in its own)."""
+    if run_dir and Path(run_dir).is_relative_to(cache_dir()):
+        return CACHE_MARK + str(Path(run_dir).relative_to(cache_dir()))
+    return run_dir
 
 
 def _robot_file(spec: str) -> str:
@@ -110,8 +121,8 @@ def _connect(ray, address: str, runtime_env: dict[str, Any]) -> None:
                  configure_logging=True)
     except (ConnectionError, RuntimeError, ValueError) as exc:
         said = str(exc).strip().splitlines()[0].rstrip(".") if str(exc).strip() else type(exc).__name__
-        raise UsageError(f"no Ray cluster at --cluster {address}: {said}; "
-                         "start one (docs/cluster.md) or give its head's HOST:PORT") from None
+        # no cluster there, or the robot's folder refused (too large for Ray's upload)
+        raise UsageError(f"--cluster {address}: {said} (docs/cluster.md)") from None
 
 
 def _check_reachable(address: str) -> None:
@@ -260,7 +271,9 @@ def race_on_node(job: RaceJob, laps) -> dict:
         if lack:
             return {"result": None, "error": f"{_this_node()} cannot race: {lack}"}
     # a robot's file arrived in the working_dir, which is this process's folder
-    job = dataclasses.replace(job, python_specs=[_absolute(s) for s in job.python_specs])
+    run_dir = str(cache_dir() / job.run_dir.removeprefix(CACHE_MARK)) if job.run_dir.startswith(CACHE_MARK) \
+        else job.run_dir
+    job = dataclasses.replace(job, python_specs=[_absolute(s) for s in job.python_specs], run_dir=run_dir)
 
     def send(message: tuple) -> None:
         with contextlib.suppress(Exception):  # a lap the bar misses is no reason to lose the race

@@ -92,3 +92,13 @@ def test_a_head_that_does_not_answer_is_one_line_at_once():
         with pytest.raises(UsageError, match=f"no Ray head answers at 127.0.0.1:{port}"):
             _check_reachable(f"127.0.0.1:{port}")
     assert time.monotonic() - started < 5
+
+
+def test_a_run_dir_in_the_cache_travels_as_its_place_there(tmp_path, monkeypatch):
+    """bench-field names each race's run dir under the front's cache; a node has its own cache."""
+    monkeypatch.setenv("BOXBOX_CACHE", str(tmp_path / "cache"))
+    todo = _jobs("boxbox", "middle")
+    todo[0].run_dir = str(tmp_path / "cache" / "bench-field" / "g-track-1-robot-abc")
+    todo[1].run_dir = str(tmp_path / "elsewhere")
+    sent, _ = travelling_jobs(todo)
+    assert [job.run_dir for job in sent] == ["CACHE/bench-field/g-track-1-robot-abc", str(tmp_path / "elsewhere")]
