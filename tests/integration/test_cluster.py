@@ -171,6 +171,16 @@ def test_a_bench_field_on_the_cluster_has_the_shape_of_one_here(cluster, tmp_pat
     assert "2 raced, 0 cached" in proc.stderr
 
 
+def test_a_sweep_on_the_cluster(cluster, tmp_path):
+    proc = run_boxbox("sweep", "--tracks", "g-track-1", "--cars", "car1-trb1", "--laps", "1", "--no-cache",
+                      "--step-budget-ms", "5000", "--cluster", cluster.address, "--json", str(tmp_path / "s.json"),
+                      timeout=300, env=cluster.auth)
+    assert proc.returncode == 0, proc.stderr
+    rows = read_json(tmp_path / "s.json")["rows"]
+    assert [(r["part"], r["finished"]) for r in rows] == [("every track", True), ("every car", True)], rows
+    assert "1 raced, 0 cached" in proc.stderr
+
+
 def test_a_node_lost_mid_bench_leaves_every_race_once(cluster, tmp_path):
     lost = cluster.tokens[-1]
     try:

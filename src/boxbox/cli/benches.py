@@ -16,6 +16,8 @@ from boxbox.cli.types import (
     OutputFile,
     WholeNumber,
     bench_race_options,
+    cluster_option,
+    need_ray,
     skill_level_option,
     step_budget_option,
 )
@@ -23,35 +25,6 @@ from boxbox.cli.types import (
 DEFAULT_TRACKS = "e-track-2,e-track-4,mixed-2,g-track-1,aalborg,michigan"
 DEFAULT_ROBOTS = "boxbox,bt:2,berniw:3,inferno:3,olethros:2"
 JOBS = WholeNumber(1, 64)
-
-
-class ClusterAddress(click.ParamType):
-    """--cluster: 'auto' or a Ray head's HOST:PORT (Ray itself is looked for when the command runs: `_need_ray`)."""
-
-    name = "ADDRESS"
-
-    def convert(self, value, param, ctx):
-        from boxbox.bench.cluster import check_address
-        from boxbox.errors import UsageError
-
-        try:
-            return check_address(value)
-        except UsageError as exc:
-            self.fail(str(exc), param, ctx)
-
-
-def _need_ray(cluster: str | None) -> None:
-    """With --cluster, Ray installed: else one line saying how, exit 2, before anything is set up or raced."""
-    if cluster:
-        from boxbox.bench.cluster import require_ray
-
-        require_ray()
-
-
-cluster_option = click.option(
-    "--cluster", type=ClusterAddress(), default=None,
-    help="Race on the Ray cluster at ADDRESS ('auto': the one this machine joined, or the head's HOST:PORT), "
-         "each race a task on a free CPU of any node, instead of --jobs here (docs/cluster.md).")
 
 
 @click.command("bench")
@@ -89,7 +62,7 @@ def bench(tracks, cars, robots, laps, together, jobs, cluster, no_cache, learnin
     from boxbox.robot.params import parse_set
     from boxbox.torcs import catalog
 
-    _need_ray(cluster)
+    need_ray(cluster)
     overlay = ready()  # first: 'all' and every name are read from the installed TORCS
     spec = BenchSpec(tracks=expand_all(tracks, list(catalog.tracks())), cars=expand_all(cars, catalog.cars()),
                      robots=robots, laps=laps, together=together, jobs=jobs or os.cpu_count() or 1,
@@ -260,7 +233,7 @@ def bench_field(tracks, robot, laps, jobs, cluster, repeats, no_cache, learning,
     from boxbox.robot.params import parse_set
     from boxbox.torcs import catalog
 
-    _need_ray(cluster)
+    need_ray(cluster)
     overlay = ready()
     spec = FieldSpec(tracks=expand_all(tracks, list(catalog.tracks())), robot=robot, laps=laps[0], jobs=jobs,
                      use_cache=not no_cache, learning=learning, settings=parse_set(settings) if settings else None,

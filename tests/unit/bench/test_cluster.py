@@ -26,7 +26,7 @@ def test_the_benches_load_no_ray_unless_asked():
     assert done.stdout.split() == ["False"], done.stderr
 
 
-@pytest.mark.parametrize("command", ["bench", "bench-field"])
+@pytest.mark.parametrize("command", ["bench", "bench-field", "sweep"])
 def test_without_ray_cluster_is_one_line_saying_how_to_install_it(command):
     # a None in sys.modules makes `import ray` fail as it does where the package is not installed
     done = _run("import sys; sys.modules['ray'] = None; from boxbox.cli import main; "
