@@ -181,6 +181,19 @@ def test_a_sweep_on_the_cluster(cluster, tmp_path):
     assert "1 raced, 0 cached" in proc.stderr
 
 
+def test_a_robots_fault_is_its_rows_error_as_here_and_not_raced_again(cluster, tmp_path):
+    common = ["bench", "--robots", "tests/robots/faulty.py:RaisesInOnTrack", "--tracks", "g-track-1", "--laps", "1",
+              "--no-limit", "--no-cache"]
+    here = run_boxbox(*common, "--jobs", "1", "--json", str(tmp_path / "here.json"), timeout=300)
+    there = run_boxbox(*common, "--cluster", cluster.address, "--json", str(tmp_path / "there.json"), timeout=300,
+                       env=cluster.auth)
+    assert here.returncode == there.returncode == 0, there.stderr
+    (local,), (remote,) = read_json(tmp_path / "here.json")["rows"], read_json(tmp_path / "there.json")["rows"]
+    assert remote["error"].split(";")[0] == local["error"].split(";")[0], remote["error"]
+    assert local["error"].startswith("robot 'tests/robots/faulty.py:RaisesInOnTrack' (middle 1) failed: RuntimeError")
+    assert there.stderr.count("race failed") == 1
+
+
 def test_a_node_lost_mid_bench_leaves_every_race_once(cluster, tmp_path):
     lost = cluster.tokens[-1]
     try:

@@ -122,7 +122,9 @@ def _connect(ray, address: str, runtime_env: dict[str, Any]) -> None:
     except (ConnectionError, RuntimeError, ValueError) as exc:
         said = str(exc).strip().splitlines()[0].rstrip(".") if str(exc).strip() else type(exc).__name__
         # no cluster there, or the robot's folder refused (too large for Ray's upload)
-        raise UsageError(f"--cluster {address}: {said} (docs/cluster.md)") from None
+        token = "" if os.environ.get("RAY_AUTH_TOKEN") else \
+            " (a cluster with token authentication needs RAY_AUTH_MODE=token and its RAY_AUTH_TOKEN here too)"
+        raise UsageError(f"--cluster {address}: {said}{token}; see docs/cluster.md") from None
 
 
 def _check_reachable(address: str) -> None:
@@ -280,6 +282,11 @@ def race_on_node(job: RaceJob, laps) -> dict:
             laps.put_nowait(message)
 
     result, error = race_job(job, _node["overlay"], None, send)
+    if error:  # a robot named as the user gave it (job.entries: Python robots first), not by this node's copy
+        for on_node, given in zip(job.python_specs, job.entries, strict=False):
+            error = error.replace(f"'{on_node}'", f"'{given}'")
+        if result is not None:
+            result.error = error
     return {"result": result.to_json() if result else None, "error": error}
 
 
