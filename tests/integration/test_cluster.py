@@ -25,7 +25,7 @@ from pathlib import Path
 
 import pytest
 
-from helpers import processes_mentioning, read_json, run_boxbox
+from helpers import ROOT, processes_mentioning, read_json, run_boxbox
 
 pytest.importorskip("ray", reason="the cluster extra (Ray) is not installed: ./boxbox install-cluster")
 pytestmark = pytest.mark.torcs
@@ -236,8 +236,14 @@ def test_ctrl_c_stops_this_benchs_races_and_leaves_the_cluster_running(cluster, 
     assert all(cluster.pids(token, "raylet") for token in cluster.tokens)  # the cluster runs on
 
 
-def test_a_node_without_torcs_says_so_in_one_line(cluster, tmp_path):
-    (bare,) = cluster.start_nodes(env={"BOXBOX_TORCS_LIB": str(tmp_path / "no-torcs")})
+def test_a_node_without_torcs_and_other_sources_says_so_in_one_line(cluster, tmp_path):
+    """The node's Ray workers import a copy of boxbox with one line more, and find no TORCS binary."""
+    copy = tmp_path / "src" / "boxbox"
+    shutil.copytree(ROOT / "src" / "boxbox", copy, ignore=shutil.ignore_patterns("__pycache__"))
+    with open(copy / "errors.py", "a") as f:
+        f.write("# changed\n")
+    (bare,) = cluster.start_nodes(env={"BOXBOX_TORCS_LIB": str(tmp_path / "no-torcs"),
+                                       "PYTHONPATH": str(tmp_path / "src")})
     try:
         proc = run_boxbox("bench", "--robots", "boxbox", "--tracks", "g-track-1", "--laps", "1", "--no-limit",
                           "--no-cache", "--cluster", cluster.address, timeout=300, env=cluster.auth)
@@ -247,3 +253,4 @@ def test_a_node_without_torcs_says_so_in_one_line(cluster, tmp_path):
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1, lines
     assert "(Ray node " in lines[0] and "TORCS binary not found" in lines[0] and "./boxbox setup" in lines[0], lines
+    assert "its boxbox sources differ from this front's" in lines[0], lines

@@ -154,11 +154,16 @@ def _set_up_nodes(ray) -> None:
     """One set-up task pinned to each live node with a CPU; one line per node that lacks something."""
     from ray.util.scheduling_strategies import NodeAffinitySchedulingStrategy
 
+    from boxbox.bench.cache import package_version
+
     # no CPU asked: a node busy with others' tasks answers all the same (set-up is quick once done)
     setup_task = ray.remote(num_cpus=0, max_retries=0)(set_up_node)
     nodes = [n for n in ray.nodes() if n.get("Alive") and n.get("Resources", {}).get("CPU", 0) >= 1]
-    refs = [setup_task.options(scheduling_strategy=NodeAffinitySchedulingStrategy(n["NodeID"], soft=False)).remote()
-            for n in nodes]
+    if not nodes:
+        raise UsageError("the Ray cluster has no node with a CPU to race on (`ray start --num-cpus N`)")
+    sources = package_version()
+    refs = [setup_task.options(scheduling_strategy=NodeAffinitySchedulingStrategy(n["NodeID"], soft=False))
+            .remote(sources) for n in nodes]
     problems = []
     for node, ref in zip(nodes, refs, strict=True):
         where = f"node {node.get('NodeManagerAddress', '?')} (Ray node {node['NodeID'][:8]})"
@@ -253,17 +258,24 @@ class _Drained:
 _node: dict = {}  # this worker process's overlay, once set up
 
 
-def set_up_node() -> str | None:
-    """The set-up `./boxbox race` does, on this node: None when ready, else what it lacks in one line."""
+def set_up_node(front_sources: str = "") -> str | None:
+    """The set-up `./boxbox race` does, on this node: None when ready, else what it lacks in one
+    line; with the front's `package_version`, also whether this node runs the same boxbox (other
+    sources may race otherwise, and their results would be cached as the front's)."""
+    from boxbox.bench.cache import package_version
     from boxbox.torcs import setup
 
+    lacks = []
+    if front_sources and (here := package_version()) != front_sources:
+        lacks.append(f"its boxbox sources differ from this front's ({here} here, {front_sources} there): "
+                     "check out the same commit on it")
     try:
         _node["overlay"] = setup.ensure_ready()
     except BoxboxError as exc:
-        return str(exc).splitlines()[0]
+        lacks.append(str(exc).splitlines()[0])
     except OSError as exc:
-        return f"set-up failed: {exc}"
-    return None
+        lacks.append(f"set-up failed: {exc}")
+    return "; ".join(lacks) or None
 
 
 def race_on_node(job: RaceJob, laps) -> dict:
