@@ -1,7 +1,7 @@
 """The car setup in the installed TORCS: each setting's value in the car's files is what a race
 gives the car, and its ranges are the car's (car1-trb3's rear wing is fixed).  It reaches TORCS: a
-robot's first gear (its car_setup) and a final drive from --set build a car with those ratios (the
-gears TORCS gives the robot), whose engine turns at the speed they make in the race (the
+robot's first gear (its car_setup), a second gear and a final drive from --set build a car with
+those ratios (the gears TORCS gives the robot), whose engine turns at the speed they make in the race (the
 telemetry's rpm at its speed); a robot's value outside the car's range stops the race before the
 start, in one line naming the range."""
 
@@ -21,6 +21,7 @@ from trackdata import load
 
 ROBOT = f"{ROBOTS / 'gear_recorder.py'}:ShortFirstGear"
 FINAL_DRIVE = 3.0  # car1-trb1's own: 4.5
+SECOND_GEAR = 1.7  # car1-trb1's own: 1.9
 
 
 def test_the_installed_car_files_give_each_setting_the_value_a_race_gave_the_car():
@@ -43,13 +44,14 @@ def test_the_installed_car_files_give_each_setting_the_value_a_race_gave_the_car
 def test_gears_and_final_drive_set_build_the_car_that_races(tmp_path, overlay):
     run = tmp_path / "run"
     proc = run_boxbox("race", "--robot", ROBOT, "--track", "g-track-1", "--laps", "1", "--set",
-                      f"final_drive_ratio={FINAL_DRIVE}", "--step-budget-ms", "5000", "--run-dir", str(run), "--quiet",
-                      timeout=300)
+                      f"final_drive_ratio={FINAL_DRIVE}", "--set", f"gear_ratio_2={SECOND_GEAR}", "--step-budget-ms",
+                      "5000", "--run-dir", str(run), "--quiet", timeout=300)
     assert proc.returncode == 0, proc.stderr
     assert read_json(run / "result.json")["drivers"][0]["laps"] == 1
     ratios = json.loads((run / "gears.json").read_text())["ratios"]
-    # TORCS's overall ratios, gear x final drive: first gear the robot's 2.5, second the car's own 1.9
-    assert ratios[2:4] == pytest.approx([2.5 * FINAL_DRIVE, 1.9 * FINAL_DRIVE], rel=1e-6)  # TORCS's floats
+    # TORCS's overall ratios, gear x final drive: first gear the robot's 2.5, second --set's, third the car's 1.4
+    assert ratios[2:5] == pytest.approx([2.5 * FINAL_DRIVE, SECOND_GEAR * FINAL_DRIVE, 1.4 * FINAL_DRIVE],
+                                        rel=1e-6)  # TORCS's floats
     wheel_m = json.loads((run / "car.json").read_text())["wheel_radius_rr_m"]
     t = load_telemetry(run / "telemetry.parquet").columns
     second = (np.asarray(t["gear"]) == 2) & (np.asarray(t["speed_mps"]) > 15.0)

@@ -169,3 +169,16 @@ def test_killing_the_process_leaves_no_torcs(overlay):
         time.sleep(0.05)
     proc.stdin.close()
     proc.stdout.close()
+
+
+def test_each_car_observes_its_view_with_the_numbers_and_its_dashboard(overlay):
+    env = boxbox.gym.parallel_env(cars=2, track="g-track-1", pixels=True, pixels_only=False, dashboard=True,
+                                  view_ahead_m=60)
+    obs, infos = env.reset(seed=0)
+    for _ in range(5):
+        obs, rewards, terminations, truncations, infos = env.step({a: np.float32([0.0, 1.0]) for a in env.agents})
+    for agent in env.possible_agents:
+        assert env.observation_space(agent).contains(obs[agent]) and obs[agent]["pixels"].shape == (96, 96, 3)
+        assert "raw_observation" in infos[agent]  # the numbers computed, as without pixels
+    assert not np.array_equal(obs["car_0"]["pixels"], obs["car_1"]["pixels"])
+    env.close()

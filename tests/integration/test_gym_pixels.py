@@ -8,6 +8,7 @@ import numpy as np
 from gymnasium.utils.env_checker import check_env
 
 import boxbox.gym
+from boxbox.gym.dashboard import FRAME_ROWS, SPEED_BAR, view_rows
 from boxbox.gym.render import OTHER_CAR, OWN_CAR
 from helpers import GRID_IN_UNITS
 
@@ -68,3 +69,33 @@ def test_the_drawing_follows_the_episodes_track(overlay):
     first, second = frames["g-track-1"], frames["e-track-2"]
     assert first.shape != second.shape or not np.array_equal(first, second)
     env.close()
+
+
+def speed_bar(image: np.ndarray, rows: int) -> int:
+    """Columns of the dashboard's speed bar (white, from the left) in the strip of the last `rows` rows."""
+    return int((image[-rows // 2, :, :] == np.array(SPEED_BAR, np.uint8)).all(axis=1).sum())
+
+
+def test_pixels_with_the_numbers_and_the_dashboard_pass_the_checker(overlay):
+    # the view and the numbers in one Dict (gym/pixelobs.py), the dashboard strip, a look 100 m ahead
+    env = gymnasium.make(ID, track="g-track-1", pixels=True, pixels_only=False, dashboard=True, view_ahead_m=100,
+                         render_mode="rgb_array", random_start=False)
+    check_env(env.unwrapped)  # with the render check
+    obs, info = env.reset(seed=0)
+    numbers = env.unwrapped.layout.dict_space(True)
+    assert set(obs) == {"pixels", *numbers.spaces} and env.observation_space.contains(obs)
+    assert obs["pixels"].shape == (96, 96, 3) and obs["pixels"].dtype == np.uint8
+    assert speed_bar(obs["pixels"], view_rows(96)) == 0  # on the grid, at rest
+    for _ in range(20):  # 2 s at full throttle
+        obs, reward, terminated, truncated, info = env.step(np.array([0.0, 1.0], np.float32))
+    speed = info["state"].speed_x_mps
+    assert not terminated and speed > 10.0
+    assert abs(obs["speed_mps"][0] - speed / 100.0) < 1e-6  # the numbers as without pixels: scaled
+    bar = speed_bar(obs["pixels"], view_rows(96))
+    assert abs(bar - speed / 100.0 * 34) <= 1  # the speed bar as long as the speed
+    assert speed_bar(env.render(), FRAME_ROWS) > 0  # render()'s frame has the strip below it
+    env.close()
+    flat = gymnasium.make(ID, track="g-track-1", pixels=True, pixels_only=False, flat=True, pixel_size=(64, 64))
+    assert set(flat.observation_space.spaces) == {"pixels", "state"}
+    check_env(flat.unwrapped, skip_render_check=True)
+    flat.close()

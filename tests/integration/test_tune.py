@@ -267,11 +267,12 @@ def test_a_users_robot_declares_its_own_parameters(overlay, tmp_path):
                            "1", "--setup", str(setup), "--quiet", "--no-telemetry"], capture_output=True, text=True,
                           timeout=300)
     assert race.returncode == 0, race.stderr
-    bad = subprocess.run([sys.executable, "-m", "boxbox.cli", "tune", "--robot", robot, "--params", "gear"],
+    bad = subprocess.run([sys.executable, "-m", "boxbox.cli", "tune", "--robot", robot, "--params", "steer_gain"],
                          capture_output=True, text=True, timeout=60)
-    # the robot's own parameters, after the car's setup fields (which tune searches for every robot)
-    assert bad.returncode == 2 and "searchable: " in bad.stderr
-    assert "accel, steer_gain_per_m, wide, mode\n" in bad.stderr
+    # one line: the nearest names, and where all of them are (the car's 30-odd setup settings and the robot's)
+    assert bad.returncode == 2 and bad.stderr.count("\n") == 1, bad.stderr
+    assert "(did you mean steer_gain_per_m?); `boxbox params --robot " in bad.stderr
+    assert bad.stderr.endswith(":TunedFollower --car car1-trb1` lists every one, with its range\n")
     from boxbox.tune.storage import journal_path
 
     assert journal_path(study).exists()

@@ -135,3 +135,91 @@ def test_a_study_searches_setup_settings_over_the_cars_ranges():
     assert dists["front_spring_npm"].high == pytest.approx(9000 * LBS_PER_IN)
     assert defaults_in_space(space, dists)["final_drive_ratio"] == 4.5  # the car's own: the first trial
     assert "front_anti_roll_npm" not in space.searchable_names()  # fixed in its file
+
+
+def test_gear_ratios_are_settings_whole_or_one_gear_at_a_time_over_the_robots_answer():
+    from boxbox.model.car_setup import setup_from
+
+    options = race_options({"gear_ratios": "2.8,1.8", "gear_ratio_4": 1.1, "mu_scale": 0.9})
+    assert options.car_setup == {"gear_ratios": "2.8,1.8", "gear_ratio_4": 1.1}  # --set's text, as parse_set gives it
+    assert setup_from(options.car_setup).gear_ratios == (2.8, 1.8, None, 1.1)  # gear 3: the car's own
+    robots = CarSetup(gear_ratios=(2.5, 1.7, 1.3))
+    assert setup_from({"gear_ratio_2": 1.9}, robots).gear_ratios == (2.5, 1.9, 1.3)  # one gear over the robot's
+    listed = CarSetup(gear_ratios=[2.5, 1.7])  # type: ignore[arg-type]
+    assert setup_from({"gear_ratio_2": 1.9}, listed).gear_ratios == (2.5, 1.9)
+    assert setup_from({"gear_ratios": [3.0]}, robots).gear_ratios == (3.0,)  # all of them in place of the robot's
+    assert setup_from({"gear_ratios": 3}).gear_ratios == (3,)
+    assert setup_from({}, robots) == robots
+    values = dict(zip(SLOTS, slot_values(setup_from({"gear_ratio_2": 1.6}), RWD), strict=True))
+    assert values[("Gearbox/gears/2", "ratio")] == 1.6 and math.isnan(values[("Gearbox/gears/1", "ratio")])
+    car = car_settings("test-car")
+    assert car.problem(setup_from({"gear_ratios": "2.8, 1.8"})) is None
+    assert car.problem(setup_from({"gear_ratio_2": 6.0})) == "gear_ratio_2=6 is outside test-car's range 0 to 5"
+    assert car.problem(setup_from({"gear_ratio_3": 1.0})) == "gear_ratio_3: test-car has no such setting"
+    assert car.problem(setup_from({"gear_ratios": "2.8;1.8"})) == (
+        "gear_ratios must be numbers from first gear on, got '2.8;1.8': gear_ratios=3.0,2.1,1.6 (from first gear "
+        "on) or gear_ratio_2=2.1 (one gear)")
+
+
+@pytest.mark.parametrize("given", [["--set", "gear_ratios=2.8,6.5"], ["--set", "gear_ratio_2=6.5"],
+                                   ["--setup", "FILE"]])
+def test_a_gear_ratio_out_of_range_stops_the_race_before_torcs_starts(tmp_path, test_car, given):
+    setup = tmp_path / "setup.toml"
+    setup.write_text("gear_ratios = [2.8, 6.5]\n")
+    args = [str(setup) if a == "FILE" else a for a in given]
+    proc = run_boxbox("race", *args, "--car", "test-car", "--laps", "1", "--run-dir", str(tmp_path / "run"),
+                      env={"BOXBOX_TORCS_DATA": str(test_car)})
+    assert proc.returncode == 2 and proc.stderr.count("\n") == 1, proc.stderr
+    assert "gear_ratio_2=6.5 is outside test-car's range 0 to 5" in proc.stderr
+    assert not (tmp_path / "run").exists()
+
+
+def test_a_study_searches_each_gear_as_a_parameter_of_its_own():
+    from boxbox.robot.tutorial import TutorialRobot
+    from boxbox.tune.space import distributions, tune_space
+
+    dists = distributions(tune_space(TutorialRobot, "test-car"), ["gear_ratio_1", "gear_ratio_2"])
+    assert (dists["gear_ratio_1"].low, dists["gear_ratio_1"].high) == (0.5, 5.0)
+    options = race_options({"gear_ratio_2": 1.7, "mu_scale": 1.0})  # a trial's values
+    assert options.car_setup == {"gear_ratio_2": 1.7} and options.robot_args == {"set": {"mu_scale": 1.0}}
+
+
+def test_a_studys_unknown_name_is_a_short_line_with_the_nearest_of_the_cars_and_the_robots():
+    from boxbox.errors import UsageError
+    from boxbox.robot.tutorial import TutorialRobot
+    from boxbox.tune.space import tune_space
+
+    with pytest.raises(UsageError) as info:
+        tune_space(TutorialRobot, "test-car", "boxbox").pick(["gear_ratio"])
+    assert str(info.value) == ("--params: 'gear_ratio' is not a parameter of robot boxbox (did you mean gear_ratio_2, "
+                               "gear_ratio_1 or learn_gain?); `boxbox params --car test-car` lists every one, with its "
+                               "range")
+    with pytest.raises(UsageError, match=r"mean final_drive_ratio\?\); `boxbox params --robot my.py:Mine --car"):
+        tune_space(TutorialRobot, "test-car", "my.py:Mine").pick(["final_drive"])
+
+
+def test_params_lists_the_cars_settings_by_part_with_unit_range_and_value(test_car):
+    from click.testing import CliRunner
+
+    from boxbox.cli import main_group
+    from boxbox.model.car_setup import SCALAR_NAMES
+
+    result = CliRunner().invoke(main_group, ["params", "--car", "test-car", "--set", "gear_ratios=2.8",
+                                             "--set", "final_drive_ratio=4.2"], standalone_mode=False,
+                                terminal_width=200)
+    assert result.exception is None, result.output
+    table = result.output[result.output.index("car setup: test-car"):]
+    rows = {cells[1]: cells for line in table.splitlines()
+            if len(cells := [c.strip() for c in line.split("│")[1:-1]]) == 6}
+    assert rows["gear_ratio_1"] == ["gearbox", "gear_ratio_1", "2.8", "", "0.5 to 5", "--set"]
+    assert rows["gear_ratio_2"] == ["", "gear_ratio_2", "1.9", "", "0 to 5", "car"]
+    assert rows["final_drive_ratio"][2:] == ["4.2", "", "1 to 10", "--set"]
+    assert rows["front_wing_angle_rad"] == ["wings", "front_wing_angle_rad", "-", "rad", "not in the car's files", ""]
+    assert rows["rear_wing_angle_rad"][2:] == ["0.20944", "rad", "0.0872665 to 0.349066", "car"]
+    assert rows["front_spring_npm"][2:] == ["98218.8", "N/m", "17858 to 160722", "car"]
+    assert rows["front_anti_roll_npm"][4] == "fixed"
+    assert set(SCALAR_NAMES) < set(rows)  # every field of CarSetup
+    assert "mu_scale" in result.output  # and the robot's parameters, above
+    bad = CliRunner().invoke(main_group, ["params", "--car", "test-car", "--set", "gear_ratio_1=9"],
+                             standalone_mode=False)
+    assert "gear_ratio_1=9 is outside test-car's range 0.5 to 5" in str(bad.exception)

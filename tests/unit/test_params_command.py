@@ -40,6 +40,7 @@ def test_a_robot_that_declares_parameters_shows_them_with_set_applied(tmp_path):
     assert "gainer robot parameters" in result.output
     assert "gain" in result.output and "2.5" in result.output and "--set" in result.output
     assert "wide" in result.output and "False" in result.output and "mu_scale" not in result.output
+    assert "│ 0.1 to 10 " in result.output and "│ false, true " in result.output  # what a study searches
 
 
 def test_a_robot_that_declares_none_says_so():
@@ -58,3 +59,16 @@ def test_set_for_a_robot_without_parameters_or_out_of_range_is_refused(tmp_path)
 def test_the_boxbox_robot_is_the_default():
     result = params()
     assert result.exception is None and "boxbox robot parameters" in result.output and "mu_scale" in result.output
+
+
+def test_before_torcs_is_set_up_the_car_setup_says_so(tmp_path, monkeypatch):
+    from boxbox.torcs import catalog
+
+    monkeypatch.setenv("BOXBOX_TORCS_DATA", str(tmp_path))
+    catalog.cars.cache_clear()
+    try:
+        result = params("--robot", "middle")
+    finally:
+        catalog.cars.cache_clear()
+    assert result.exception is None, result.output
+    assert "car1-trb1's settings are read from TORCS, which is not set up yet (`boxbox setup`)" in result.output

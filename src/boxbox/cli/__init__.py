@@ -21,7 +21,8 @@ from boxbox.errors import BoxboxError
 COMMANDS = {
     **dict.fromkeys(("race", "params", "drill"), "race"),
     **dict.fromkeys(("setup", "doctor", "tracks", "cars", "robots"), "info"),
-    **dict.fromkeys(("bench", "bench-speed", "bench-pits", "bench-field", "bench-telemetry", "bench-learning"),
+    **dict.fromkeys(("bench", "bench-speed", "bench-pits", "bench-field", "bench-telemetry", "bench-learning",
+                     "bench-table"),
                     "benches"),
     **dict.fromkeys(("report", "contacts"), "report"), "replay": "replay",
     **dict.fromkeys(("sweep", "soak"), "reliability"), **dict.fromkeys(("scr-server", "bench-gym"), "gym"),

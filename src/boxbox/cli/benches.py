@@ -1,4 +1,4 @@
-"""`boxbox bench`, `bench-speed`, `bench-pits` and `bench-telemetry`: the benchmarks (in boxbox.bench)."""
+"""`boxbox bench`, `bench-table` and the other benchmarks (in boxbox.bench)."""
 
 from __future__ import annotations
 
@@ -9,6 +9,7 @@ import click
 from boxbox.cli.common import err, out, ready
 from boxbox.cli.types import (
     LAPS,
+    BenchRunFile,
     CommaList,
     FieldRunFile,
     GridPosition,
@@ -43,19 +44,23 @@ JOBS = WholeNumber(1, 64)
 @bench_race_options
 @click.option("--json", "json_file", type=OutputFile(), help="Write the rows as JSON.")
 @click.option("--csv", "csv_file", type=OutputFile(), help="Write the rows as CSV.")
+@click.option("--against", type=BenchRunFile(),
+              help="An earlier run's --json file with the same tracks, cars and laps: the judged table set "
+                   "against it (misses, damage, summed time per car, the cells that moved most).")
 @click.option("--grid-position", type=GridPosition(), default=None,
               help="With --together: the Python robots' grid slot, 1 (pole, the default) .. or 'last'.")
 @click.option("--no-limit", is_flag=True, help="Skip the limit lap per track (`boxbox limit`) and the gaps to it.")
 @skill_level_option
 @step_budget_option
 def bench(tracks, cars, robots, laps, together, jobs, cluster, no_cache, learning, settings, json_file, csv_file,
-          grid_position, no_limit, skill_level, step_budget_ms) -> None:
+          against, grid_position, no_limit, skill_level, step_budget_ms) -> None:
     """Race robots on tracks (each alone by default) and compare times; results are cached.
 
     \b
     Examples:
       boxbox bench --tracks e-track-2 --laps 30
       boxbox bench --robots boxbox,my_robot.py:MyRobot --tracks all --json b.json
+      boxbox bench --cars all --json new.json --against base.json
     """
     from boxbox.bench.solo import BenchSpec, expand_all, plan, run_bench
     from boxbox.report.replay import replay_line
@@ -69,6 +74,10 @@ def bench(tracks, cars, robots, laps, together, jobs, cluster, no_cache, learnin
                      use_cache=not no_cache, learning=learning, settings=parse_set(settings) if settings else None,
                      skill_level=skill_level, grid_position=_grid_slot(grid_position, robots, together),
                      limit=not no_limit, match_cars=True, step_budget_ms=int(step_budget_ms), cluster=cluster)
+    if against is not None:
+        _check_bench_against(against, {"laps": spec.laps, "tracks": spec.tracks, "cars": spec.cars,
+                                       "robots": spec.robots},
+                             "race the same --tracks, --cars and --laps as it, or leave --against out.")
     plan(spec)  # every name checked before anything races
     result = run_bench(spec, overlay, err)
     out.print(result.table())
@@ -82,6 +91,63 @@ def bench(tracks, cars, robots, laps, together, jobs, cluster, no_cache, learnin
         result.write_json(json_file)
     if csv_file:
         result.write_csv(csv_file)
+    _print_judged(result.to_json(), against)
+
+
+def _check_bench_against(against, run: dict, what_to_do: str) -> None:
+    """Exit 2 (before any race) when the base run cannot be set cell by cell against this one."""
+    from boxbox.bench.judged_compare import mismatch
+
+    path, base = against
+    why = mismatch(base, run)
+    if why:
+        raise click.BadParameter(f"{path}: {why}; {what_to_do}", param_hint="--against")
+
+
+def _print_judged(doc: dict, against=None, markdown: bool = False) -> None:
+    """The judged table of each Python robot of a bench document (none: nothing), and its comparison."""
+    from boxbox.bench.judged_compare import compare_docs
+    from boxbox.bench.judged_table import judged_tables, python_robots
+
+    if not python_robots(doc):
+        return
+    for table in judged_tables(doc):
+        if markdown:
+            out.print(table.markdown(), markup=False, highlight=False, soft_wrap=True)
+        else:
+            out.print(table.grid())
+            if len(table.cars) > 1:
+                out.print(table.per_car())
+        out.print(table.summary_line(), markup=False, highlight=False, soft_wrap=True)
+    if against is None:
+        return
+    path, base = against
+    for comparison in compare_docs(base, doc):
+        out.print(comparison.per_car(path.name))
+        out.print(comparison.moved_table(path.name))
+        for line in comparison.lines(path.name):
+            out.print(line, markup=False, highlight=False, soft_wrap=True)
+
+
+@click.command("bench-table")
+@click.argument("run", type=BenchRunFile())
+@click.option("--against", type=BenchRunFile(),
+              help="An earlier `boxbox bench --json` file of the same tracks, cars and laps to set FILE against.")
+@click.option("--markdown", is_flag=True, help="The table as docs/pace.md writes it (misses in bold).")
+def bench_table(run, against, markdown) -> None:
+    """The judged table of a `boxbox bench --json` file, without racing: the misses, damage, summed time per car.
+
+    \b
+    A cell misses when the robot did not finish, took 100 damage or more on a road or oval track,
+    or was no faster than a Debian robot in that car.
+    Examples:
+      boxbox bench-table cars.json
+      boxbox bench-table new.json --against base.json
+    """
+    _, doc = run
+    if against is not None:
+        _check_bench_against(against, doc, "give two runs of the same tracks, cars and laps.")
+    _print_judged(doc, against, markdown)
 
 
 def _grid_slot(position: int | str | None, robots: list[str], together: bool) -> int | None:

@@ -175,21 +175,33 @@ def _write_report(run_dir: Path, report_dir: Path) -> None:
                    "e.g. --robot my_robot.py:MyRobot.")
 @click.option("--set", "settings", multiple=True, metavar="KEY=VALUE", help=SET_HELP)
 def params(track, car, robot_spec, settings) -> None:
-    """Print a robot's effective parameters for a track and car, and where each comes from.
+    """Print a robot's effective parameters and the car's setup for a track and car: each value,
+    where it comes from, and the range a study searches.
 
     \b
     Examples:
       boxbox params --track aalborg --set mu_scale=0.9
-      boxbox params --robot my_robot.py:MyRobot
+      boxbox params --robot my_robot.py:MyRobot --car car1-trb3 --set gear_ratio_2=2.1
     """
-    from rich.table import Table
-
+    from boxbox.robot.base import race_options
     from boxbox.robot.loader import load_robot_class
-    from boxbox.robot.params import TutorialParams, load_params, parse_set, setup_files
-    from boxbox.robot.tunable import declares_params, param_space
+    from boxbox.robot.params import parse_set
+    from boxbox.torcs import checks
 
     cls = load_robot_class(robot_spec)
-    overrides = parse_set(settings)
+    options = race_options(parse_set(settings))  # the car setup's settings apart from the robot's
+    checks.check_car_setup(options.car_setup, car)
+    _robot_params(cls, track, car, options.robot_args.get("set") or {})
+    _car_setup(car, options.car_setup)
+
+
+def _robot_params(cls, track: str, car: str, overrides: dict) -> None:
+    """The robot's parameters: value, where it comes from, the range a study searches."""
+    from rich.table import Table
+
+    from boxbox.robot.params import TutorialParams, load_params, setup_files
+    from boxbox.robot.tunable import declares_params, param_space
+
     if cls.param_class is TutorialParams:  # the boxbox robot: its setup files, then --set
         values, sources = load_params(car, track, overrides)
         rows = [(k, v, sources[k]) for k, v in vars(values).items()]
@@ -205,12 +217,38 @@ def params(track, car, robot_spec, settings) -> None:
         out.print(f"robot {cls.name} declares no parameters (a robot declares them with `param_class`, "
                   "see docs/tuning.md)")
         return
-    table = Table("parameter", "value", "from", title=f"{cls.name} robot parameters: {track}, {car}")
+    space = param_space(cls)
+    table = Table("parameter", "value", "range", "from", title=f"{cls.name} robot parameters: {track}, {car}")
     for key, value, src in rows:
-        table.add_row(key, str(value), src if src in ("default", "--set") else Path(src).name)
+        table.add_row(key, str(value), space.range_text(key), src if src in ("default", "--set") else Path(src).name)
     out.print(table)
     if files:
         out.print("setup files, in order: " + ", ".join(str(p) + ("" if p.exists() else " (absent)") for p in files))
+
+
+def _car_setup(car: str, given: dict) -> None:
+    """The car's setup settings, by group: the value the race gives the car, its unit and range."""
+    from rich.table import Table
+
+    from boxbox.torcs import catalog
+    from boxbox.torcs.car_setup import setting_rows
+
+    if not catalog.cars():  # only a race sets TORCS up: its cars are not there to read yet
+        out.print(f"car setup: {car}'s settings are read from TORCS, which is not set up yet (`boxbox setup`)")
+        return
+    table = Table("part", "setting", "value", "unit", "range", "from", title=f"car setup: {car}, SI units",
+                  caption="set them with --set or a setup file (gear_ratios=3.0,2.1,... sets the gears from first "
+                          "on); they win over the robot's car_setup(), which may set others per track")
+    group = None
+    for row in setting_rows(car, given):
+        fixed = row.car is not None and row.car.lo == row.car.hi
+        span = "not in the car's files" if row.car is None else "fixed" if fixed else \
+            f"{row.car.lo:.6g} to {row.car.hi:.6g}"
+        table.add_row(row.group if row.group != group else "", row.name,
+                      "-" if row.value is None else f"{row.value:.6g}", row.unit, span,
+                      row.source if row.value is not None else "")
+        group = row.group
+    out.print(table)
 
 
 @click.group()

@@ -128,7 +128,7 @@ def tune(robot, tracks, param_names, trials, laps, car, study_name, storage, wor
     if not tracks:
         raise UsageError("--tracks: name at least one track, e.g. g-track-1")
     cls = load_robot_class(robot)
-    distributions(tune_space(cls, car), param_names)  # unknown or unsearchable names: exit 2 here
+    distributions(tune_space(cls, car, robot), param_names)  # unknown or unsearchable names: exit 2 here
     name = study_name or _default_name(cls.name, tracks, param_names, laps)
     cfg = TuneConfig(study=name, robot=robot, tracks=tracks, params=param_names, laps=laps, car=car, trials=trials,
                      damage_limit=damage_limit, skill_level=skill_level.torcs_name, storage=storage, seed=seed,

@@ -192,32 +192,55 @@ class InputFile(Checked, click.ParamType):
         return self.checked(validate.input_file, value, param, ctx)
 
 
-class FieldRunFile(click.ParamType):
-    """A `boxbox bench-field --json` file to compare with: read and checked before any race."""
+class RunFile(click.ParamType):
+    """A JSON file an earlier run wrote, to compare with: read and checked (`_check`) before any race."""
 
     name = "file"
-    _hint = "give a file `boxbox bench-field --json` wrote."
+    _hint = ""
 
     def get_metavar(self, param: click.Parameter, ctx: click.Context) -> str:
         return "FILE"
 
+    def _check(self, doc: Any) -> None:
+        raise NotImplementedError
+
     def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
         import json
-
-        from boxbox.bench.field_compare import passes_of
 
         if isinstance(value, tuple):
             return value
         path = Path(os.path.abspath(os.path.expanduser(value)))
         try:
             doc = json.loads(path.read_text())
-            passes_of(doc)
+            self._check(doc)
         except OSError as exc:
             self.fail(f"cannot read {path} ({exc.strerror or exc}); {self._hint}", param, ctx)
         except ValueError as exc:
             why = (str(exc).splitlines() or [type(exc).__name__])[0]
             self.fail(f"{path}: {why}; {self._hint}", param, ctx)
         return path, doc
+
+
+class FieldRunFile(RunFile):
+    """A `boxbox bench-field --json` file to compare with."""
+
+    _hint = "give a file `boxbox bench-field --json` wrote."
+
+    def _check(self, doc: Any) -> None:
+        from boxbox.bench.field_compare import passes_of
+
+        passes_of(doc)
+
+
+class BenchRunFile(RunFile):
+    """A `boxbox bench --json` file with a Python robot to judge (bench/judged_table.py)."""
+
+    _hint = "give a file `boxbox bench --json` wrote."
+
+    def _check(self, doc: Any) -> None:
+        from boxbox.bench.judged_table import check_doc
+
+        check_doc(doc)
 
 
 class OutputDir(Checked, click.ParamType):

@@ -1,14 +1,16 @@
 """bench-gym's figures of pixels and of several learning cars (`boxbox bench-gym --multi-steps N`).
 
 Measured on the envs as users make them: `gymnasium.make("boxbox/TORCS-v0", pixels=True)` (96x96
-views) and `boxbox.gym.parallel_env(cars=n)` for 2 and 4 cars, random actions drawn beforehand,
-episodes ending by truncation only (as bench.py's), resets left out of the figures.  One parallel
-step moves every car: its figure is env steps a second; per agent, that times the cars.
+views; then with every pixel option on: the numbers beside the view, the dashboard, 100 m ahead) and
+`boxbox.gym.parallel_env(cars=n)` for 2 and 4 cars, random actions drawn beforehand, episodes ending
+by truncation only (as bench.py's), resets left out of the figures.  One parallel step moves every
+car: its figure is env steps a second; per agent, that times the cars.
 """
 
 from __future__ import annotations
 
 import time
+from typing import Any
 
 import gymnasium
 import numpy as np
@@ -17,10 +19,13 @@ from boxbox.gym import ENV_ID
 from boxbox.gym.bench_gym import Log, Row, _actions, timed_steps
 from boxbox.gym.parallel import parallel_env
 
+# the pixel options all on (gym/pixelobs.py): what they cost beside the view alone
+PIXEL_OPTIONS: dict[str, Any] = {"pixels_only": False, "dashboard": True, "view_ahead_m": 100.0}
 
-def pixel_steps_per_s(track: str, steps: int, episode_steps: int, seed: int = 0) -> float:
+
+def pixel_steps_per_s(track: str, steps: int, episode_steps: int, seed: int = 0, **options: Any) -> float:
     env = gymnasium.make(ENV_ID, track=track, stuck_s=None, off_track_s=None, max_episode_steps=episode_steps,
-                         pixels=True)
+                         pixels=True, **options)
     return timed_steps(env, steps, seed)[0]
 
 
@@ -50,6 +55,10 @@ def run_multi_bench(track: str = "g-track-1", steps: int = 20_000, episode_steps
     log(f"pixel observations 96x96: {steps} steps")
     pixels = pixel_steps_per_s(track, steps, episode_steps)
     rows = [Row("env steps/s with 96x96 pixel observations (resets left out)", f"{pixels:,.0f}", ">= 5,000")]
+    log(f"pixel observations 96x96 with the numbers, the dashboard, 100 m ahead: {steps} steps")
+    every = pixel_steps_per_s(track, steps, episode_steps, **PIXEL_OPTIONS)
+    rows.append(Row("env steps/s with 96x96 pixels and the numbers in one Dict, the dashboard, 100 m ahead (resets "
+                    "left out; the view alone's share)", f"{every:,.0f} ({every / pixels:.2f})", ""))
     for cars in (2, 4):
         log(f"{cars} learning cars in one race: {steps} steps")
         rate = parallel_steps_per_s(track, cars, steps, episode_steps)

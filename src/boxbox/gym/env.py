@@ -33,8 +33,9 @@ from boxbox.gym.episodes import (
     stream_seed,
 )
 from boxbox.gym.pitstop import PitStop
+from boxbox.gym.pixelobs import check_pixel_options
 from boxbox.gym.race import MAX_STEP_TIMEOUT_S, STEP_TIMEOUT_S_DEFAULT, RaceOrder, Started, TorcsGone
-from boxbox.gym.render import Drawing, check_pixel_size, check_render_mode, pixel_space, render_fps
+from boxbox.gym.render import check_render_mode, render_fps
 from boxbox.gym.sensors import SCR_TRACK_ANGLES_DEG, TrackEdges, opponent_sectors
 from boxbox.gym.session import Session
 from boxbox.gym.spaces import (
@@ -167,7 +168,8 @@ class TorcsEnv(gymnasium.Env):
                  cpu: int | None = None, render_mode: str | None = None, pixels: bool = False,
                  pixel_size: tuple[int, int] | None = None, spares: int = DEFAULT_SPARES,
                  sensor_noise: bool = False, step_timeout_s: float = STEP_TIMEOUT_S_DEFAULT,
-                 random_start: bool = True, raw_observations: bool = False) -> None:
+                 random_start: bool = True, raw_observations: bool = False, pixels_only: bool = True,
+                 dashboard: bool = False, view_ahead_m: float | None = None) -> None:
         # every option checked before anything is set up (validate.py: the command line's checks)
         self.actions, self.assist_names = checked_actions(actions, assists)
         self.action_repeat = validate.whole_number(action_repeat, 1, MAX_ACTION_REPEAT, name="action_repeat")
@@ -182,11 +184,13 @@ class TorcsEnv(gymnasium.Env):
         flat = validate.flag(flat, name="flat")
         random_start = validate.flag(random_start, name="random_start")
         scaled = not validate.flag(raw_observations, name="raw_observations")
-        # pixels (gym/render.py): render() draws the race top-down; pixels=True observes the car's view
+        # pixels (gym/render.py, gym/pixelobs.py): render() draws the race top-down; pixels=True observes the car's view
         self.render_mode = check_render_mode(render_mode)
         self.metadata = {**self.metadata, "render_fps": render_fps(self.action_repeat)}
-        self.pixels = validate.flag(pixels, name="pixels")
-        self.drawing = Drawing(check_pixel_size(pixel_size, self.pixels))
+        self.look = check_pixel_options(pixels, pixel_size, pixels_only, dashboard, view_ahead_m, self.render_mode)
+        self.pixels = self.look.size is not None
+        self.drawing = self.look.drawing()
+        self.steer = 0.0  # the last action's (the dashboard's)
         self.episodes = Episodes(laps, random_start, track=track, car=car, opponents=opponents,
                                  grid_position=grid_position, skill_level=skill_level, initial_fuel_l=initial_fuel_l)
         self._stream: EpisodeStream | None = None  # the episodes drawn from the seed, from the first reset
@@ -195,9 +199,7 @@ class TorcsEnv(gymnasium.Env):
         self._edges: dict[int, tuple[Track, TrackEdges]] = {}  # by track (decoded once per session)
         self.layout = ObservationLayout.make(len(self.angles_deg))
         self.observer = Observer(self.layout, flat, scaled)
-        self.observation_space = self.layout.space(flat, scaled)
-        if self.drawing.pixel_size is not None:
-            self.observation_space = pixel_space(self.drawing.pixel_size)
+        self.observation_space = self.look.space(self.layout.space(flat, scaled))
         self.action_space = action_space(self.actions)
         self.reader = ActionReader(self.actions)
         self.session: Session | None = None
@@ -206,7 +208,7 @@ class TorcsEnv(gymnasium.Env):
         self.length_m = 0.0
         self.lengths: dict[str, float] = {}  # each track's, from its first race (a start along it needs it)
         self.state: State | None = None
-        self.vector: np.ndarray | None = None  # None with pixels
+        self.vector: np.ndarray | None = None  # None with the pixels alone
         self.edges: TrackEdges | None = None
         self.assists: Assists | None = None
         self.pit: PitStop | None = None
@@ -231,7 +233,7 @@ class TorcsEnv(gymnasium.Env):
             started = self._start(order, upcoming)
         self.episode, self.cfg = episode, order.cfg
         self.watch.reset()
-        self.state = started.state
+        self.state, self.steer = started.state, 0.0
         self.vector = self._vector(started.state)
         return self._observation(), self._reset_info(order, started)
 
@@ -241,6 +243,7 @@ class TorcsEnv(gymnasium.Env):
         if self.ended is not None:
             raise NeedsReset(f"the episode has ended ({self.ended}); call reset() to start a new one")
         steer, throttle, brake, clutch, gear, pit = self.reader.read(action)
+        self.steer = steer
         if self.pit is not None and pit:
             self.pit.request()
         with self.session.pin:
@@ -248,7 +251,7 @@ class TorcsEnv(gymnasium.Env):
             self.session.advance_spares()  # the next episode's race, one message further (never waits)
         if s is not self.state:
             self.state = s
-            self.vector = None if self.pixels else self._vector(s)  # the car's view needs no range finders
+            self.vector = self._vector(s) if self.look.numbers else None  # the view alone needs no range finders
         self.ended = reason
         info = {"state": s, "progress_m": progress, "termination": reason, "fault": fault}
         if self.vector is not None:
@@ -288,7 +291,7 @@ class TorcsEnv(gymnasium.Env):
         in red, every other car in blue; None without a render mode or before the first reset."""
         if self.render_mode is None:
             return None
-        return self.drawing.frame(self.state, self.car)
+        return self.drawing.frame(self.state, self.car, steer=self.steer)
 
     def close(self) -> None:
         if self.session is not None:
@@ -369,12 +372,11 @@ class TorcsEnv(gymnasium.Env):
                 **({"raw_observation": self.observer.shaped(self.vector)} if self.vector is not None else {})}
 
     def _observation(self):
-        """The numbers (Dict or flat), or with pixels the car's view."""
-        if self.pixels:
-            assert self.state is not None and self.car is not None
-            return self.drawing.observation(self.state, self.car)
-        assert self.vector is not None
-        return self.observer.observation(self.vector)
+        """The numbers (Dict or flat), the car's view, or both in one Dict (gym/pixelobs.py)."""
+        assert self.state is not None and self.car is not None
+        image = self.drawing.observation(self.state, self.car, steer=self.steer) if self.pixels else None
+        numbers = self.observer.observation(self.vector) if self.look.numbers and self.vector is not None else None
+        return self.look.observation(image, numbers)
 
     def _vector(self, s: State) -> np.ndarray:
         assert self.edges is not None

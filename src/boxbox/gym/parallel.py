@@ -44,8 +44,9 @@ from boxbox.gym.env import (
 )
 from boxbox.gym.episodes import several
 from boxbox.gym.multisession import Controls, MultiSession
+from boxbox.gym.pixelobs import check_pixel_options
 from boxbox.gym.race import STEP_TIMEOUT_S_DEFAULT, TorcsGone
-from boxbox.gym.render import CAR_COLOURS, Drawing, check_pixel_size, check_render_mode, pixel_space, render_fps
+from boxbox.gym.render import CAR_COLOURS, check_render_mode, render_fps
 from boxbox.gym.sensors import SCR_TRACK_ANGLES_DEG, TrackEdges, opponent_sectors
 from boxbox.gym.spaces import DEFAULT_ACTIONS, ActionReader, ObservationLayout, Observer, RaceScale, action_space
 from boxbox.gym.start import GRID_START, Start, draw_start, grid_to_start_m
@@ -84,7 +85,7 @@ class Racer:
         self.state: State | None = None
         self.action: tuple[float, float, float, float, int, bool] = (0.0, 0.0, 0.0, 0.0, 1, False)
         self.start = GRID_START
-        self.vector: np.ndarray | None = None  # the last observation in units (None with pixels)
+        self.vector: np.ndarray | None = None  # the last observation in units (None with the pixels alone)
 
     def launching(self, step: int) -> Controls:
         """The controls of the start's launch at its drive step `step` (coasting after it)."""
@@ -116,6 +117,7 @@ class TorcsParallelEnv(ParallelEnv):
                  cpu: int | None = None, render_mode: str | None = None, pixels: bool = False,
                  pixel_size: tuple[int, int] | None = None, step_timeout_s: float = STEP_TIMEOUT_S_DEFAULT,
                  random_start: bool = True, raw_observations: bool = False, max_episode_steps: int | None = None,
+                 pixels_only: bool = True, dashboard: bool = False, view_ahead_m: float | None = None,
                  **single_env_only: Any) -> None:
         refuse_single_env_options(dict(zip(ONE_RACE, (track, car, opponents, skill_level, initial_fuel_l),
                                            strict=True)), single_env_only)
@@ -138,16 +140,17 @@ class TorcsParallelEnv(ParallelEnv):
                                   validate.whole_number(max_episode_steps, 1, None, name="max_episode_steps"))
         self.render_mode = check_render_mode(render_mode)
         self.metadata = {**self.metadata, "render_fps": render_fps(self.action_repeat)}
-        self.pixels = validate.flag(pixels, name="pixels")
-        self.drawing = Drawing(check_pixel_size(pixel_size, self.pixels))
+        # each car's view has its own dashboard; render()'s frame shows every car, so none
+        self.look = check_pixel_options(pixels, pixel_size, pixels_only, dashboard, view_ahead_m, self.render_mode,
+                                        frames_have_dashboard=False)
+        self.pixels = self.look.size is not None
+        self.drawing = self.look.drawing()
         self.cfg = race_config(track, car, opponents, laps, skill_level, cars=n)
         self.layout = ObservationLayout.make(len(self.angles_deg))
         self.observer = Observer(self.layout, flat, scaled)
         self.possible_agents = [f"car_{i}" for i in range(n)]
         self.agents: list[str] = []
-        space = self.layout.space(flat, scaled)
-        obs_space = pixel_space(self.drawing.pixel_size) if self.drawing.pixel_size is not None else space
-        self.observation_spaces = dict.fromkeys(self.possible_agents, obs_space)
+        self.observation_spaces = dict.fromkeys(self.possible_agents, self.look.space(self.layout.space(flat, scaled)))
         self.action_spaces = dict.fromkeys(self.possible_agents, action_space(self.actions))
         self.reader = ActionReader(self.actions)
         self.session: MultiSession | None = None
@@ -283,7 +286,7 @@ class TorcsParallelEnv(ParallelEnv):
                 racer.state = states.get(racer.robot, racer.state)
 
     def _info(self, name: str, more: dict[str, Any]) -> dict[str, Any]:
-        """A car's info: its state, its observation in units (not with pixels) and `more`."""
+        """A car's info: its state, its observation in units (not with the pixels alone) and `more`."""
         racer = self.racers[name]
         info = {"state": racer.state, **more}
         if racer.vector is not None:
@@ -346,12 +349,14 @@ class TorcsParallelEnv(ParallelEnv):
     def _observation(self, name: str):
         racer = self.racers[name]
         assert racer.state is not None
-        if self.pixels:
-            return self.drawing.observation(racer.state, racer.car)  # itself red, every other car blue
-        assert self.edges is not None
-        s = racer.state
-        racer.vector = self.observer.vector(s, self.edges.ranges(s), opponent_sectors(s))
-        return self.observer.observation(racer.vector)
+        s, numbers, image = racer.state, None, None
+        if self.pixels:  # itself red, every other car blue
+            image = self.drawing.observation(s, racer.car, steer=racer.action[0])
+        if self.look.numbers:
+            assert self.edges is not None
+            racer.vector = self.observer.vector(s, self.edges.ranges(s), opponent_sectors(s))
+            numbers = self.observer.observation(racer.vector)
+        return self.look.observation(image, numbers)
 
 
 def parallel_env(cars: int = 2, **kwargs) -> TorcsParallelEnv:

@@ -47,3 +47,34 @@ void bb_box(unsigned char *image, long h, long w, double col, double row, double
         }
     }
 }
+
+static void fill(unsigned char *strip, long w, long r0, long r1, long c0, long c1, const unsigned char *colour) {
+    for (long r = r0; r < r1; r++)
+        for (long c = c0; c < c1; c++) memcpy(strip + 3 * (r * w + c), colour, 3);
+}
+
+/* bb_strip: the dashboard strip over the last rows of an image h x w (gym/dashboard.py, whose
+ * Dashboard.bars is the same in Python): `template` (its background and ticks) copied, then on its
+ * rows r0..r1 a bar from column 1 for the speed (full at `span`), one from the `middle` tick for
+ * the steering (+: to the left) and the engaged gear's tick lit.  `layout`: rows, r0, r1, the
+ * speed and steering fields' width, middle, the gears (R, N, 1 .. top).  `colours`: 3 RGB. */
+void bb_strip(unsigned char *image, long h, long w, const unsigned char *template, const long *layout,
+              double speed_mps, double span, double steer, double gear, const unsigned char *colours) {
+    long rows = layout[0], r0 = layout[1], r1 = layout[2], field = layout[3], middle = layout[4], gears = layout[5];
+    unsigned char *strip = image + 3 * (h - rows) * w;
+    memcpy(strip, template, (size_t)(3 * rows * w));
+    double share = fabs(speed_mps) / span, turn = fabs(steer);
+    if (!(share <= 1.0)) share = share > 1.0 ? 1.0 : 0.0;  /* NaN: nothing */
+    if (!(turn <= 1.0)) turn = turn > 1.0 ? 1.0 : 0.0;
+    fill(strip, w, r0, r1, 1, 1 + (long)floor(share * (double)(field - 2) + 0.5), colours);
+    long reach = (long)floor(turn * (double)(field / 2 - 1) + 0.5);
+    if (steer > 0.0) fill(strip, w, r0, r1, middle - reach, middle, colours + 3);
+    else fill(strip, w, r0, r1, middle + 1, middle + 1 + reach, colours + 3);
+    long slot = gear == gear ? (long)floor(fmin(fmax(gear, -1.0), (double)gears) + 0.5) + 1 : 1;
+    if (slot > gears - 1) slot = gears - 1;
+    long start = 2 * field, gear_span = w - 2 * field;
+    long c0 = start + slot * gear_span / gears, c1 = start + (slot + 1) * gear_span / gears - 1;
+    if (c1 < c0 + 1) c1 = c0 + 1;
+    if (c1 > w) c1 = w;
+    fill(strip, w, r0, r1, c0, c1, colours + 6);
+}

@@ -25,6 +25,7 @@ from gymnasium import spaces
 
 from boxbox import validate
 from boxbox.gym import raycast
+from boxbox.gym.dashboard import FRAME_ROWS, Dashboard, view_rows
 from boxbox.model import Car, State, Track
 from boxbox.model.constants import DRIVE_STEP_S
 from boxbox.model.state import CAR_STATE_NO_SIMU
@@ -72,6 +73,8 @@ def load() -> ctypes.CDLL | None:
             lib.bb_view.restype = None
             lib.bb_box.argtypes = [p, n, n, d, d, d, d, d, d, p]
             lib.bb_box.restype = None
+            lib.bb_strip.argtypes = [p, n, n, p, p, d, d, d, d, p]
+            lib.bb_strip.restype = None
         _lib = lib
     return _lib
 
@@ -176,6 +179,16 @@ class TrackRaster:
         self.image[:] = GRASS
         self._draw(track, sl, el, sr, er)
         self.flat = self.image.reshape(-1, 3)
+        self._coarse: dict[int, np.ndarray] = {1: self.image}
+
+    def coarse(self, step: int) -> np.ndarray:
+        """The image at `step` x `step` pixels a pixel (each its block's middle pixel), made once a
+        step: a view that spans several pixels a pixel reads this, so it touches no more memory
+        than a view at the raster's detail (a 96x96 view 100 m ahead took about 1.5 times as long a
+        frame reading the full raster, in an env on a loaded machine)."""
+        if step not in self._coarse:
+            self._coarse[step] = np.ascontiguousarray(self.image[step // 2::step, step // 2::step])
+        return self._coarse[step]
 
     def to_px(self, xy: np.ndarray) -> np.ndarray:
         """World (x, y) metres to raster (col, row) pixels (any leading shape)."""
@@ -234,14 +247,15 @@ def cars_of(state: State, length_m: float, width_m: float, colour=OWN_CAR, other
 
 class Overview:
     """The whole race (`render_mode="rgb_array"`): the raster reduced to at most `longest_px` pixels
-    on its longer side (each side a multiple of 16), every car drawn on it."""
+    on its longer side (each side a multiple of 16), every car drawn on it; `strip_rows` more rows
+    below it for the dashboard."""
 
-    def __init__(self, raster: TrackRaster, longest_px: int = OVERVIEW_PX) -> None:
+    def __init__(self, raster: TrackRaster, longest_px: int = OVERVIEW_PX, strip_rows: int = 0) -> None:
         h, w = raster.image.shape[:2]
         step = max(1, math.ceil(max(h, w) / longest_px))
         small = raster.image[::step, ::step]
         h16, w16 = max(16, small.shape[0] // 16 * 16), max(16, small.shape[1] // 16 * 16)
-        self.image = np.zeros((h16, w16, 3), dtype=np.uint8)
+        self.image = np.zeros((h16 + strip_rows, w16, 3), dtype=np.uint8)
         self.image[: min(h16, small.shape[0]), : min(w16, small.shape[1])] = small[:h16, :w16]
         self.raster, self.m_per_px = raster, raster.m_per_px * step
         self.lib = load()
@@ -258,6 +272,12 @@ class Overview:
         return out
 
 
+def view_width_m(size: tuple[int, int], ahead_m: float | None, car_row: float = VIEW_CAR_ROW) -> float:
+    """Metres across a view of `size` (height, width) whose top row is `ahead_m` ahead of the car
+    (square pixels); None: VIEW_WIDTH_M (42 m ahead at a square size)."""
+    return VIEW_WIDTH_M if ahead_m is None else ahead_m * size[1] / (car_row * size[0])
+
+
 class CarView:
     """A car-centred, heading-up view of the raster, (height, width) pixels covering `width_m` metres
     across, the car at `car_row` of the height from the top: the pixel observation."""
@@ -267,30 +287,38 @@ class CarView:
         h, w = size
         self.raster, self.size = raster, (h, w)
         self.m_per_px = width_m / w
-        self.scale = self.m_per_px / raster.m_per_px  # view pixels to raster pixels
+        step = max(1, int(self.m_per_px / raster.m_per_px))  # whole raster pixels a view pixel spans
+        self.image, self.image_m_per_px = raster.coarse(step), raster.m_per_px * step
+        self.scale = self.m_per_px / self.image_m_per_px  # view pixels to the image's pixels
         self.car_col, self.car_row = 0.5 * w, car_row * h
         self.lib = load() if use_c else None
         self.grass = bytes(GRASS)
+        self.image_at = self.image.ctypes.data  # (looking an address up costs a microsecond or two)
         self.reach = float(h + w)  # cars farther than this (view pixels) are not drawn
 
-    def frame(self, x_m: float, y_m: float, yaw_rad: float, cars: list[Car2D]) -> np.ndarray:
-        """The view of a car at (x, y) heading yaw; `cars` are drawn on it (the car itself among them)."""
+    def frame(self, x_m: float, y_m: float, yaw_rad: float, cars: list[Car2D],
+              strip: tuple[Dashboard, float, float, float] | None = None) -> np.ndarray:
+        """The view of a car at (x, y) heading yaw; `cars` are drawn on it (the car itself among them),
+        then `strip`, a dashboard and its speed, steering and gear, over its last rows."""
         r = self.raster
         c, s = math.cos(yaw_rad), math.sin(yaw_rad)
-        col0, row0 = (x_m - r.x0_m) / r.m_per_px, (r.y1_m - y_m) / r.m_per_px
+        col0, row0 = (x_m - r.x0_m) / self.image_m_per_px, (r.y1_m - y_m) / self.image_m_per_px
         out = np.empty((self.size[0], self.size[1], 3), dtype=np.uint8)
+        address = 0
         if self.lib is not None:
-            self.lib.bb_view(r.image.ctypes.data, r.image.shape[0], r.image.shape[1], col0, row0, c, s, self.scale,
-                             self.car_row, self.car_col, self.size[0], self.size[1], out.ctypes.data, self.grass)
+            address = out.ctypes.data
+            self.lib.bb_view(self.image_at, self.image.shape[0], self.image.shape[1], col0, row0, c, s, self.scale,
+                             self.car_row, self.car_col, self.size[0], self.size[1], address, self.grass)
         else:
             self._gather(out, col0, row0, c, s)
-        self._draw_cars(out, x_m, y_m, c, s, yaw_rad, cars)
+        self._draw_cars(out, address, x_m, y_m, c, s, yaw_rad, cars)
+        if strip is not None:
+            strip[0].draw(out, address, *strip[1:])
         return out
 
-    def _draw_cars(self, out: np.ndarray, x_m: float, y_m: float, c: float, s: float, yaw_rad: float,
+    def _draw_cars(self, out: np.ndarray, address: int, x_m: float, y_m: float, c: float, s: float, yaw_rad: float,
                    cars: list[Car2D]) -> None:
         lib, h, w = self.lib, self.size[0], self.size[1]
-        address = out.ctypes.data if lib is not None else 0
         for car in cars:
             dx, dy = car.x_m - x_m, car.y_m - y_m
             ahead, left = (dx * c + dy * s) / self.m_per_px, (dy * c - dx * s) / self.m_per_px
@@ -311,10 +339,10 @@ class CarView:
         left = (self.car_col - (np.arange(w) + 0.5))[None, :] * self.scale
         col = np.floor((col0 + ahead * c) - left * s)
         row = np.floor((row0 - ahead * s) - left * c)
-        rh, rw = self.raster.image.shape[:2]
+        rh, rw = self.image.shape[:2]
         inside = (col >= 0) & (row >= 0) & (col < rw) & (row < rh)
         out[:] = GRASS
-        out[inside] = self.raster.image[row[inside].astype(np.intp), col[inside].astype(np.intp)]
+        out[inside] = self.image[row[inside].astype(np.intp), col[inside].astype(np.intp)]
 
 
 # --- what an env draws ---------------------------------------------------------------------------
@@ -358,29 +386,51 @@ def pixel_space(size: tuple[int, int]) -> spaces.Box:
 
 class Drawing:
     """What an env draws of its race: the track raster (made once a track), the whole race for
-    render() and, with pixels, each car's view as its observation."""
+    render() and, with pixels, each car's view as its observation; `view_ahead_m` sets how far
+    ahead the view sees (None: view_width_m's default), `dashboard` draws the dashboard strip
+    over the view's last rows and `frame_dashboard` below render()'s frame (gym/dashboard.py)."""
 
-    def __init__(self, pixel_size: tuple[int, int] | None) -> None:
+    def __init__(self, pixel_size: tuple[int, int] | None, view_ahead_m: float | None = None,
+                 dashboard: bool = False, frame_dashboard: bool = False) -> None:
         self.pixel_size = pixel_size  # None: no pixel observation
+        self.view_ahead_m, self.dashboard, self.frame_dashboard = view_ahead_m, dashboard, frame_dashboard
         self.track: Track | None = None
         self.overview: Overview | None = None
         self.view: CarView | None = None
+        self.strips: dict[tuple[int, int], tuple[Car, Dashboard]] = {}  # by (rows, width): the car's
 
     def new_track(self, track: Track) -> None:
         if track is self.track:
             return
         raster = raster_of(track)
-        self.track, self.overview = track, Overview(raster)
-        self.view = CarView(raster, self.pixel_size) if self.pixel_size is not None else None
+        self.track, self.overview = track, Overview(raster, strip_rows=FRAME_ROWS if self.frame_dashboard else 0)
+        size = self.pixel_size
+        self.view = CarView(raster, size, view_width_m(size, self.view_ahead_m)) if size is not None else None
 
-    def observation(self, state: State, car: Car, others=None) -> np.ndarray:
-        """The car's view (heading up), the car itself in OWN_CAR, the others in their colours."""
-        assert self.view is not None
-        return self.view.frame(state.x_m, state.y_m, state.yaw_rad,
-                               cars_of(state, car.length_m, car.width_m, OWN_CAR, others))
+    def observation(self, state: State, car: Car, others=None, steer: float = 0.0) -> np.ndarray:
+        """The car's view (heading up), the car itself in OWN_CAR, the others in their colours; the
+        dashboard (its `steer` the last action's) over its last rows."""
+        view = self.view
+        assert view is not None
+        strip = ((self._strip(view_rows(view.size[0]), view.size[1], car), state.speed_x_mps, steer, state.gear)
+                 if self.dashboard else None)
+        return view.frame(state.x_m, state.y_m, state.yaw_rad, cars_of(state, car.length_m, car.width_m, OWN_CAR,
+                                                                       others), strip)
 
-    def frame(self, state: State | None, car: Car | None, colour=OWN_CAR, others=None) -> np.ndarray | None:
-        """The whole race seen from above, or None before the first reset."""
+    def frame(self, state: State | None, car: Car | None, colour=OWN_CAR, others=None,
+              steer: float = 0.0) -> np.ndarray | None:
+        """The whole race seen from above (the dashboard below it), or None before the first reset."""
         if self.overview is None or state is None or car is None:
             return None
-        return self.overview.frame(cars_of(state, car.length_m, car.width_m, colour, others))
+        out = self.overview.frame(cars_of(state, car.length_m, car.width_m, colour, others))
+        if self.frame_dashboard:
+            self._strip(FRAME_ROWS, out.shape[1], car).draw(out, out.ctypes.data, state.speed_x_mps, steer, state.gear)
+        return out
+
+    def _strip(self, rows: int, width: int, car: Car) -> Dashboard:
+        """The strip of that size for the car (made again when the car changes: a race's car is one
+        object, and its max_gear costs microseconds a frame)."""
+        held = self.strips.get((rows, width))
+        if held is None or held[0] is not car:
+            held = self.strips[(rows, width)] = (car, Dashboard(rows, width, car.max_gear, load()))
+        return held[1]

@@ -43,6 +43,7 @@ class ParamSpace:
     defaults: dict[str, Any]
     bounds: dict[str, Bound]
     choices: dict[str, tuple]
+    listed_by: str = "boxbox params"  # the command that lists the parameters, for the errors
 
     def kind(self, name: str) -> type:
         return type(self.defaults[name])
@@ -61,22 +62,36 @@ class ParamSpace:
             return math.isfinite(b.lo) and math.isfinite(b.hi) and b.lo < b.hi
         return False
 
+    def range_text(self, name: str) -> str:
+        """What a study searches `name` over, as text ("" for a name it cannot search)."""
+        if not self.searchable(name):
+            return ""
+        kind = self.kind(name)
+        if kind is bool:
+            return "false, true"
+        if kind is str:
+            return ", ".join(map(str, self.choices[name]))
+        b = self.bound(name)
+        return f"{b.lo:g} to {b.hi:g}{' (log)' if b.log else ''}"
+
     def searchable_names(self) -> list[str]:
         return [n for n in self.defaults if self.searchable(n)]
 
     def pick(self, names: list[str]) -> list[str]:
-        """The names asked for, checked: each declared and searchable (UsageError listing the valid ones)."""
+        """The names asked for, checked: each declared and searchable (UsageError naming the nearest
+        valid ones and the command that lists them all: a study's space holds some 30 of the car's)."""
         valid = self.searchable_names()
+        where = f"`{self.listed_by}` lists every one, with its range"
         for name in names:
             if name not in valid:
-                near = difflib.get_close_matches(name, valid, n=1)
-                hint = f" (did you mean {near[0]}?)" if near else ""
-                why = "has no finite declared range" if name in self.defaults else "is not a parameter"
-                raise UsageError(f"--params: '{name}' {why} of robot {self.robot}{hint}; "
-                                 f"searchable: {', '.join(valid)}")
+                near = difflib.get_close_matches(name, valid, n=3)  # best first
+                either = f"{', '.join(near[:-1])} or {near[-1]}" if len(near) > 1 else "".join(near)
+                hint = f" (did you mean {either}?)" if near else ""
+                why = "has no range to search" if name in self.defaults else "is not a parameter"
+                raise UsageError(f"--params: '{name}' {why} of robot {self.robot}{hint}; {where}")
         if not names:
-            raise UsageError(f"--params: name at least one parameter of robot {self.robot}; "
-                             f"searchable: {', '.join(valid)}")
+            raise UsageError(f"--params: name at least one parameter of robot {self.robot}, e.g. "
+                             f"--params {valid[0] if valid else 'NAME'}; {where}")
         return names
 
     def check(self, settings: dict, origin: str) -> dict:
@@ -152,8 +167,10 @@ def read_setup(path: str | Path) -> dict:
     except (OSError, UnicodeDecodeError) as exc:
         raise UsageError(f"{path}: cannot be read: {exc}") from None
     for key, value in data.items():
-        if not isinstance(value, bool | int | float | str):
-            raise UsageError(f"{path}: {key} must be a number, true/false or a string, not a {type(value).__name__}")
+        numbers = isinstance(value, list) and all(isinstance(v, int | float) for v in value)  # gear_ratios = [...]
+        if not (isinstance(value, bool | int | float | str) or numbers):
+            raise UsageError(f"{path}: {key} must be a number, true/false, a string or a list of numbers, "
+                             f"not a {type(value).__name__}")
     return data
 
 

@@ -5,6 +5,7 @@ robot's setup handle at rbNewTrack (the FUEL record: one slot per place, NaN for
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 import re
@@ -15,14 +16,13 @@ from pathlib import Path
 from boxbox.errors import UsageError
 from boxbox.model import Car, CarSetup
 from boxbox.model.car import AWD, FWD, RWD
-from boxbox.model.car_setup import setup_from
+from boxbox.model.car_setup import GEAR_SETTINGS, group_of, setup_from, unit_of
 from boxbox.model.constants import INCH_M, POUND_KG
 
 NUMBER = re.compile(r"\s*[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?")
 Place = tuple[str, str]  # (section path, key) in a car's parameter file
 DIFFERENTIALS = {RWD: "Rear Differential", FWD: "Front Differential", AWD: "Central Differential"}
 DRIVETRAINS = {"RWD": RWD, "FWD": FWD, "4WD": AWD}
-SETUP_GEARS = 8  # forward gears TORCS 1.3.7 can have (its MAX_GEARS of 10 less reverse and neutral)
 DAMPERS = {"slow_bump": "slow bump", "slow_rebound": "slow rebound", "fast_bump": "fast bump",
            "fast_rebound": "fast rebound"}
 # the SI value of one of each unit the car files write these settings in (TORCS's lbs is the pound
@@ -37,7 +37,7 @@ def places(drivetrain: int) -> dict[str, list[Place]]:
     (a front or rear value is both wheels' of the axle)."""
     diff = DIFFERENTIALS[drivetrain]
     out = {"front_wing_angle_rad": [("Front Wing", "angle")], "rear_wing_angle_rad": [("Rear Wing", "angle")],
-           **{f"gear_ratio_{i}": [(f"Gearbox/gears/{i}", "ratio")] for i in range(1, SETUP_GEARS + 1)},
+           **{name: [(f"Gearbox/gears/{i}", "ratio")] for i, name in enumerate(GEAR_SETTINGS, start=1)},
            "final_drive_ratio": [(diff, "ratio")], "diff_max_slip_bias": [(diff, "max slip bias")],
            "diff_locking_torque_nm": [(diff, "locking input torque")],
            "diff_locking_brake_torque_nm": [(diff, "locking brake input torque")],
@@ -89,6 +89,36 @@ class CarSettings:
 
     def problem(self, setup: CarSetup) -> str | None:
         return setup.problem(self.ranges(), self.car)
+
+
+@dataclass(frozen=True)
+class SettingRow:
+    """One setting as `boxbox params` shows it: the value the race gives the car (the settings' or
+    the car's own), where it comes from, and the car's range (None: the car's files have no such
+    setting)."""
+
+    group: str
+    name: str
+    unit: str
+    value: float | None
+    source: str  # "car" (its files) or "--set"
+    car: Setting | None
+
+
+def setting_rows(car: str, given: dict) -> list[SettingRow]:
+    """Each setting of the car setup on `car`, in CarSetup's order (the gears: each the car has or
+    `given` sets), with the settings of `given` (--set's) over the car's own values."""
+    settings = car_settings(car).settings
+    values = setup_from(given).values()
+    rows = []
+    for f in dataclasses.fields(CarSetup):
+        names = [g for g in GEAR_SETTINGS if g in settings or g in values] if f.name == "gear_ratios" else [f.name]
+        for name in names:
+            own = settings.get(name)
+            value = values.get(name, None if own is None else own.value)
+            rows.append(SettingRow(group_of(name), name, unit_of(name), value,
+                                   "--set" if name in values else "car", own))
+    return rows
 
 
 def _number(text: str | None) -> float:

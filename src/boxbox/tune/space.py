@@ -9,17 +9,22 @@ from boxbox.robot.params import Bound
 from boxbox.robot.tunable import ParamSpace, declares_params, param_space
 
 
-def tune_space(cls: type, car: str) -> ParamSpace:
-    """What a study of robot class `cls` on `car` may search: the robot's declared parameters, and
-    the car's setup settings (final_drive_ratio, rear_spring_npm, ...), each from the car's own value
-    over the range its files allow (a fixed one is not searchable)."""
+def tune_space(cls: type, car: str, spec: str | None = None) -> ParamSpace:
+    """What a study of robot class `cls` (given as `spec`, for the errors) on `car` may search: the
+    robot's declared parameters, and the car's setup settings (final_drive_ratio, rear_spring_npm,
+    gear_ratio_2, ...), each from the car's own value over the range its files allow (a fixed one is
+    not searchable)."""
+    import shlex
+
+    from boxbox.robot.loader import DEFAULT_ROBOT
     from boxbox.torcs.car_setup import car_settings
 
     robot = param_space(cls) if declares_params(cls) else ParamSpace(getattr(cls, "name", cls.__name__), {}, {}, {})
     settings = car_settings(car).settings
+    robot_option = "" if spec in (None, DEFAULT_ROBOT) else f" --robot {shlex.quote(str(spec))}"
     return ParamSpace(robot=robot.robot, defaults={**{k: s.value for k, s in settings.items()}, **robot.defaults},
                       bounds={**{k: Bound(s.lo, s.hi) for k, s in settings.items()}, **robot.bounds},
-                      choices=robot.choices)
+                      choices=robot.choices, listed_by=f"boxbox params{robot_option} --car {car}")
 
 
 def distributions(space: ParamSpace, names: list[str]) -> dict[str, Any]:

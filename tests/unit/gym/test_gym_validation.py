@@ -27,7 +27,7 @@ ANYTHING = st.recursive(SCALARS, lambda inner: st.one_of(st.lists(inner, max_siz
 OPTIONS = ["track", "car", "opponents", "laps", "action_repeat", "actions", "assists", "flat",
            "track_sensor_angles_deg", "reward_fn", "reward_weights", "max_damage", "off_track_s", "stuck_s",
            "skill_level", "grid_position", "initial_fuel_l", "pit_fuel_l", "pit_repair", "cpu", "render_mode", "pixels",
-           "pixel_size", "spares", "sensor_noise", "step_timeout_s"]
+           "pixel_size", "spares", "sensor_noise", "step_timeout_s", "pixels_only", "dashboard", "view_ahead_m"]
 
 
 class SetUp(Exception):
@@ -88,6 +88,10 @@ def test_options_that_were_accepted_and_ignored_are_refused_with_what_to_do(no_s
     cases = [
         ({"pixel_size": (7, 7)}, "sizes the pixel observation, which is off; set pixels=True"),
         ({"pixel_size": 96}, "sizes the pixel observation, which is off; set pixels=True"),
+        ({"pixels_only": False}, "'pixels_only': False adds the numbers to the pixel observation, which is off"),
+        ({"dashboard": True}, "'dashboard': True draws into the pixel observation and render()'s frames, both off"),
+        ({"view_ahead_m": 80}, "'view_ahead_m': 80 sets how far ahead the pixel observation sees, which is off"),
+        ({"pixels": True, "view_ahead_m": math.nan}, "Invalid value for 'view_ahead_m': nan is not a finite number."),
         ({"assists": ("gears", "gears")}, "'assists': ('gears', 'gears'): choose each of the assists at most once"),
         ({"assists": "abs,abs", "actions": ("steer", "throttle", "brake", "gear")}, "at most once"),
         ({"opponents": [[], ["bt:1"]]}, "wrap them in OneOf (boxbox.gym.episodes): opponents=OneOf([], ['bt:1'])"),
@@ -98,6 +102,8 @@ def test_options_that_were_accepted_and_ignored_are_refused_with_what_to_do(no_s
         got = made(**kwargs)
         assert got is not None and words in got, (kwargs, got)
     assert made(pixels=True, pixel_size=(64, 64), step_timeout_s=0.5, opponents=[("bt", 1), "bt:2"]) is None
+    assert made(pixels=True, pixels_only=False, dashboard=True, view_ahead_m=120, flat=True) is None
+    assert made(dashboard=True, render_mode="rgb_array") is None  # render()'s frames get it
 
 
 def test_the_parallel_env_refuses_the_single_envs_options_in_one_line(no_setup):
@@ -111,6 +117,8 @@ def test_the_parallel_env_refuses_the_single_envs_options_in_one_line(no_setup):
                                                 "race at each reset; give one value"),
         ({"opponents": [[], ["bt:1"]]}, "the parallel env races the same race at each reset"),
         ({"pixel_size": 96}, "set pixels=True"),
+        ({"dashboard": True, "render_mode": "rgb_array"}, "'dashboard': True draws into each car's pixel observation"),
+        ({"view_ahead_m": 80}, "'view_ahead_m': 80 sets how far ahead the pixel observation sees, which is off"),
         ({"max_episode_steps": 0}, "Invalid value for 'max_episode_steps'"),
         ({"random_start": "no"}, "Invalid value for 'random_start': 'no' is not True or False"),
         ({"raw_observations": None}, "Invalid value for 'raw_observations'"),
