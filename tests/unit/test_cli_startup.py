@@ -11,7 +11,7 @@ import sys
 
 import pytest
 
-HEAVY = ("numpy", "scipy", "polars", "pyarrow", "gymnasium", "optuna", "sqlalchemy", "torch")
+HEAVY = ("numpy", "scipy", "polars", "pyarrow", "gymnasium", "optuna", "sqlalchemy", "torch", "ray")
 
 PROBE = """
 import json, sys

@@ -53,6 +53,7 @@ class FieldSpec:
     skill_level: SkillLevel = DEFAULT_SKILL_LEVEL
     fuel_offset_l: float = 0.0  # added to the robot's start fuel (bench-field --repeats)
     step_budget_ms: int = 200
+    cluster: str | None = None  # a Ray cluster's address: the races run there (bench/cluster.py)
 
     @property
     def start_slot(self) -> int:
@@ -217,7 +218,8 @@ def _specs(spec: FieldSpec) -> tuple[BenchSpec, BenchSpec]:
     common: dict[str, Any] = {
         "tracks": spec.tracks, "cars": [CAR], "laps": spec.laps, "together": True, "jobs": spec.jobs,
         "use_cache": spec.use_cache, "learning": spec.learning, "settings": spec.settings,
-        "skill_level": spec.skill_level, "fuel_offset_l": spec.fuel_offset_l, "step_budget_ms": spec.step_budget_ms}
+        "skill_level": spec.skill_level, "fuel_offset_l": spec.fuel_offset_l, "step_budget_ms": spec.step_budget_ms,
+        "cluster": spec.cluster}
     if spec.robot in FIELD or spec.robot == ANCHOR:
         raise UsageError(f"--robot {spec.robot} is already in the field; give a Python robot (boxbox, file.py:Class)")
     robot = BenchSpec(robots=[spec.robot, *FIELD], grid_position=spec.start_slot, **common)
@@ -254,7 +256,7 @@ def run_field(spec: FieldSpec, overlay: Overlay, console: Console) -> FieldResul
     started = time.perf_counter()
     planned = plan_field(spec)
     unique = list({job.key: job for *_, job in planned}.values())
-    outcomes, todo = race_or_recall(unique, overlay, spec.jobs, spec.use_cache, console)
+    outcomes, todo = race_or_recall(unique, overlay, spec.jobs, spec.use_cache, console, spec.cluster)
     rows = [_row(track, role, entry, outcomes[job.key], spec.start_slot) for track, role, entry, job in planned]
     return FieldResult(spec, rows, wall_s=time.perf_counter() - started, raced=len(todo),
                        cached=len(unique) - len(todo))

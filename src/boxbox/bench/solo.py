@@ -58,6 +58,7 @@ class BenchSpec:
     # bench`); False: the indices as given, each in its own car (bench-field's mixed field)
     match_cars: bool = False
     step_budget_ms: int = 200  # wall time a Python robot may take per drive step (--step-budget-ms)
+    cluster: str | None = None  # a Ray cluster's address: the races run there (bench/cluster.py), not `jobs` here
 
 
 def expand_all(names: list[str], all_names: list[str]) -> list[str]:
@@ -115,6 +116,9 @@ class RaceJob:
         return f"{self.track} {who}"
 
 
+RaceOutcomes = dict[str, tuple[RaceResult | None, str | None, bool]]  # by job key: (result, error, cached)
+
+
 _worker: dict = {}
 STOPPED = "not raced: the bench was stopped (Ctrl-C, SIGTERM or SIGHUP)"
 
@@ -139,31 +143,36 @@ def _run_job(job: RaceJob, overlay: Overlay) -> dict:
     q = _worker.get("queue")
     if _worker.get("stopped"):
         return {"result": None, "error": STOPPED}
+    result, error = race_job(job, overlay, _worker.get("cpu"), q.put if q is not None else lambda message: None)
+    if result is not None and not error:
+        store(job.key, job.inputs, result)
+    elif error and error.startswith(launch.INTERRUPTED):
+        _worker["stopped"] = True
+    return {"result": result.to_json() if result else None, "error": error}
+
+
+def race_job(job: RaceJob, overlay: Overlay, cpu: int | None, send) -> tuple[RaceResult | None, str | None]:
+    """Race one job (in a worker here, or a Ray task on a node: bench/cluster.py), never raising:
+    (result, its error) or (None, what went wrong); send(message) tells the bar of its laps."""
     try:
-        if q is not None:
-            q.put(("start", job.key, 0, 0.0))
+        send(("start", job.key, 0, 0.0))
         if job.run_dir:
             shutil.rmtree(job.run_dir, ignore_errors=True)  # a race again: nothing of the last one stays
         run_dir = Path(job.run_dir) if job.run_dir else launch.new_run_dir()
         cfg = launch.RaceConfig(track=job.track, category=job.category, car=job.car, laps=job.laps,
                                 robots=list(job.python_specs), robot_names=list(job.python_names),
-                                opponents=list(job.opponents), options=job.options, cpu=_worker.get("cpu"),
+                                opponents=list(job.opponents), options=job.options, cpu=cpu,
                                 learning=job.learning,
                                 run_dir=run_dir, skill_level=job.skill_level, grid_position=job.grid_position,
                                 fuel_offset_l=job.fuel_offset_l, step_budget_ms=job.step_budget_ms)
 
         def progress(lap: int, sim: float) -> None:
-            if q is not None:
-                q.put(("lap", job.key, lap, sim))
+            send(("lap", job.key, lap, sim))
 
         result = launch.run_race(cfg, overlay, progress)
-        if not result.error:
-            store(job.key, job.inputs, result)
-        elif result.error.startswith(launch.INTERRUPTED):
-            _worker["stopped"] = True
-        return {"result": result.to_json(), "error": result.error}
+        return result, result.error
     except Exception as exc:  # anything at all: recorded, the bench goes on
-        return {"result": None, "error": f"{type(exc).__name__}: {exc}"}
+        return None, f"{type(exc).__name__}: {exc}"
 
 
 # --- the bench ---------------------------------------------------------------------------------
@@ -296,16 +305,22 @@ def row_of(track: str, car: str, robot: _Robot, job: RaceJob, result: RaceResult
             "off_track_s": d.off_track_s if d else None, "lap_times": list(d.lap_times) if d else []}
 
 
-def race_or_recall(unique: list, overlay: Overlay, jobs: int, use_cache: bool, console: Console):
-    """Outcomes of every distinct race (cached ones recalled, the rest raced in parallel) and the raced list."""
-    outcomes: dict[str, tuple[RaceResult | None, str | None, bool]] = {}
+def race_or_recall(unique: list, overlay: Overlay, jobs: int, use_cache: bool, console: Console,
+                   cluster: str | None = None):
+    """Outcomes of every distinct race (cached ones recalled, the rest raced in parallel: `jobs` at a
+    time here, or as Ray tasks on the cluster at `cluster`, bench/cluster.py) and the raced list."""
+    outcomes: RaceOutcomes = {}
     if use_cache:
         for job in unique:
             hit = load_cached(job.key)
             if hit is not None:
                 outcomes[job.key] = (hit, None, True)
     todo = [job for job in unique if job.key not in outcomes]
-    if todo:
+    if todo and cluster:
+        from boxbox.bench.cluster import race_on_cluster
+
+        outcomes.update(race_on_cluster(todo, cluster, len(unique) - len(todo), console))
+    elif todo:
         outcomes.update(_race_all(todo, overlay, min(jobs, len(todo)), len(unique) - len(todo), console))
     return outcomes, todo
 
@@ -315,7 +330,7 @@ def run_bench(spec: BenchSpec, overlay: Overlay, console: Console) -> BenchResul
     started = time.perf_counter()
     planned, robots = plan(spec)
     unique = list({job.key: job for *_, job in planned}.values())
-    outcomes, todo = race_or_recall(unique, overlay, spec.jobs, spec.use_cache, console)
+    outcomes, todo = race_or_recall(unique, overlay, spec.jobs, spec.use_cache, console, spec.cluster)
     rows = [row_of(track, car, robot, job, *outcomes[job.key]) for track, car, robot, job in planned]
     set_gaps(rows, spec.laps)
     if spec.limit:
@@ -348,53 +363,90 @@ def _set_limits(rows: list[dict], skill_level: SkillLevel, console: Console) -> 
         r["limit_gap_pct"] = round(gap, 2) if gap is not None else None
 
 
-def _race_all(todo: list[RaceJob], overlay: Overlay, workers: int, n_cached: int,
-              console: Console) -> dict[str, tuple[RaceResult | None, str | None, bool]]:
+def _race_all(todo: list[RaceJob], overlay: Overlay, workers: int, n_cached: int, console: Console) -> RaceOutcomes:
     ctx = multiprocessing.get_context("fork")
     counter = ctx.Value("i", 0)
     progress_queue = ctx.Queue()
     by_key = {job.key: job for job in todo}
-    outcomes: dict[str, tuple[RaceResult | None, str | None, bool]] = {}
+    outcomes: RaceOutcomes = {}
     pool = cf.ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_init_worker,
                                   initargs=(counter, progress_queue))
     try:
         # all submitted (so all workers forked) before the progress bar starts its thread
         futures = {pool.submit(_run_job, job, overlay): job.key for job in todo}
-        cached_note = f", {n_cached} cached" if n_cached else ""
-        with Progress(TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),
-                      TextColumn("{task.fields[info]}"), TimeElapsedColumn(), console=console,
-                      transient=True) as bar:
-            overall = bar.add_task(f"bench: {len(todo)} races on {workers} workers{cached_note}", total=len(todo),
-                                   info="")
-            running: dict[str, TaskID] = {}
+        with BenchBar(console, f"bench: {len(todo)} races on {workers} workers", len(todo), n_cached) as bar:
             pending = set(futures)
             while pending:
                 done, pending = cf.wait(pending, timeout=0.2, return_when=cf.FIRST_COMPLETED)
-                _drain(progress_queue, bar, running, by_key, outcomes)
+                bar.show_laps(progress_queue, by_key, outcomes)
                 for fut in done:
-                    key = futures[fut]
-                    job = by_key[key]
                     try:
                         out = fut.result()
                     except Exception as exc:  # the worker itself died
                         out = {"result": None, "error": f"worker failed: {type(exc).__name__}: {exc}"}
-                    result = RaceResult.from_json(out["result"]) if out["result"] else None
-                    outcomes[key] = (result, out["error"], False)
-                    if out["error"]:
-                        bar.console.print(f"[red]race failed[/] {escape(job.label)}, {job.car}: "
-                                          f"{escape(out['error'].splitlines()[0])}", highlight=False)
-                    if key in running:
-                        bar.remove_task(running.pop(key))
-                    bar.advance(overall)
+                    bar.record(by_key[futures[fut]], out, outcomes)
     except KeyboardInterrupt:  # Ctrl-C reaches the workers too, SIGTERM sent to this process only
         _stop_workers(pool)
         pool.shutdown(wait=True, cancel_futures=True)
-        raise Interrupted(f"the bench was stopped; {sum(1 for r, e, _ in outcomes.values() if r and not e)} races "
-                          "finished and are cached: the same command goes on from them") from None
+        raise stopped_error(outcomes) from None
     finally:
         pool.shutdown(wait=True, cancel_futures=True)
         progress_queue.close()
     return outcomes
+
+
+class BenchBar:
+    """The bench's progress bar: the races done of all, then a line per race running with its lap."""
+
+    def __init__(self, console: Console, description: str, total: int, n_cached: int) -> None:
+        self.progress = Progress(TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),
+                                 TextColumn("{task.fields[info]}"), TimeElapsedColumn(), console=console,
+                                 transient=True)
+        cached_note = f", {n_cached} cached" if n_cached else ""
+        self.overall = self.progress.add_task(description + cached_note, total=total, info="")
+        self.running: dict[str, TaskID] = {}
+
+    def __enter__(self) -> BenchBar:
+        self.progress.__enter__()
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.progress.__exit__(*exc)
+
+    def show_laps(self, progress_queue, by_key: dict[str, RaceJob], finished: RaceOutcomes) -> None:
+        """The lap messages waiting in the queue onto the bar (a late one from a race done is dropped)."""
+        while True:
+            try:
+                what, key, lap, sim = progress_queue.get_nowait()
+            except (queue.Empty, OSError, ValueError):
+                return
+            job = by_key.get(key)
+            if job is None or key in finished:
+                continue
+            if key not in self.running:
+                self.running[key] = self.progress.add_task(f"  {job.label}", total=job.laps, info="")
+            if what == "lap":
+                self.progress.update(self.running[key], completed=lap, info=f"sim {sim:.0f} s")
+
+    def record(self, job: RaceJob, out: dict, outcomes: RaceOutcomes, store_it: bool = False) -> None:
+        """A race's answer into `outcomes` (into the cache too with `store_it`, when the race ended
+        properly), a line for a failure, and the bar moved on."""
+        result = RaceResult.from_json(out["result"]) if out["result"] else None
+        outcomes[job.key] = (result, out["error"], False)
+        if store_it and result is not None and not out["error"]:
+            store(job.key, job.inputs, result)
+        if out["error"]:
+            self.progress.console.print(f"[red]race failed[/] {escape(job.label)}, {job.car}: "
+                                        f"{escape(out['error'].splitlines()[0])}", highlight=False)
+        if job.key in self.running:
+            self.progress.remove_task(self.running.pop(job.key))
+        self.progress.advance(self.overall)
+
+
+def stopped_error(outcomes: RaceOutcomes) -> Interrupted:
+    done = sum(1 for r, e, _ in outcomes.values() if r and not e)
+    return Interrupted(f"the bench was stopped; {done} races finished and are cached: the same command goes on "
+                       "from them")
 
 
 def _stop_workers(pool: cf.ProcessPoolExecutor) -> None:
@@ -404,18 +456,3 @@ def _stop_workers(pool: cf.ProcessPoolExecutor) -> None:
             os.kill(proc.pid, signal.SIGTERM)
         except ProcessLookupError:
             pass
-
-
-def _drain(progress_queue, bar: Progress, running: dict[str, TaskID], by_key: dict[str, RaceJob], finished) -> None:
-    while True:
-        try:
-            what, key, lap, sim = progress_queue.get_nowait()
-        except (queue.Empty, OSError, ValueError):
-            return
-        job = by_key.get(key)
-        if job is None or key in finished:  # a late message from a race already done
-            continue
-        if key not in running:
-            running[key] = bar.add_task(f"  {job.label}", total=job.laps, info="")
-        if what == "lap":
-            bar.update(running[key], completed=lap, info=f"sim {sim:.0f} s")

@@ -44,6 +44,7 @@ class SweepSpec:
     cars: list[str] | None = None  # None: every installed car
     skill_level: SkillLevel = DEFAULT_SKILL_LEVEL
     step_budget_ms: int = 200
+    cluster: str | None = None  # a Ray cluster's address: the races run there (bench/cluster.py)
 
 
 @dataclass
@@ -165,7 +166,7 @@ def run_sweep(spec: SweepSpec, overlay: Overlay, console: Console) -> SweepResul
         rows, _ = plan(bench)
         planned += [(part, *row) for row in rows]
     unique = list({job.key: job for *_, job in planned}.values())
-    outcomes, todo = race_or_recall(unique, overlay, spec.jobs, spec.use_cache, console)
+    outcomes, todo = race_or_recall(unique, overlay, spec.jobs, spec.use_cache, console, spec.cluster)
     result = SweepResult(spec=spec, raced=len(todo), cached=len(unique) - len(todo))
     for part, track, car, robot, job in planned:
         row = row_of(track, car, robot, job, *outcomes[job.key])

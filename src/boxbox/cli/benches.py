@@ -17,6 +17,8 @@ from boxbox.cli.types import (
     OutputFile,
     WholeNumber,
     bench_race_options,
+    cluster_option,
+    need_ray,
     skill_level_option,
     step_budget_option,
 )
@@ -38,6 +40,7 @@ JOBS = WholeNumber(1, 64)
 @click.option("--laps", type=LAPS, default=3, show_default=True, help="Race length in laps.")
 @click.option("--together", is_flag=True, help="All robots in one race per track and car (default: each alone).")
 @click.option("--jobs", type=JOBS, default=None, help="Races run in parallel (default: the number of CPUs).")
+@cluster_option
 @bench_race_options
 @click.option("--json", "json_file", type=OutputFile(), help="Write the rows as JSON.")
 @click.option("--csv", "csv_file", type=OutputFile(), help="Write the rows as CSV.")
@@ -49,8 +52,8 @@ JOBS = WholeNumber(1, 64)
 @click.option("--no-limit", is_flag=True, help="Skip the limit lap per track (`boxbox limit`) and the gaps to it.")
 @skill_level_option
 @step_budget_option
-def bench(tracks, cars, robots, laps, together, jobs, no_cache, learning, settings, json_file, csv_file, against,
-          grid_position, no_limit, skill_level, step_budget_ms) -> None:
+def bench(tracks, cars, robots, laps, together, jobs, cluster, no_cache, learning, settings, json_file, csv_file,
+          against, grid_position, no_limit, skill_level, step_budget_ms) -> None:
     """Race robots on tracks (each alone by default) and compare times; results are cached.
 
     \b
@@ -64,12 +67,13 @@ def bench(tracks, cars, robots, laps, together, jobs, no_cache, learning, settin
     from boxbox.robot.params import parse_set
     from boxbox.torcs import catalog
 
+    need_ray(cluster)
     overlay = ready()  # first: 'all' and every name are read from the installed TORCS
     spec = BenchSpec(tracks=expand_all(tracks, list(catalog.tracks())), cars=expand_all(cars, catalog.cars()),
                      robots=robots, laps=laps, together=together, jobs=jobs or os.cpu_count() or 1,
                      use_cache=not no_cache, learning=learning, settings=parse_set(settings) if settings else None,
                      skill_level=skill_level, grid_position=_grid_slot(grid_position, robots, together),
-                     limit=not no_limit, match_cars=True, step_budget_ms=int(step_budget_ms))
+                     limit=not no_limit, match_cars=True, step_budget_ms=int(step_budget_ms), cluster=cluster)
     if against is not None:
         _check_bench_against(against, {"laps": spec.laps, "tracks": spec.tracks, "cars": spec.cars,
                                        "robots": spec.robots},
@@ -264,6 +268,7 @@ def bench_telemetry(track, laps, runs, robot, json_file, skill_level) -> None:
 @click.option("--laps", type=LapLengths(), default="10", show_default=True,
               help="Race length in laps, or several (8,10,12 or 6-14: a summary per track over them).")
 @click.option("--jobs", type=JOBS, default=1, show_default=True, help="Races run in parallel.")
+@cluster_option
 @click.option("--repeats", type=WholeNumber(1, 20), default=1, show_default=True,
               help="Race each length this many times, the robot's start fuel 0.05 l more each time (less "
                    "where the tank is full): the spread of places that is the field's chaos, not the robot.")
@@ -274,7 +279,7 @@ def bench_telemetry(track, laps, runs, robot, json_file, skill_level) -> None:
                    "set against it race by race, with how much of the difference chance alone makes.")
 @skill_level_option
 @step_budget_option
-def bench_field(tracks, robot, laps, jobs, repeats, no_cache, learning, settings, json_file, against,
+def bench_field(tracks, robot, laps, jobs, cluster, repeats, no_cache, learning, settings, json_file, against,
                 skill_level, step_budget_ms) -> None:
     """The robot from last of ten behind nine TORCS robots, and inferno:3 from the same slot.
 
@@ -294,10 +299,11 @@ def bench_field(tracks, robot, laps, jobs, repeats, no_cache, learning, settings
     from boxbox.robot.params import parse_set
     from boxbox.torcs import catalog
 
+    need_ray(cluster)
     overlay = ready()
     spec = FieldSpec(tracks=expand_all(tracks, list(catalog.tracks())), robot=robot, laps=laps[0], jobs=jobs,
                      use_cache=not no_cache, learning=learning, settings=parse_set(settings) if settings else None,
-                     skill_level=skill_level, step_budget_ms=int(step_budget_ms))
+                     skill_level=skill_level, step_budget_ms=int(step_budget_ms), cluster=cluster)
     if against is not None:
         _check_against(against, spec.tracks, laps, repeats)
     if len(laps) > 1 or repeats > 1:

@@ -7,7 +7,16 @@ import os
 import click
 
 from boxbox.cli.common import err, out, ready
-from boxbox.cli.types import LAPS, CommaList, OutputFile, WholeNumber, skill_level_option, step_budget_option
+from boxbox.cli.types import (
+    LAPS,
+    CommaList,
+    OutputFile,
+    WholeNumber,
+    cluster_option,
+    need_ray,
+    skill_level_option,
+    step_budget_option,
+)
 from boxbox.errors import BoxboxError
 
 RACES = WholeNumber(0, 100_000)
@@ -29,13 +38,14 @@ class SweepFailed(BoxboxError):
               help="Cars for the second part, comma separated (e.g. car1-trb1,car1-ow1) or 'all'.")
 @click.option("--laps", type=LAPS, default=3, show_default=True, help="Race length in laps.")
 @click.option("--jobs", type=WholeNumber(1, 64), default=None, help="Races run in parallel (default: the CPUs).")
+@cluster_option
 @click.option("--no-cache", is_flag=True, help="Race again even what the bench cache has.")
 @click.option("--json", "json_file", type=OutputFile(), help="Write the rows as JSON.")
 @click.option("--markdown", "markdown_file", type=OutputFile(),
               help="Write the table as Markdown, with the command that made it, e.g. docs/sweep.md.")
 @skill_level_option
 @step_budget_option
-def sweep(robot, car, cars_track, tracks, cars, laps, jobs, no_cache, json_file, markdown_file, skill_level,
+def sweep(robot, car, cars_track, tracks, cars, laps, jobs, cluster, no_cache, json_file, markdown_file, skill_level,
           step_budget_ms) -> None:
     """Race a robot alone on every track, and on one track with every car; check each race.
 
@@ -49,11 +59,12 @@ def sweep(robot, car, cars_track, tracks, cars, laps, jobs, no_cache, json_file,
     from boxbox.report.replay import replay_line
     from boxbox.torcs import catalog
 
+    need_ray(cluster)
     overlay = ready()  # first: 'all' and every name are read from the installed TORCS
     spec = SweepSpec(robot=robot, car=car, cars_track=cars_track, laps=laps, jobs=jobs or os.cpu_count() or 1,
                      use_cache=not no_cache, tracks=expand_all(tracks, list(catalog.tracks())),
                      cars=expand_all(cars, catalog.cars()), skill_level=skill_level,
-                     step_budget_ms=int(step_budget_ms))
+                     step_budget_ms=int(step_budget_ms), cluster=cluster)
     check(spec)  # every name checked before anything races
     result = run_sweep(spec, overlay, err)
     result.command = command_line()

@@ -254,3 +254,28 @@ class OutputDir(Checked, click.ParamType):
 
     def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
         return self.checked(validate.output_dir, value, param, ctx)
+
+
+class ClusterAddress(Checked, click.ParamType):
+    """--cluster: 'auto' or a Ray head's HOST:PORT (Ray itself is looked for when the command runs: `need_ray`)."""
+
+    name = "ADDRESS"
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        from boxbox.bench.cluster import check_address
+
+        return self.checked(check_address, value, param, ctx)
+
+
+def need_ray(cluster: str | None) -> None:
+    """With --cluster, Ray installed: else one line saying how, exit 2, before anything is set up or raced."""
+    if cluster:
+        from boxbox.bench.cluster import require_ray
+
+        require_ray()
+
+
+cluster_option = click.option(
+    "--cluster", type=ClusterAddress(), default=None,
+    help="Race on the Ray cluster at ADDRESS ('auto': the one this machine joined, or the head's HOST:PORT), "
+         "each race a task on a free CPU of any node, instead of --jobs here (docs/cluster.md).")
