@@ -80,8 +80,12 @@ def iteration_row(result: dict, wall_s: float, nodes: list[str]) -> dict:
     runners = result.get("env_runners", {})
     sampled = int(runners.get("num_env_steps_sampled", 0))
     episode_return = runners.get("episode_return_mean", math.nan)
+    # the time the runners sampled in parallel (the rest of the iteration is the PPO update, on the driver)
+    sampling_s = float(result.get("timers", {}).get("env_runner_sampling_timer", 0.0))
+    per_node = sampled / sampling_s / max(1, len(set(nodes))) if sampling_s > 0 else None
     return {"env_steps_sampled": sampled, "env_steps_lifetime": int(result.get("num_env_steps_sampled_lifetime", 0)),
-            "env_steps_per_s": sampled / wall_s if wall_s > 0 else 0.0, "wall_s": wall_s,
+            "env_steps_per_s": sampled / wall_s if wall_s > 0 else 0.0, "wall_s": wall_s, "sampling_s": sampling_s,
+            "sampling_env_steps_per_s_per_node": per_node,
             "episode_return_mean": None if math.isnan(episode_return) else float(episode_return),
             "episodes": int(runners.get("num_episodes", 0)), "nodes": sorted(set(nodes))}
 
@@ -116,8 +120,10 @@ def main() -> None:
             row = iteration_row(result, time.perf_counter() - started, nodes)
             rows.append(row)
             ret = "n/a" if row["episode_return_mean"] is None else f"{row['episode_return_mean']:.1f}"
+            per_node = row["sampling_env_steps_per_s_per_node"]
+            sampling = "" if per_node is None else f" ({per_node:.0f} a node while sampling)"
             print(f"iteration {i}: {row['env_steps_sampled']} env steps sampled, {row['env_steps_per_s']:.0f} env "
-                  f"steps/s, mean episode return {ret} ({row['episodes']} episodes), env runners on "
+                  f"steps/s{sampling}, mean episode return {ret} ({row['episodes']} episodes), env runners on "
                   f"{len(row['nodes'])} node(s): {', '.join(row['nodes'])}", flush=True)
         checkpoint = algo.save_to_path(str(args.out / "checkpoint"))
     finally:
