@@ -1,4 +1,4 @@
-"""`bench --cluster` and `bench-field --cluster` on a real Ray cluster of two nodes on this machine.
+"""`bench --cluster`, `bench-field --cluster` and RLlib's PPO on a real Ray cluster of two nodes on this machine.
 
 The nodes are started with --node-ip-address 127.0.0.1, yet Ray names each by the machine's
 reachable address and listens on every interface: so the cluster takes only clients holding its
@@ -6,11 +6,13 @@ random token (Ray's token authentication, RAY_AUTH_MODE=token).  It lives in a t
 and every process of it is found by a mark in its environment (Ray's daemons and workers and the
 races they start inherit it): the tests stop exactly those, never `ray stop`, which would end a
 user's own cluster too.
-Skipped only when Ray is not installed (`./boxbox install-cluster`; `./boxbox test` installs it).
+Skipped only when Ray is not installed (`./boxbox install-cluster`; `./boxbox test` installs it), the RLlib
+test when RLlib's extra is not (`./boxbox install-rllib`; `./boxbox test` installs it too).
 """
 
 from __future__ import annotations
 
+import importlib.util
 import os
 import secrets
 import shutil
@@ -192,6 +194,24 @@ def test_a_robots_fault_is_its_rows_error_as_here_and_not_raced_again(cluster, t
     assert remote["error"].split(";")[0] == local["error"].split(";")[0], remote["error"]
     assert local["error"].startswith("robot 'tests/robots/faulty.py:RaisesInOnTrack' (middle 1) failed: RuntimeError")
     assert there.stderr.count("race failed") == 1
+
+
+def test_rllib_ppo_trains_with_env_runners_on_two_nodes(cluster, tmp_path):
+    """examples/train_rllib.py joins the cluster: two env runners (one CPU each, one CPU a node) race
+    on two nodes, an iteration of 200 env steps trains, and the checkpoint is written."""
+    lacking = [m for m in ("torch", "tree", "pandas") if importlib.util.find_spec(m) is None]
+    if lacking:
+        pytest.skip(f"the rllib extra is not installed ({', '.join(lacking)} missing): ./boxbox install-rllib")
+    proc = subprocess.run([sys.executable, str(ROOT / "examples" / "train_rllib.py"), "--address", cluster.address,
+                           "--env-runners", "2", "--iterations", "1", "--train-batch", "200", "--epochs", "1",
+                           "--out", str(tmp_path)], capture_output=True, text=True, timeout=300,
+                          env=dict(os.environ, **cluster.auth))
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    (row,) = read_json(tmp_path / "summary.json")["iterations"]
+    assert row["env_steps_sampled"] >= 200 and row["env_steps_per_s"] > 0, row
+    assert len(row["nodes"]) == 2, row  # the cluster has three nodes of one CPU each here
+    assert (tmp_path / "checkpoint" / "rllib_checkpoint.json").is_file()  # Algorithm.from_checkpoint's folder
+    assert "iteration 1: " in proc.stdout and "env runners on 2 node(s)" in proc.stdout, proc.stdout
 
 
 def test_a_node_lost_mid_bench_leaves_every_race_once(cluster, tmp_path):
