@@ -4,6 +4,7 @@ rollout laps, and its plot. Used by train_ppo.py and train_sac.py (run from this
 from __future__ import annotations
 
 import csv
+import json
 import time
 from pathlib import Path
 
@@ -106,3 +107,25 @@ def plot(csv_path: Path, png_path: Path, lap_m: float, title: str, action_repeat
     fig.tight_layout()
     fig.savefig(png_path)
     plt.close(fig)
+
+
+def train(model: BaseAlgorithm, eval_env: gymnasium.Env, out: Path, steps: int, eval_every: int,
+          about: dict, title: str) -> dict:
+    """Train until a rollout laps or for `steps` env steps, then write into `out` the model
+    (model.zip), the curve (curve.csv, curve.png) and summary.json (`about`, the steps, the wall time,
+    the last rollout); print its line and return the summary."""
+    curve = Curve(out / "curve.csv", eval_env, eval_every)
+    started = time.perf_counter()
+    model.learn(total_timesteps=steps, callback=curve)
+    wall_s = time.perf_counter() - started
+    model.save(out / "model.zip")
+    final = curve.final or rollout(model, eval_env)
+    summary = {**about, "steps": model.num_timesteps, "wall_s": round(wall_s, 1),
+               "best_rollout_progress_m": curve.best_progress_m, **final}
+    plot(out / "curve.csv", out / "curve.png", float(eval_env.unwrapped.track.length_m),  # type: ignore[attr-defined]
+         f"{title}: {model.num_timesteps:,} steps, {wall_s / 60:.1f} min",
+         eval_env.unwrapped.action_repeat)  # type: ignore[attr-defined]
+    (out / "summary.json").write_text(json.dumps(summary, indent=1) + "\n")
+    print(f"lap completed: {final['lap_completed']} after {model.num_timesteps} steps ({wall_s:.0f} s); "
+          f"deterministic rollout {final['progress_m']:.0f} m, lap time {final['lap_time_s']} s")
+    return summary

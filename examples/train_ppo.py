@@ -17,9 +17,7 @@ the last rollout: lap completed, progress, lap time).
 from __future__ import annotations
 
 import argparse
-import json
 import sys
-import time
 from pathlib import Path
 
 import gymnasium
@@ -30,7 +28,7 @@ from stable_baselines3.common.env_util import make_vec_env
 import boxbox.gym  # noqa: F401  (registers boxbox/TORCS-v0)
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from learning import Curve, plot, rollout  # noqa: E402  (this folder's shared part)
+from learning import train  # noqa: E402  (this folder's shared part)
 
 ENVS = 4
 
@@ -51,23 +49,11 @@ def main() -> None:
     eval_env = gymnasium.make("boxbox/TORCS-v0", track=args.track, random_start=False)
     batch_size = min(64, args.n_steps * ENVS)  # PPO's default batch, or the whole rollout when it is smaller
     model = PPO("MultiInputPolicy", env, n_steps=args.n_steps, batch_size=batch_size, seed=args.seed, verbose=0)
-    curve = Curve(args.out / "curve.csv", eval_env, args.eval_every)
-    started = time.perf_counter()
-    model.learn(total_timesteps=args.steps, callback=curve)
-    wall_s = time.perf_counter() - started
-    model.save(args.out / "model.zip")
-    final = curve.final or rollout(model, eval_env)
-    summary = {"algorithm": "PPO", "track": args.track, "seed": args.seed, "envs": ENVS, "steps": model.num_timesteps,
-               "wall_s": round(wall_s, 1), "best_rollout_progress_m": curve.best_progress_m, **final}
-    lap_m = float(eval_env.unwrapped.track.length_m)
-    plot(args.out / "curve.csv", args.out / "curve.png", lap_m,
-         f"PPO (defaults) on {args.track}, seed {args.seed}: {model.num_timesteps:,} steps, {wall_s / 60:.1f} min",
-         eval_env.unwrapped.action_repeat)
-    (args.out / "summary.json").write_text(json.dumps(summary, indent=1) + "\n")
+    about = {"algorithm": "PPO", "track": args.track, "seed": args.seed, "envs": ENVS}
+    title = f"PPO (defaults) on {args.track}, seed {args.seed}"
+    train(model, eval_env, args.out, args.steps, args.eval_every, about, title)
     env.close()
     eval_env.close()
-    print(f"lap completed: {final['lap_completed']} after {model.num_timesteps} steps ({wall_s:.0f} s); "
-          f"rollout {final['progress_m']:.0f} m, lap time {final['lap_time_s']} s")
 
 
 if __name__ == "__main__":
