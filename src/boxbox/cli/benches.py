@@ -83,6 +83,8 @@ def bench(tracks, cars, robots, laps, together, jobs, cluster, no_cache, learnin
     out.print(result.table())
     if len(result.tracks) > 1 or len(result.cars) > 1:
         out.print(result.summary_table())
+    _print_judged(result.to_json(), against)
+    # the last line says how to watch a race of it (tests/integration/test_replay.py)
     out.print(replay_line(r["run_dir"] for r in result.rows), markup=False, highlight=False, soft_wrap=True)
     failed = sum(1 for r in result.rows if r["error"])
     err.print(f"[dim]{result.raced} raced, {result.cached} cached, {result.wall_s:.1f} s wall"
@@ -91,7 +93,6 @@ def bench(tracks, cars, robots, laps, together, jobs, cluster, no_cache, learnin
         result.write_json(json_file)
     if csv_file:
         result.write_csv(csv_file)
-    _print_judged(result.to_json(), against)
 
 
 def _check_bench_against(against, run: dict, what_to_do: str) -> None:
