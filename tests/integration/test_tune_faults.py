@@ -60,6 +60,20 @@ def in_a_race(worker: psutil.Process, study: str) -> None:
     _until(lambda: bool(worker.children()))
 
 
+def first_racing(workers: list[psutil.Process]) -> int:
+    """The number (1..) of the first worker seen racing: on an idle machine worker 2 had ended (its
+    trials done) before a race of its own was seen (a clean clone's run, 2026-12-02)."""
+    def racing() -> int:
+        for number, worker in enumerate(workers, start=1):
+            with contextlib.suppress(psutil.NoSuchProcess):
+                if worker.children():
+                    return number
+        return 0
+    seen: list[int] = []
+    _until(lambda: bool(seen.append(racing()) or seen[-1]))
+    return seen[-1]
+
+
 def between_races(worker: psutil.Process, study: str) -> None:
     """Right after its first race ended: it writes the trial's result and claims the next one."""
     _until(lambda: bool(worker.children()))
@@ -132,7 +146,10 @@ def test_a_worker_killed(overlay, request, tmp_path, storage, victim, moment):
                                       "--setup-out", str(setup), "--report", str(tmp_path / "report"), *extra),
                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
     try:
-        worker = workers_of(front, 2)[victim - 1]
+        workers = workers_of(front, 2)
+        if moment is in_a_race:
+            victim = first_racing(workers)
+        worker = workers[victim - 1]
         moment(worker, study)
         with contextlib.suppress(psutil.NoSuchProcess):  # in_its_claim killed it already
             worker.send_signal(signal.SIGKILL)
