@@ -242,13 +242,15 @@ def test_a_node_lost_mid_bench_leaves_every_race_once(cluster, tmp_path):
 
 def test_ctrl_c_stops_this_benchs_races_and_leaves_the_cluster_running(cluster, tmp_path):
     bench = subprocess.Popen([sys.executable, "-m", "boxbox.cli", "bench", "--robots", "boxbox", "--tracks",
-                              "g-track-1,michigan", "--laps", "20", "--no-limit", "--no-cache", "--cluster",
+                              "g-track-1,michigan", "--laps", "200", "--no-limit", "--no-cache", "--cluster",
                               cluster.address], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                              env=dict(os.environ, COLUMNS="200", **cluster.auth))
-    deadline = time.monotonic() + 120
+    # a race running on a node, or 15 s (connecting and checking the nodes takes 2-4 s): 200 laps race on for
+    # a minute or more, where 3 laps of both ended in 8.6 s and 20 laps in 7.7 s on an idle machine
+    deadline = time.monotonic() + 15
     while time.monotonic() < deadline and bench.poll() is None and \
             not [pid for token in cluster.tokens for pid in cluster.pids(token, "torcs")]:
-        time.sleep(0.1)  # a race running on a node (20 laps: on an idle machine 3 laps of both ended in 8.6 s)
+        time.sleep(0.1)
     bench.send_signal(signal.SIGINT)
     _, stderr = bench.communicate(timeout=120)
     assert bench.returncode == 130 and "the bench was stopped" in stderr, stderr
