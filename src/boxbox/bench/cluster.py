@@ -20,6 +20,7 @@ import contextlib
 import dataclasses
 import logging
 import os
+import signal
 from pathlib import Path
 from typing import Any
 
@@ -203,6 +204,9 @@ def _race_all(ray, todo: list[RaceJob], sent: list[RaceJob], n_cached: int, cons
     with BenchBar(console, f"bench: {len(todo)} races on {cpus} CPUs of {nodes} Ray nodes", len(todo),
                   n_cached) as bar:
         pending = list(refs)
+        # Ctrl-C raises here even where the caller started this with SIGINT ignored (a shell's background
+        # job: a clean clone's `.ci/run` in the background ran a signalled bench to its end)
+        previous = signal.signal(signal.SIGINT, signal.default_int_handler)
         try:
             while pending:
                 done, pending = ray.wait(pending, num_returns=1, timeout=0.2)
@@ -213,6 +217,7 @@ def _race_all(ray, todo: list[RaceJob], sent: list[RaceJob], n_cached: int, cons
             _cancel(ray, pending)
             raise stopped_error(outcomes) from None
         finally:
+            signal.signal(signal.SIGINT, previous)
             with contextlib.suppress(Exception):
                 ray.kill(laps.actor)
     return outcomes
