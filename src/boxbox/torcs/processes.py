@@ -16,12 +16,13 @@ from __future__ import annotations
 
 import contextlib
 import ctypes
+import fcntl
 import os
 import signal
 import subprocess
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import psutil
@@ -61,8 +62,34 @@ def host_address_space(memory_limit_gib: float | None) -> int | None:
 
 
 def pick_cpu() -> int | None:
+    """A core for a race by the launcher's process id (the workers of one pool spread over the cores)."""
     cpus = sorted(os.sched_getaffinity(0))
     return cpus[os.getpid() % len(cpus)] if cpus else None
+
+
+@contextlib.contextmanager
+def claimed_core(lock_dir: Path) -> Iterator[int | None]:
+    """A core that no other race claiming one on this machine holds, held until the block ends (a
+    lock file per core in lock_dir); None when every core is held (the race then takes pick_cpu's).
+
+    For races started by processes that know nothing of each other (a Ray node's workers): by
+    process id alone two of them met on one core while the other stood idle half the time."""
+    cores = sorted(os.sched_getaffinity(0))
+    lock_dir.mkdir(parents=True, exist_ok=True)
+    first = os.getpid() % len(cores)
+    for core in cores[first:] + cores[:first]:
+        fd = os.open(lock_dir / f"cpu{core}.lock", os.O_RDWR | os.O_CREAT, 0o600)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            os.close(fd)
+            continue
+        try:
+            yield core
+        finally:
+            os.close(fd)  # the lock goes with its descriptor
+        return
+    yield None
 
 
 class ForkedHost:
