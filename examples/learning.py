@@ -11,6 +11,7 @@ from pathlib import Path
 import gymnasium
 from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.callbacks import BaseCallback
+from stable_baselines3.common.logger import configure
 
 DRIVE_STEP_S = 0.02  # TORCS's simulation step
 
@@ -115,6 +116,9 @@ def train(model: BaseAlgorithm, eval_env: gymnasium.Env, out: Path, steps: int, 
     (model.zip), the curve (curve.csv, curve.png) and summary.json (`about`, the steps, the wall time,
     the last rollout); print its line and return the summary."""
     curve = Curve(out / "curve.csv", eval_env, eval_every)
+    # SB3's own logger, left to itself, makes an empty folder in /tmp each run (SB3-date): this one
+    # writes nothing (verbose=0) and its folder is `out`
+    model.set_logger(configure(str(out), []))
     started = time.perf_counter()
     model.learn(total_timesteps=steps, callback=curve)
     wall_s = time.perf_counter() - started

@@ -85,10 +85,13 @@ def test_sac_example_trains_saves_and_reloads(tmp_path, overlay, rl_python):
 
 
 def test_ppo_example_trains_and_evaluate_drives_its_model_the_same(tmp_path, overlay, rl_python):
+    temp = tmp_path / "temp"  # the run's TMPDIR: SB3's logger left an empty SB3-date folder there each run
+    temp.mkdir()
     proc = subprocess.run([rl_python, str(ROOT / "examples" / "train_ppo.py"), "--out", str(tmp_path), "--steps", "256",
                            "--n-steps", "32", "--eval-every", "128"], capture_output=True, text=True, timeout=300,
-                          cwd=tmp_path)
+                          cwd=tmp_path, env=dict(os.environ, TMPDIR=str(temp)))
     assert proc.returncode == 0, proc.stderr
+    assert not list(temp.glob("SB3-*"))
     summary = json.loads((tmp_path / "summary.json").read_text())
     # 4 envs x 32 steps a rollout: learning stops at the first whole rollout past 256 steps
     assert summary["algorithm"] == "PPO" and summary["envs"] == 4 and summary["steps"] == 256, summary

@@ -25,7 +25,7 @@ from boxbox.gym.race import (
     clean_up,
 )
 from boxbox.model import PitOrder, State
-from boxbox.torcs.launch import remove_stale_sockets
+from boxbox.torcs.launch import remove_stale_sockets, socket_root
 from boxbox.torcs.setup import Overlay
 
 
@@ -41,7 +41,7 @@ class Session:
         self.on_pit = on_pit or (lambda state: PitOrder())
         self.cpu = pick_cpu() if cpu is None else cpu
         remove_stale_sockets(FOLDER_PREFIX)  # of env processes killed outright
-        self.dir = Path(tempfile.mkdtemp(prefix=f"{FOLDER_PREFIX}{os.getpid()}-"))  # short: a socket path has 108 bytes
+        self.dir = Path(tempfile.mkdtemp(prefix=f"{FOLDER_PREFIX}{os.getpid()}-", dir=socket_root()))
         self.shared = SessionResources(self.dir)
         self._finalizer = weakref.finalize(self, clean_up, self.shared)
         # `with session.pin:` around a step or a reset: the cpu the user chose, or the caller's own

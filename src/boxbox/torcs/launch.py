@@ -49,6 +49,9 @@ INTERRUPTED = "the race was interrupted (Ctrl-C, SIGTERM or SIGHUP); TORCS was s
 HOST_KILLED = ("the robot host was killed by SIGKILL with no fault of its robot said "
                "(the kernel's OOM killer, or kill -9)")
 SOCK_PREFIX = "boxbox-sock-"
+# a socket's path has at most 107 bytes: the longest boxbox makes below its folder's root
+# ("/boxbox-gym-<pid>-XXXXXXXX/r123/bridge.sock") takes 45 of them
+SOCKET_ROOT_MAX_LEN = 50
 HOST_EXIT_WAIT_S = 1.0  # a SIGKILLed host is reaped within ms idle; 1 s covers a loaded machine
 GDB_TIMEOUT_S = 20.0  # a backtrace of a stalled TORCS (gdb attaching and reading symbols takes 1-3 s)
 
@@ -126,7 +129,7 @@ class RaceLaunch:
         """The robot host, with the listening socket the bridge connects to and its report pipe."""
         if not self.cfg.robots:
             return
-        self.sock_dir = tempfile.mkdtemp(prefix=f"{SOCK_PREFIX}{os.getpid()}-")  # short: sun_path is 108 bytes
+        self.sock_dir = tempfile.mkdtemp(prefix=f"{SOCK_PREFIX}{os.getpid()}-", dir=socket_root())
         sock_path = os.path.join(self.sock_dir, "bridge.sock")
         with socket.socket(socket.AF_UNIX, socket.SOCK_SEQPACKET) as listener:
             listener.bind(sock_path)
@@ -444,10 +447,17 @@ def _add_error_line(result: RaceResult, line: str) -> None:
         result.error = f"{first}\n{line}" + nl + rest
 
 
+def socket_root() -> str:
+    """Where the folders of boxbox's sockets go: the temp folder (TMPDIR), or /tmp where TMPDIR is too
+    long for a socket's path (a test's tmp_path as TMPDIR: "OSError: AF_UNIX path too long")."""
+    root = tempfile.gettempdir()
+    return root if len(root) <= SOCKET_ROOT_MAX_LEN else "/tmp"
+
+
 def remove_stale_sockets(prefix: str = SOCK_PREFIX) -> None:
     """Socket folders (PREFIX<pid>-...) of launchers that are gone (killed outright, so they could
     not clean up); the Gymnasium env's folders too (gym/session.py)."""
-    for path in Path(tempfile.gettempdir()).glob(f"{prefix}*"):
+    for path in Path(socket_root()).glob(f"{prefix}*"):
         pid = path.name.removeprefix(prefix).partition("-")[0]
         if pid.isdigit() and not psutil.pid_exists(int(pid)):
             shutil.rmtree(path, ignore_errors=True)
