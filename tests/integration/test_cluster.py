@@ -294,3 +294,18 @@ def test_a_node_without_torcs_and_other_sources_says_so_in_one_line(cluster, tmp
     assert len(lines) == 1, lines
     assert "(Ray node " in lines[0] and "TORCS binary not found" in lines[0] and "./boxbox setup" in lines[0], lines
     assert "its boxbox sources differ from this front's" in lines[0], lines
+
+
+def test_bench_gym_steps_its_vector_envs_on_the_nodes(cluster, tmp_path):
+    proc = run_boxbox("bench-gym", "--steps", "1000", "--episode-steps", "100", "--envs", "2", "--vector-steps", "300",
+                      "--episodes", "10", "--policy-steps", "0", "--multi-steps", "0", "--cluster", cluster.address,
+                      "--json", str(tmp_path / "g.json"), timeout=300, env=cluster.auth)
+    assert proc.returncode == 0, proc.stderr
+    rows = read_json(tmp_path / "g.json")
+    (row,) = [r for r in rows if "Ray actors" in r["measure"]]
+    assert not [r for r in rows if "random policy" in r["measure"]]  # --policy-steps 0: not measured, no row
+    assert row["measure"].startswith("env steps/s, 2 envs as Ray actors on 2 nodes"), row
+    assert float(row["value"].replace(",", "")) > 0
+    too_many = run_boxbox("bench-gym", "--envs", "3", "--cluster", cluster.address, timeout=120, env=cluster.auth)
+    assert too_many.returncode == 2 and "--envs 3 on the cluster needs 3 CPUs, and it has 2" in too_many.stderr
+    assert len(too_many.stderr.strip().splitlines()) == 1, too_many.stderr

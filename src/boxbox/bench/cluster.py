@@ -3,8 +3,8 @@
 The bench on the front plans, checks and recalls the cache as with `--jobs`; each race left to run
 is one Ray task needing one CPU, on whichever node has one free.  The results come back to the
 front, which stores the cache entries and draws the same progress bar (the laps reach it through
-a queue actor that needs no CPU).  Only this module imports Ray, and only `--cluster` imports it:
-one machine needs no Ray at all.
+a queue actor that needs no CPU).  Only this module (and gym/vector_cluster.py, for bench-gym's
+vector measurement) import Ray, and only `--cluster` imports it: one machine needs no Ray at all.
 
 Before any race, each node runs one task that does the set-up `./boxbox race` does (TORCS, the
 bridge, under the set-up lock) and answers what it lacks, if anything: the bench stops with one
@@ -21,6 +21,7 @@ import dataclasses
 import logging
 import os
 import signal
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -74,10 +75,20 @@ def race_on_cluster(todo: list[RaceJob], address: str, n_cached: int, console: C
     import ray
 
     sent, runtime_env = travelling_jobs(todo)
-    _connect(ray, address, runtime_env)
+    with connected(address, runtime_env):
+        return _race_all(ray, todo, sent, n_cached, console)
+
+
+@contextlib.contextmanager
+def connected(address: str, runtime_env: dict[str, Any] | None = None) -> Iterator[None]:
+    """This process connected to the cluster at `address`, every node checked as set up (one line
+    for each that is not); disconnected after, the cluster left running."""
+    import ray
+
+    _connect(ray, address, runtime_env or {})
     try:
         _set_up_nodes(ray)
-        return _race_all(ray, todo, sent, n_cached, console)
+        yield
     finally:
         ray.shutdown()  # this front's connection only: the cluster goes on
 

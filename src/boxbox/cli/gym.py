@@ -6,7 +6,17 @@ import click
 
 from boxbox import validate
 from boxbox.cli.common import err, out, ready
-from boxbox.cli.types import LAPS, CommaList, FiniteFloatRange, GridPosition, OutputDir, OutputFile, WholeNumber
+from boxbox.cli.types import (
+    LAPS,
+    ClusterAddress,
+    CommaList,
+    FiniteFloatRange,
+    GridPosition,
+    OutputDir,
+    OutputFile,
+    WholeNumber,
+    need_ray,
+)
 
 
 @click.command("scr-server")
@@ -57,12 +67,16 @@ def scr_server(port, track, car, opponents, laps, races, client_timeout_s) -> No
 @click.option("--multi-steps", type=WholeNumber(0, None), default=20_000, show_default=True,
               help="Steps of the pixel and the 2- and 4-car measurements (0: skip them).")
 @click.option("--json", "json_file", type=OutputFile(), help="Write the rows as JSON.")
+@click.option("--cluster", type=ClusterAddress(), default=None,
+              help="The vector measurement's --envs envs as Ray actors on the cluster at ADDRESS ('auto' or the "
+                   "head's HOST:PORT), one CPU each, instead of an AsyncVectorEnv here (docs/cluster.md).")
 def bench_gym(track, steps, episode_steps, envs, vector_steps, episodes, policy_steps, multi_steps,
-              json_file) -> None:
+              json_file, cluster) -> None:
     """The Gymnasium env's speed, reset time and resource use, with gym_torcs's figures beside.
 
     Example: boxbox bench-gym --episodes 200
     """
+    import contextlib
     from dataclasses import asdict
 
     from rich.table import Table
@@ -71,15 +85,23 @@ def bench_gym(track, steps, episode_steps, envs, vector_steps, episodes, policy_
     from boxbox.gym.bench_gym import run_bench
     from boxbox.torcs.checks import check_race
 
+    need_ray(cluster)
     ready()
     check_race(track, "car1-trb1", 1)
-    rows = run_bench(track, steps, episode_steps, envs, vector_steps, episodes, policy_steps,
-                     log=lambda text: err.print(f"[dim]bench-gym:[/] {text}", highlight=False))
+    log = lambda text: err.print(f"[dim]bench-gym:[/] {text}", highlight=False)  # noqa: E731
+    with contextlib.ExitStack() as stack:
+        if cluster:
+            from boxbox.bench.cluster import connected
+            from boxbox.gym.vector_cluster import check_cpus
+
+            stack.enter_context(connected(cluster))
+            check_cpus(envs)  # before TORCS starts here
+        rows = run_bench(track, steps, episode_steps, envs, vector_steps, episodes, policy_steps, log=log,
+                         on_cluster=bool(cluster))
     if multi_steps:  # pixels, several learning cars (gym/bench_multi.py)
         from boxbox.gym.bench_multi import run_multi_bench
 
-        rows += run_multi_bench(track, multi_steps, episode_steps,
-                                log=lambda text: err.print(f"[dim]bench-gym:[/] {text}", highlight=False))
+        rows += run_multi_bench(track, multi_steps, episode_steps, log=log)
     table = Table(title=f"bench-gym: boxbox/TORCS-v0 on {track}, random actions")
     for col in ("measure", "boxbox/TORCS-v0", "target", "gym_torcs (published)"):
         table.add_column(col, justify="right" if col == "boxbox/TORCS-v0" else "left")

@@ -67,6 +67,14 @@ def timed_steps(env: gymnasium.Env, steps: int, seed: int = 0) -> tuple[float, f
     (steps a second without the resets, steps a second with them)."""
     actions = _actions(env.action_space, min(steps, 10_000), np.random.default_rng(seed))
     env.reset(seed=seed)
+    wall, resets_s = stepped(env, actions, steps)
+    env.close()
+    return steps / (wall - resets_s), steps / wall
+
+
+def stepped(env: gymnasium.Env, actions: np.ndarray, steps: int) -> tuple[float, float]:
+    """`steps` of `actions` (in turn) through a reset env, reset at each episode's end: (wall s, of
+    which resetting s)."""
     resets_s = 0.0
     started = time.perf_counter()
     for i in range(steps):
@@ -75,9 +83,7 @@ def timed_steps(env: gymnasium.Env, steps: int, seed: int = 0) -> tuple[float, f
             t = time.perf_counter()
             env.reset()
             resets_s += time.perf_counter() - t
-    wall = time.perf_counter() - started
-    env.close()
-    return steps / (wall - resets_s), steps / wall
+    return time.perf_counter() - started, resets_s
 
 
 @dataclass
@@ -177,15 +183,24 @@ def reset_soak(track: str, episodes: int, steps: int = 20, seed: int = 0) -> Soa
 
 def run_bench(track: str = "g-track-1", steps: int = 100_000, episode_steps: int = 1000, vector_envs: int = 8,
               vector_steps: int = 5_000, episodes: int = 1000, policy_steps: int = 40_000,
-              log: Log = lambda text: None) -> list[Row]:
-    """Every measurement as table rows (measure, boxbox's figure, the target, gym_torcs's figure)."""
+              log: Log = lambda text: None, on_cluster: bool = False) -> list[Row]:
+    """Every measurement as table rows (measure, boxbox's figure, the target, gym_torcs's figure);
+    `on_cluster`: the vector measurement's envs on the Ray cluster this process is connected to."""
     cores = len(os.sched_getaffinity(0))
     log(f"one env: {steps} steps of random actions")
     bare, with_resets = single_env(track, steps, episode_steps)
     log(f"a random policy with the env's limits: {policy_steps} steps without spare races and with one")
     old, new = spares_compared(track, policy_steps) if policy_steps else (PolicyRun(), PolicyRun())
-    log(f"AsyncVectorEnv of {vector_envs}: {vector_steps} steps each")
-    vec = vector_env(track, vector_envs, vector_steps, episode_steps) if vector_envs else 0.0
+    vector_row = f"env steps/s, AsyncVectorEnv of {vector_envs} on {cores} cores (all envs)"
+    if on_cluster and vector_envs:
+        from boxbox.gym.vector_cluster import vector_on_cluster
+
+        log(f"{vector_envs} envs on the Ray cluster: {vector_steps} steps each")
+        vec, nodes = vector_on_cluster(track, vector_envs, vector_steps, episode_steps)
+        vector_row = f"env steps/s, {vector_envs} envs as Ray actors on {nodes} nodes of the cluster (all envs)"
+    else:
+        log(f"AsyncVectorEnv of {vector_envs}: {vector_steps} steps each")
+        vec = vector_env(track, vector_envs, vector_steps, episode_steps) if vector_envs else 0.0
     log(f"{episodes} episodes of a reset and 20 steps")
     soak = reset_soak(track, episodes)
     return [
@@ -194,9 +209,9 @@ def run_bench(track: str = "g-track-1", steps: int = 100_000, episode_steps: int
         Row(f"the same with a reset every {episode_steps} steps", f"{with_resets:,.0f}"),
         Row(f"the first in race time: simulated s a wall s (action_repeat {DEFAULT_ACTION_REPEAT}: drive steps of "
             f"{DRIVE_STEP_S} s an env step)", f"{bare * DEFAULT_ACTION_REPEAT * DRIVE_STEP_S:,.0f}"),
-        *old.row("no spare (spares=0: TORCS started at each reset)"),
-        *new.row("a spare race (spares=1, the default)", "<= 3 ms"),
-        Row(f"env steps/s, AsyncVectorEnv of {vector_envs} on {cores} cores (all envs)", f"{vec:,.0f}"),
+        *(old.row("no spare (spares=0: TORCS started at each reset)") if policy_steps else []),
+        *(new.row("a spare race (spares=1, the default)", "<= 3 ms") if policy_steps else []),
+        Row(vector_row, f"{vec:,.0f}"),
         Row(f"reset, median of {episodes} (95th percentile)",
             f"{soak.reset_median_s * 1000:.1f} ms ({soak.reset_p95_s * 1000:.1f} ms)", "< 300 ms",
             "relaunches TORCS every few episodes (gym_torcs #37)"),
