@@ -11,6 +11,8 @@ this module only needs `ray` initialised.
 
 from __future__ import annotations
 
+import contextlib
+
 import numpy as np
 
 from boxbox.cache import cache_dir
@@ -23,8 +25,8 @@ class EnvOnNode:
     """One env on a node: made and reset when the actor starts, stepped by `run`."""
 
     def __init__(self, track: str, episode_steps: int, steps: int, seed: int) -> None:
-        self.claim = claimed_core(cache_dir() / "cores")
-        cpu = self.claim.__enter__()
+        self.held = contextlib.ExitStack()  # the core, until `run` ends
+        cpu = self.held.enter_context(claimed_core(cache_dir() / "cores"))
         self.env = make_env(track, episode_steps, cpu=cpu)
         self.actions = _actions(self.env.action_space, min(steps, 10_000), np.random.default_rng(seed))
         self.env.reset(seed=seed)
@@ -40,7 +42,7 @@ class EnvOnNode:
             wall_s, _ = stepped(self.env, self.actions, steps)
         finally:
             self.env.close()
-            self.claim.__exit__(None, None, None)
+            self.held.close()
         return steps / wall_s
 
 
