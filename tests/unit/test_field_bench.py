@@ -131,10 +131,11 @@ def test_field_grid_repeats_raise_the_robot_s_start_fuel(monkeypatch):
     from boxbox.bench.field import FieldSpec
 
     seen = []
-    monkeypatch.setattr(fg, "run_field", lambda spec, overlay, console: seen.append((spec.laps, spec.fuel_offset_l))
-                        or _result(spec.laps, {"a": (1, 2)}, fuel_offset_l=spec.fuel_offset_l))
+    monkeypatch.setattr(fg, "run_fields", lambda specs, overlay, console: seen.append(
+        [(spec.laps, spec.fuel_offset_l) for spec in specs])
+        or [_result(spec.laps, {"a": (1, 2)}, fuel_offset_l=spec.fuel_offset_l) for spec in specs])
     grid = fg.run_field_grid(FieldSpec(tracks=["a"]), [8, 9], None, None, repeats=2)  # type: ignore[arg-type]
-    assert seen == [(8, 0.0), (8, fg.DITHER_L), (9, 0.0), (9, fg.DITHER_L)]
+    assert seen == [[(8, 0.0), (8, fg.DITHER_L), (9, 0.0), (9, fg.DITHER_L)]]  # one batch: every run's races at once
     assert grid.labels == ["8 #1", "8 #2", "9 #1", "9 #2"]
     import pytest
     with pytest.raises(ValueError):

@@ -253,10 +253,23 @@ def runs_root() -> Path:
 
 
 def run_field(spec: FieldSpec, overlay: Overlay, console: Console) -> FieldResult:
+    return run_fields([spec], overlay, console)[0]
+
+
+def run_fields(specs: list[FieldSpec], overlay: Overlay, console: Console) -> list[FieldResult]:
+    """Several bench-field runs (lengths, repeats) whose races run as one batch, with the first
+    spec's jobs, cache and cluster: one tail of races finishing alone instead of one a run, and one
+    connection to a cluster.  Each result's `wall_s` is the batch's."""
     started = time.perf_counter()
-    planned = plan_field(spec)
-    unique = list({job.key: job for *_, job in planned}.values())
-    outcomes, todo = race_or_recall(unique, overlay, spec.jobs, spec.use_cache, console, spec.cluster)
-    rows = [_row(track, role, entry, outcomes[job.key], spec.start_slot) for track, role, entry, job in planned]
-    return FieldResult(spec, rows, wall_s=time.perf_counter() - started, raced=len(todo),
-                       cached=len(unique) - len(todo))
+    plans = [plan_field(spec) for spec in specs]
+    uniques = [list({job.key: job for *_, job in plan}.values()) for plan in plans]
+    every = list({job.key: job for unique in uniques for job in unique}.values())
+    first = specs[0]
+    outcomes, todo = race_or_recall(every, overlay, first.jobs, first.use_cache, console, first.cluster)
+    raced = {job.key for job in todo}
+    wall_s = time.perf_counter() - started
+    return [FieldResult(spec, [_row(track, role, entry, outcomes[job.key], spec.start_slot)
+                               for track, role, entry, job in plan], wall_s=wall_s,
+                        raced=sum(job.key in raced for job in unique),
+                        cached=sum(job.key not in raced for job in unique))
+            for spec, plan, unique in zip(specs, plans, uniques, strict=True)]

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 from rich.console import Console
 from rich.table import Table
 
-from boxbox.bench.field import ANCHOR, LOW_DAMAGE, FieldResult, FieldSpec, run_field
+from boxbox.bench.field import ANCHOR, LOW_DAMAGE, FieldResult, FieldSpec, run_fields
 from boxbox.files import write_json_atomic
 from boxbox.torcs.setup import Overlay
 
@@ -135,10 +135,10 @@ class FieldGrid:
 def run_field_grid(spec: FieldSpec, lengths: list[int], overlay: Overlay, console: Console,
                    repeats: int = 1) -> FieldGrid:
     """bench-field at each of the lengths (in order), `repeats` times each (the robot's start fuel
-    DITHER_L more each time), the races of each run in parallel."""
+    DITHER_L more each time), the races of every run in parallel, as one batch."""
     if not lengths:
         raise ValueError("at least one race length is needed")
     if repeats < 1:
         raise ValueError(f"repeats must be at least 1, got {repeats}")
-    return FieldGrid([run_field(dataclasses.replace(spec, laps=n, fuel_offset_l=spec.fuel_offset_l + r * DITHER_L),
-                                overlay, console) for n in lengths for r in range(repeats)])
+    return FieldGrid(run_fields([dataclasses.replace(spec, laps=n, fuel_offset_l=spec.fuel_offset_l + r * DITHER_L)
+                                 for n in lengths for r in range(repeats)], overlay, console))

@@ -360,7 +360,7 @@ def _field_grid(spec, lengths: list[int], overlay, json_file, repeats: int, agai
               soft_wrap=True)
     err.print(f"[dim]run dirs (for `boxbox report`) under {runs_root()}[/]")
     raced, cached = sum(r.raced for r in grid.results), sum(r.cached for r in grid.results)
-    wall = sum(r.wall_s for r in grid.results)
+    wall = grid.results[0].wall_s  # the batch's: every run's races raced together
     err.print(f"[dim]{raced} raced, {cached} cached, {wall:.1f} s wall[/]")
     if json_file:
         grid.write_json(json_file)
