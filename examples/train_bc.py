@@ -13,7 +13,9 @@ seeded starts along the lap, round the --tracks in turn: each state the policy r
 with the robot's action for it (info["teacher_action"]), the pairs join the data and the policy
 trains on them all again (--round-epochs). With --beta B, round r drives the robot's own action
 instead of the policy's on a fraction B**r of its steps (drawn per step). Every labelled step counts,
-the dataset's and DAgger's, and DAgger stops at --budget of them.
+the dataset's and DAgger's, and DAgger stops at --budget of them. DAgger's policies need not get
+better round by round: with --select the one kept is the round's (round 0: the dataset's alone)
+whose rollouts from the grid of --tracks lapped most, then drove furthest.
 
 Then one deterministic rollout from the grid (standing start, one lap) on each of --eval-tracks
 reports how far the policy drove, how the episode ended and its lap time.
@@ -21,14 +23,17 @@ reports how far the policy drove, how the episode ended and its lap time.
     boxbox dataset boxbox/robot-v0 --steps 30000 --noise 0.1       # the data (about a minute)
     .venv/bin/python examples/train_bc.py --dataset boxbox/robot-v0 --out bc-g-track-1
     .venv/bin/python examples/train_bc.py --dataset boxbox/robot-v0 --out bc-dagger --dagger 4
+    .venv/bin/python examples/train_bc.py --drive bc-dagger/policy.pt --eval-tracks g-track-2
 
-It writes into --out: policy.pt (torch.load: the state dict, the sizes and the env's options) and
-summary.json (the labelled steps, each round's loss and episodes, each track's rollout, wall time).
+It writes into --out: policy.pt (torch.load: the state dict, the sizes, the env's options, the
+tracks it trained on; --drive drives it again) and summary.json (the labelled steps, each round's
+loss and episodes, each track's rollout, the wall time).
 """
 
 from __future__ import annotations
 
 import argparse
+import copy
 import json
 import sys
 import time
@@ -84,26 +89,27 @@ def pairs(data: minari.MinariDataset) -> tuple[np.ndarray, np.ndarray]:
     return np.concatenate(obs).astype(np.float32), np.concatenate(act).astype(np.float32)
 
 
-def train(net: nn.Module, x: np.ndarray, y: np.ndarray, epochs: int, steer_weight: float = 1.0) -> float:
-    """`epochs` passes of Adam over the pairs (batches of BATCH, the steering column's squared error
-    weighed by `steer_weight`); the last epoch's mean loss."""
+def train(net: nn.Module, x: np.ndarray, y: np.ndarray, epochs: int,
+          weights: torch.Tensor) -> tuple[float, list[float]]:
+    """`epochs` passes of Adam over the pairs (batches of BATCH, each column's squared error
+    weighed by `weights`): the last epoch's mean loss, and its mean squared error per column."""
     opt = torch.optim.Adam(net.parameters(), lr=1e-3)
     xs, ys = torch.from_numpy(x), torch.from_numpy(y)
-    weights = torch.ones(y.shape[1])
-    weights[0] = steer_weight  # the steering column is the first of every action layout
-    total = 0.0
+    total, columns = 0.0, torch.zeros(y.shape[1])
     for epoch in range(epochs):
         order = torch.randperm(len(xs))
-        total = 0.0
+        total, columns = 0.0, torch.zeros(y.shape[1])
         for start in range(0, len(xs), BATCH):
             batch = order[start:start + BATCH]
-            loss = ((net(xs[batch]) - ys[batch]) ** 2 * weights).mean()
+            errors = (net(xs[batch]) - ys[batch]) ** 2
+            loss = (errors * weights).mean()
             opt.zero_grad()
             loss.backward()
             opt.step()
             total += loss.item() * len(batch)
+            columns += errors.detach().sum(0)
         print(f"epoch {epoch + 1}/{epochs}: loss {total / len(xs):.5f}", flush=True)
-    return total / len(xs)
+    return total / len(xs), [round(float(c) / len(xs), 6) for c in columns]
 
 
 def labelled_episode(env: gymnasium.Env, policy: Policy, seed: int, track: str, teacher_share: float,
@@ -148,14 +154,18 @@ def dagger_round(env: gymnasium.Env, policy: Policy, args: argparse.Namespace, r
 
 
 def dagger(policy: Policy, x: np.ndarray, y: np.ndarray, kwargs: dict,
-           args: argparse.Namespace) -> tuple[np.ndarray, np.ndarray, list[dict]]:
+           args: argparse.Namespace) -> tuple[np.ndarray, np.ndarray, list[dict], int | None]:
     """--dagger rounds of labelling the policy's own states and training on all the pairs, until
-    --budget labelled steps in all: the pairs and each round's record."""
+    --budget labelled steps in all: the pairs, each round's record and the round selected.  With
+    --select the policy left is the round's (round 0: the dataset's alone) whose rollouts from the
+    grid of --tracks lapped most, then drove furthest."""
     env = gymnasium.make("boxbox/TORCS-v0", **{**kwargs, "track": args.tracks, "car": kwargs["car"][0],
                                               "teacher": kwargs.get("teacher") or "boxbox", "grid_position": None,
                                               "opponents": (), "random_start": True})
     rng = np.random.default_rng(args.seed)
-    rounds = []
+    rounds: list[dict] = []
+    best = (selection_score(policy, kwargs, args.tracks), 0, copy.deepcopy(policy.net.state_dict())) \
+        if args.select else None
     try:
         for r in range(1, args.dagger + 1):
             left = args.budget - len(x)
@@ -165,16 +175,35 @@ def dagger(policy: Policy, x: np.ndarray, y: np.ndarray, kwargs: dict,
             started = time.perf_counter()
             rx, ry, episodes = dagger_round(env, policy, args, r, steps, rng)
             x, y = np.concatenate([x, rx]), np.concatenate([y, ry])
-            loss = train(policy.net, x, y, args.round_epochs, args.steer_weight)
+            loss, columns = train(policy.net, x, y, args.round_epochs, loss_weights(kwargs, args.steer_weight))
             rounds.append({"round": r, "teacher_share": args.beta ** r, "pairs": len(rx), "total_pairs": len(x),
-                           "loss": round(loss, 6), "wall_s": round(time.perf_counter() - started, 1),
+                           "loss": round(loss, 6), "column_mse": columns,
+                           "wall_s": round(time.perf_counter() - started, 1),
                            "mean_progress_m": round(float(np.mean([e["progress_m"] for e in episodes])), 1),
                            "episodes": episodes})
-            print(f"round {r}: {len(rx)} pairs ({len(x)} in all), loss {loss:.5f}, episodes' mean progress "
-                  f"{rounds[-1]['mean_progress_m']:.0f} m, {rounds[-1]['wall_s']:.0f} s", flush=True)
+            print(f"round {r}: {len(rx)} pairs ({len(x)} in all), loss {loss:.5f} {columns}, episodes' mean "
+                  f"progress {rounds[-1]['mean_progress_m']:.0f} m, {rounds[-1]['wall_s']:.0f} s", flush=True)
+            if best is not None:
+                rounds[-1]["selection_score"] = score = selection_score(policy, kwargs, args.tracks)
+                best = max(best, (score, r, copy.deepcopy(policy.net.state_dict())), key=lambda b: (b[0], b[1]))
     finally:
         env.close()
-    return x, y, rounds
+    if best is not None:
+        policy.net.load_state_dict(best[2])
+        print(f"selected: round {best[1]} ({best[0][0]} laps, {best[0][1]:.0f} m on {','.join(args.tracks)})")
+    return x, y, rounds, best[1] if best is not None else None
+
+
+def selection_score(policy: Policy, kwargs: dict, tracks: list[str]) -> tuple[int, float]:
+    """(laps completed, metres driven) in the rollouts from the grid of the training tracks."""
+    rows = evaluate(policy, kwargs, tracks)
+    return sum(row["lap_completed"] for row in rows), round(sum(row["progress_m"] for row in rows), 1)
+
+
+def loss_weights(kwargs: dict, steer_weight: float) -> torch.Tensor:
+    """Each action column's weight in the loss: `steer_weight` for steering, 1 for the others."""
+    columns = tuple(kwargs.get("actions", ("steer", "pedal")))
+    return torch.tensor([steer_weight if c == "steer" else 1.0 for c in columns])
 
 
 def evaluate(policy: Policy, kwargs: dict, tracks: list[str]) -> list[dict]:
@@ -199,7 +228,10 @@ def evaluate(policy: Policy, kwargs: dict, tracks: list[str]) -> list[dict]:
 def parse_args() -> argparse.Namespace:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--dataset", default="boxbox/robot-v0", help="a Minari dataset id (boxbox dataset wrote it)")
-    parser.add_argument("--out", type=Path, required=True, help="folder for policy.pt and summary.json")
+    parser.add_argument("--out", type=Path, help="folder for policy.pt and summary.json")
+    parser.add_argument("--drive", type=Path, metavar="POLICY_PT",
+                        help="only drive a saved policy.pt's laps on --eval-tracks (default: its training tracks)")
+    parser.add_argument("--dataset-steps", type=int, default=0, help="use only the dataset's first N steps")
     parser.add_argument("--epochs", type=int, default=10, help="passes over the dataset before DAgger")
     parser.add_argument("--hidden", type=int, default=256, help="units in each of the two hidden layers")
     parser.add_argument("--steer-weight", type=float, default=1.0, help="the steering error's weight in the loss")
@@ -211,15 +243,32 @@ def parse_args() -> argparse.Namespace:
     parser.add_argument("--round-epochs", type=int, default=5, help="passes over all the pairs after each round")
     parser.add_argument("--beta", type=float, default=0.0, help="round r drives the robot's action on B**r of steps")
     parser.add_argument("--tracks", default=None, help="DAgger's tracks, comma-separated (default: the dataset's)")
+    parser.add_argument("--select", action="store_true",
+                        help="keep the round whose rollouts on --tracks lap most (then drive furthest)")
     parser.add_argument("--eval-tracks", default=None, help="the rollouts' tracks (default: --tracks)")
     args = parser.parse_args()
-    for name in ("epochs", "hidden", "dagger", "budget", "round_steps", "round_epochs"):
+    for name in ("dataset_steps", "epochs", "hidden", "dagger", "budget", "round_steps", "round_epochs"):
         if getattr(args, name) < 0 or (name == "hidden" and args.hidden < 1):
             parser.error(f"--{name.replace('_', '-')} is {getattr(args, name)}; give a whole number of at least "
                          f"{1 if name == 'hidden' else 0}")
+    if args.out is None and args.drive is None:
+        parser.error("give --out (a folder for policy.pt and summary.json), or --drive a saved policy.pt")
     if not (0.0 <= args.beta <= 1.0) or not np.isfinite(args.steer_weight) or args.steer_weight <= 0:
         parser.error("--beta takes 0 to 1 and --steer-weight a number above 0")
     return args
+
+
+def drive_saved(path: Path, tracks: list[str] | None) -> None:
+    """A saved policy's deterministic lap from the grid of each track (default: those it trained on)."""
+    saved = torch.load(path)
+    net = policy_net(saved["obs_size"], saved["act_size"], saved["hidden"])
+    net.load_state_dict(saved["state_dict"])
+    env = gymnasium.make("boxbox/TORCS-v0", **{**saved["env"], "track": saved["trained_on"][0],
+                                              "car": saved["env"]["car"][0], "teacher": None, "opponents": ()})
+    space = env.observation_space  # the same for every track and car (docs/gym.md, Observations)
+    env.close()
+    for row in evaluate(Policy(net, space), saved["env"], tracks or saved["trained_on"]):
+        print(json.dumps({**row, "trained_on": row["track"] in saved["trained_on"]}), flush=True)
 
 
 def main() -> None:
@@ -227,6 +276,9 @@ def main() -> None:
     started = time.perf_counter()
     torch.manual_seed(args.seed)
     torch.set_num_threads(1)  # a small MLP: threads cost more than they give (and TORCS needs a core)
+    if args.drive:
+        drive_saved(args.drive, args.eval_tracks.split(",") if args.eval_tracks else None)
+        return
     data = minari.load_dataset(args.dataset)
     kwargs = dict(data.spec.env_spec.kwargs)
     args.tracks = args.tracks.split(",") if args.tracks else list(kwargs["track"])
@@ -234,25 +286,28 @@ def main() -> None:
     x, y = pairs(data)
     first = next(data.iterate_episodes()).observations  # laid out as the rollout's flatten lays it
     assert np.allclose(x[0], gymnasium.spaces.flatten(data.observation_space, {k: v[0] for k, v in first.items()}))
+    if args.dataset_steps:
+        x, y = x[:args.dataset_steps], y[:args.dataset_steps]  # its first episodes: they go round the tracks
     if len(x) > args.budget:
         print(f"train_bc.py: {args.dataset} holds {len(x)} labelled steps, more than --budget {args.budget}; "
               "record fewer (boxbox dataset --steps) or raise --budget", file=sys.stderr)
         sys.exit(2)
     print(f"{args.dataset}: {len(x)} observations of {x.shape[1]} numbers, actions of {y.shape[1]}", flush=True)
     policy = Policy(policy_net(x.shape[1], y.shape[1], args.hidden), data.observation_space)
-    loss = train(policy.net, x, y, args.epochs, args.steer_weight)
+    loss, columns = train(policy.net, x, y, args.epochs, loss_weights(kwargs, args.steer_weight))
     dataset_pairs = len(x)
-    x, y, rounds = dagger(policy, x, y, kwargs, args) if args.dagger else (x, y, [])
+    x, y, rounds, selected = dagger(policy, x, y, kwargs, args) if args.dagger else (x, y, [], None)
     args.out.mkdir(parents=True, exist_ok=True)
-    torch.save({"state_dict": policy.net.state_dict(), "obs_size": x.shape[1], "act_size": y.shape[1],
-                "hidden": args.hidden, "env": kwargs}, args.out / "policy.pt")
-    trained_s = time.perf_counter() - started
     trained_on = sorted(set(kwargs["track"]) | (set(args.tracks) if rounds else set()))
+    torch.save({"state_dict": policy.net.state_dict(), "obs_size": x.shape[1], "act_size": y.shape[1],
+                "hidden": args.hidden, "env": kwargs, "trained_on": trained_on}, args.out / "policy.pt")
+    trained_s = time.perf_counter() - started
     rows = [{**row, "trained_on": row["track"] in trained_on} for row in evaluate(policy, kwargs, eval_tracks)]
     summary = {"dataset": args.dataset, "dataset_pairs": dataset_pairs, "dagger_pairs": len(x) - dataset_pairs,
                "labelled_steps": len(x), "epochs": args.epochs, "hidden": args.hidden,
                "steer_weight": args.steer_weight, "beta": args.beta, "seed": args.seed,
-               "loss": round(rounds[-1]["loss"] if rounds else loss, 6), "train_wall_s": round(trained_s, 1),
+               "selected_round": selected, "loss": round(rounds[-1]["loss"] if rounds else loss, 6),
+               "column_mse": rounds[-1]["column_mse"] if rounds else columns, "train_wall_s": round(trained_s, 1),
                "wall_s": round(time.perf_counter() - started, 1), "tracks_trained_on": trained_on,
                "laps_completed": sum(row["lap_completed"] for row in rows), "rollouts": rows, "rounds": rounds}
     (args.out / "summary.json").write_text(json.dumps(summary, indent=1) + "\n")
