@@ -1,5 +1,6 @@
 """What the learning examples share: a deterministic rollout, a CSV curve that stops training once a
-rollout laps, and its plot. Used by train_ppo.py and train_sac.py (run from this folder or by path)."""
+rollout laps, and its plot. Used by train_ppo.py, train_sac.py and train_bc.py (run from this folder
+or by path)."""
 
 from __future__ import annotations
 
@@ -7,6 +8,7 @@ import csv
 import json
 import time
 from pathlib import Path
+from typing import Any, Protocol
 
 import gymnasium
 from stable_baselines3.common.base_class import BaseAlgorithm
@@ -16,7 +18,13 @@ from stable_baselines3.common.logger import configure
 DRIVE_STEP_S = 0.02  # TORCS's simulation step
 
 
-def rollout(model: BaseAlgorithm, env: gymnasium.Env) -> dict:
+class Predicts(Protocol):
+    """A policy as Stable-Baselines3's models offer it (train_bc.py's Policy too)."""
+
+    def predict(self, observation: Any, deterministic: bool = ...) -> tuple[Any, Any]: ...
+
+
+def rollout(model: Predicts, env: gymnasium.Env) -> dict:
     """One deterministic episode: did it complete the lap, how far it went, the lap time."""
     obs, _ = env.reset(seed=0)
     episode_return, progress_m, done, steps = 0.0, 0.0, False, 0

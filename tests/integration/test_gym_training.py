@@ -1,8 +1,8 @@
-"""examples/train_sac.py and train_ppo.py (Stable-Baselines3, the rl extra) at a tiny scale:
-`./boxbox install-rl` installs the extra when .venv lacks it, each example trains for a few hundred
-steps, and what it saves is whole: the learning curve has a row per episode, the plot is a PNG, and
-the saved model, loaded again (examples/evaluate.py for PPO's), drives the env exactly as the policy
-did at the end of training (the summary's rollout)."""
+"""examples/train_sac.py and train_ppo.py (Stable-Baselines3, the rl extra) and train_bc.py
+(PyTorch) at a tiny scale: `./boxbox install-rl` installs the extra when .venv lacks it, each
+example trains for a few hundred steps, and what it saves is whole: the learning curve has a row
+per episode, the plot is a PNG, and the saved model, loaded again (examples/evaluate.py for PPO's),
+drives the env exactly as the policy did at the end of training (the summary's rollout)."""
 
 from __future__ import annotations
 
@@ -109,19 +109,37 @@ def test_ppo_example_trains_and_evaluate_drives_its_model_the_same(tmp_path, ove
         {k: summary[k] for k in ("progress_m", "termination", "lap_completed")}, (reloaded, summary)
 
 
-def test_bc_example_trains_from_a_recorded_dataset_and_drives(tmp_path, overlay, rl_python):
-    """examples/train_bc.py on 200 steps `boxbox dataset` recorded: the policy saved, its rollout reported."""
+def test_bc_example_trains_from_a_recorded_dataset_then_dagger_labels_its_own_states(tmp_path, overlay, rl_python):
+    """examples/train_bc.py on 200 steps `boxbox dataset` recorded, then a DAgger round: the round's
+    pairs stop at the budget of labelled steps, a round selected, the policy saved (--drive drives it
+    again as it drove), a rollout row per track reported; a dataset larger than the budget is refused
+    with one line."""
     env = {"MINARI_DATASETS_PATH": str(tmp_path / "minari")}
     recorded = run_boxbox("dataset", "boxbox/tiny-v0", "--steps", "200", "--noise", "0.1", env=env)
     assert recorded.returncode == 0, recorded.stderr
-    proc = subprocess.run([rl_python, str(ROOT / "examples" / "train_bc.py"), "--dataset", "boxbox/tiny-v0",
-                           "--out", str(tmp_path / "bc"), "--epochs", "2"], capture_output=True, text=True,
+    command = [rl_python, str(ROOT / "examples" / "train_bc.py"), "--dataset", "boxbox/tiny-v0",
+               "--out", str(tmp_path / "bc"), "--epochs", "2"]
+    proc = subprocess.run([*command, "--dagger", "1", "--round-epochs", "1", "--budget", "400", "--select",
+                           "--eval-tracks", "g-track-1,e-track-4"], capture_output=True, text=True,
                           timeout=300, cwd=tmp_path, env={**os.environ, **env})
     assert proc.returncode == 0, proc.stderr
     summary = json.loads((tmp_path / "bc" / "summary.json").read_text())
-    assert summary["pairs"] == 201 and summary["loss"] > 0 and summary["rollout"]["steps"] > 0
-    assert {"progress_m", "lap_completed", "lap_time_s", "termination"} <= set(summary["rollout"])
+    assert summary["dataset_pairs"] == 201 and summary["dagger_pairs"] == 199, summary  # 400 labelled in all
+    assert summary["labelled_steps"] == 400 and summary["rounds"][0]["total_pairs"] == 400
+    assert sum(e["steps"] for e in summary["rounds"][0]["episodes"]) == 199 and summary["loss"] > 0
+    laps, metres = summary["rounds"][0]["selection_score"]  # the round's rollout from g-track-1's grid
+    assert summary["selected_round"] in (0, 1) and laps in (0, 1) and metres >= 0
+    assert [(r["track"], r["trained_on"]) for r in summary["rollouts"]] == [("g-track-1", True), ("e-track-4", False)]
+    assert all(r["episode_steps"] > 0 and {"progress_m", "lap_completed", "lap_time_s", "termination"} <= set(r)
+               for r in summary["rollouts"])
     import torch
 
     saved = torch.load(tmp_path / "bc" / "policy.pt")
     assert saved["act_size"] == 2 and saved["env"]["action_repeat"] == 2 and saved["env"]["teacher"] == "boxbox"
+    drive = subprocess.run([*command[:2], "--drive", str(tmp_path / "bc" / "policy.pt"), "--eval-tracks", "g-track-1"],
+                           capture_output=True, text=True, timeout=120, cwd=tmp_path, env={**os.environ, **env})
+    assert drive.returncode == 0, drive.stderr
+    assert json.loads(drive.stdout.splitlines()[-1]) == summary["rollouts"][0]  # the saved policy drives as it did
+    over = subprocess.run([*command, "--budget", "100"], capture_output=True, text=True, timeout=120, cwd=tmp_path,
+                          env={**os.environ, **env})
+    assert over.returncode == 2 and "201 labelled steps, more than --budget 100" in over.stderr, over.stderr
