@@ -56,6 +56,7 @@ from learning import DRIVE_STEP_S, LookAhead, look_ahead, rollout  # noqa: E402 
 
 BATCH = 512
 EVAL_S = 300.0  # simulated seconds before an evaluation rollout is cut (the robot laps each public track in < 100 s)
+FOCUS_FLOOR = 0.05  # --focus: a lapped track's share of a round's episodes, as if its rollout fell 5 % short
 ROUND_EPISODE_S = 60.0  # a DAgger episode's simulated seconds at most: a round sees many starts, not one long lap
 
 
@@ -176,15 +177,17 @@ def labelled_episode(env: gymnasium.Env, policy: Policy, seed: int, track: str, 
 
 
 def dagger_round(env: gymnasium.Env, policy: Policy, args: argparse.Namespace, r: int, steps: int,
-                 rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, list[dict]]:
-    """Round `r`'s labelled pairs, `steps` of them, over the tracks in turn from seeded starts."""
+                 rng: np.random.Generator, shares: dict[str, float]) -> tuple[np.ndarray, np.ndarray, list[dict]]:
+    """Round `r`'s labelled pairs, `steps` of them, from seeded starts over the tracks, each episode's
+    the one furthest below its share of the round's episodes (equal shares: the tracks in turn)."""
     xs: list = []
     ys: list = []
-    episodes = []
+    episodes: list[dict] = []
     step_s = DRIVE_STEP_S * env.unwrapped.action_repeat  # type: ignore[attr-defined]
     while len(xs) < steps:
         i = len(episodes)
-        track = args.tracks[i % len(args.tracks)]
+        driven = {t: sum(e["track"] == t for e in episodes) for t in args.tracks}
+        track = max(args.tracks, key=lambda t: shares[t] / (1 + driven[t]))  # the first of the ties
         max_steps = min(steps - len(xs), int(ROUND_EPISODE_S / step_s))
         ex, ey, about = labelled_episode(env, policy, args.seed * 100_000 + r * 1_000 + i, track,
                                          args.beta ** r, rng, max_steps)
@@ -206,8 +209,12 @@ def dagger(policy: Policy, x: np.ndarray, y: np.ndarray, kwargs: dict,
                    grid_position=None, random_start=True)
     rng = np.random.default_rng(args.seed)
     rounds: list[dict] = []
-    best = (selection_score(policy, kwargs, args.tracks), 0, copy.deepcopy(policy.net.state_dict())) \
-        if args.select else None
+    shares = {track: 1.0 for track in args.tracks}
+    best = None
+    if args.select or args.focus:
+        rows = evaluate(policy, kwargs, args.tracks)
+        shares = focus_shares(rows) if args.focus else shares
+        best = (selection_score(rows), 0, copy.deepcopy(policy.net.state_dict())) if args.select else None
     try:
         for r in range(1, args.dagger + 1):
             left = args.budget - len(x)
@@ -215,7 +222,7 @@ def dagger(policy: Policy, x: np.ndarray, y: np.ndarray, kwargs: dict,
             if steps <= 0:
                 break
             started = time.perf_counter()
-            rx, ry, episodes = dagger_round(env, policy, args, r, steps, rng)
+            rx, ry, episodes = dagger_round(env, policy, args, r, steps, rng, shares)
             x, y = np.concatenate([x, rx]), np.concatenate([y, ry])
             loss, columns = train(policy.net, x, y, args.round_epochs, loss_weights(kwargs, args.steer_weight))
             rounds.append({"round": r, "teacher_share": args.beta ** r, "pairs": len(rx), "total_pairs": len(x),
@@ -225,8 +232,11 @@ def dagger(policy: Policy, x: np.ndarray, y: np.ndarray, kwargs: dict,
                            "episodes": episodes})
             print(f"round {r}: {len(rx)} pairs ({len(x)} in all), loss {loss:.5f} {columns}, episodes' mean "
                   f"progress {rounds[-1]['mean_progress_m']:.0f} m, {rounds[-1]['wall_s']:.0f} s", flush=True)
+            if args.select or args.focus:
+                rows = evaluate(policy, kwargs, args.tracks)
+                rounds[-1]["selection_score"] = score = selection_score(rows)
+                shares = focus_shares(rows) if args.focus else shares
             if best is not None:
-                rounds[-1]["selection_score"] = score = selection_score(policy, kwargs, args.tracks)
                 best = max(best, (score, r, copy.deepcopy(policy.net.state_dict())), key=lambda b: (b[0], b[1]))
     finally:
         env.close()
@@ -236,10 +246,16 @@ def dagger(policy: Policy, x: np.ndarray, y: np.ndarray, kwargs: dict,
     return x, y, rounds, best[1] if best is not None else None
 
 
-def selection_score(policy: Policy, kwargs: dict, tracks: list[str]) -> tuple[int, float]:
+def selection_score(rows: list[dict]) -> tuple[int, float]:
     """(laps completed, metres driven) in the rollouts from the grid of the training tracks."""
-    rows = evaluate(policy, kwargs, tracks)
     return sum(row["lap_completed"] for row in rows), round(sum(row["progress_m"] for row in rows), 1)
+
+
+def focus_shares(rows: list[dict]) -> dict[str, float]:
+    """--focus: each track's share of the next round's episodes, the part of a lap its rollout from
+    the grid fell short by (at least FOCUS_FLOOR, so that a lapped track keeps a few episodes)."""
+    return {row["track"]: max(FOCUS_FLOOR, 0.0 if row["lap_completed"] else 1.0 - row["progress_m"] / row["lap_m"])
+            for row in rows}
 
 
 def loss_weights(kwargs: dict, steer_weight: float) -> torch.Tensor:
@@ -259,7 +275,8 @@ def evaluate(policy: Policy, kwargs: dict, tracks: list[str]) -> list[dict]:
         finally:
             env.close()
         rows.append({"track": track, **{k: result[k] for k in ("lap_completed", "lap_time_s", "progress_m",
-                                                               "termination", "episode_steps")}})
+                                                               "termination", "episode_steps")},
+                     "lap_m": round(float(env.unwrapped.track.length_m), 1)})  # type: ignore[attr-defined]
         print(f"rollout on {track}: {result['progress_m']:.0f} m, {result['termination']}, "
               f"lap {result['lap_time_s']} s", flush=True)
     return rows
@@ -285,6 +302,9 @@ def parse_args() -> argparse.Namespace:
     parser.add_argument("--tracks", default=None, help="DAgger's tracks, comma-separated (default: the dataset's)")
     parser.add_argument("--select", action="store_true",
                         help="keep the round whose rollouts on --tracks lap most (then drive furthest)")
+    parser.add_argument("--focus", action="store_true",
+                        help="share each round's episodes among --tracks by how far short of a lap each one's "
+                             "rollout from the grid fell")
     parser.add_argument("--eval-tracks", default=None, help="the rollouts' tracks (default: --tracks)")
     parser.add_argument("--look-ahead", action="store_true",
                         help="observe the track's curvature up to 400 m ahead too (learning.LookAhead)")
