@@ -17,6 +17,10 @@ the dataset's and DAgger's, and DAgger stops at --budget of them. DAgger's polic
 better round by round: with --select the one kept is the round's (round 0: the dataset's alone)
 whose rollouts from the grid of --tracks lapped most, then drove furthest.
 
+With --look-ahead the policy also sees the track's curvature up to 400 m ahead of the car (ten
+windows, learning.LookAhead): the envs it drives are wrapped in LookAhead, and the dataset's steps
+get the same numbers from their distance along the lap and their episode's track.
+
 Then one deterministic rollout from the grid (standing start, one lap) on each of --eval-tracks
 reports how far the policy drove, how the episode ended and its lap time.
 
@@ -48,10 +52,11 @@ from torch import nn
 import boxbox.gym  # noqa: F401  (registers boxbox/TORCS-v0)
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from learning import DRIVE_STEP_S, rollout  # noqa: E402  (this folder's shared part)
+from learning import DRIVE_STEP_S, LookAhead, look_ahead, rollout  # noqa: E402  (this folder's shared part)
 
 BATCH = 512
 EVAL_S = 300.0  # simulated seconds before an evaluation rollout is cut (the robot laps each public track in < 100 s)
+FOCUS_FLOOR = 0.05  # --focus: a lapped track's share of a round's episodes, as if its rollout fell 5 % short
 ROUND_EPISODE_S = 60.0  # a DAgger episode's simulated seconds at most: a round sees many starts, not one long lap
 
 
@@ -63,8 +68,9 @@ def policy_net(obs_size: int, act_size: int, hidden: int = 256) -> nn.Module:
 class Policy:
     """The net as a policy on the env's Dict observation (learning.rollout calls `predict`)."""
 
-    def __init__(self, net: nn.Module, space: gymnasium.spaces.Space) -> None:
+    def __init__(self, net: nn.Module, space: gymnasium.spaces.Dict) -> None:
         self.net, self.space = net, space
+        self.looks_ahead = LookAhead.KEY in space.spaces  # it drives envs wrapped in LookAhead
 
     def flat(self, obs) -> np.ndarray:
         return gymnasium.spaces.flatten(self.space, obs).astype(np.float32)
@@ -77,15 +83,53 @@ class Policy:
         return self(obs), None
 
 
-def pairs(data: minari.MinariDataset) -> tuple[np.ndarray, np.ndarray]:
+def make_env(kwargs: dict, ahead: bool, **options) -> gymnasium.Env:
+    """The dataset's env (its options `kwargs`, some replaced by `options`), with --look-ahead wrapped
+    in LookAhead (learning.py)."""
+    max_steps = options.pop("max_episode_steps", None)
+    env = gymnasium.make("boxbox/TORCS-v0", **{**kwargs, "car": kwargs["car"][0], "opponents": (), **options},
+                         max_episode_steps=max_steps)
+    return LookAhead(env) if ahead else env
+
+
+def curvatures_of(kwargs: dict, tracks: list[str]) -> LookAhead:
+    """A closed LookAhead env that has been reset once on each track: its `curvatures`, `lengths_m`
+    and observation space."""
+    env = make_env(kwargs, True, track=tracks, teacher=None, grid_position=None, random_start=False)
+    try:
+        for track in tracks:
+            env.reset(seed=0, options={"track": track})
+    finally:
+        env.close()
+    assert isinstance(env, LookAhead)
+    return env
+
+
+def episode_observations(episode, track: str, ahead: LookAhead | None) -> dict[str, np.ndarray]:
+    """An episode's observations by field, with --look-ahead's from each step's distance along the
+    lap (the scaled observation's, from -1 at the line to 1 a lap on) on the episode's track."""
+    observations = dict(episode.observations)
+    if ahead is not None:
+        scaled = np.asarray(observations["dist_from_start_m"])[:, 0].astype(np.float64)
+        dist_m = (scaled + 1.0) * 0.5 * ahead.lengths_m[track]
+        observations[LookAhead.KEY] = look_ahead(ahead.curvatures[track], dist_m)
+    return observations
+
+
+def pairs(data: minari.MinariDataset, space: gymnasium.spaces.Dict,
+          ahead: LookAhead | None) -> tuple[np.ndarray, np.ndarray]:
     """(flat observations, the robot's actions for them), every step of every episode: each field's
-    columns side by side in the space's order, as gymnasium.spaces.flatten lays a Dict of Boxes."""
-    fields = list(data.observation_space.spaces)
+    columns side by side in `space`'s order, as gymnasium.spaces.flatten lays a Dict of Boxes."""
+    fields = list(space.spaces)
+    tracks = [about["options"]["track"] for about in data.storage.get_episode_metadata(data.episode_indices)]
     obs, act = [], []
-    for episode in data.iterate_episodes():
+    for episode, track in zip(data.iterate_episodes(), tracks, strict=True):
         steps = len(episode.infos["teacher_action"])
-        obs.append(np.concatenate([episode.observations[k].reshape(steps, -1) for k in fields], axis=1))
+        observations = episode_observations(episode, track, ahead)
+        obs.append(np.concatenate([observations[k].reshape(steps, -1) for k in fields], axis=1))
         act.append(episode.infos["teacher_action"])
+    first = episode_observations(next(data.iterate_episodes()), tracks[0], ahead)
+    assert np.allclose(obs[0][0], gymnasium.spaces.flatten(space, {k: v[0] for k, v in first.items()}))
     return np.concatenate(obs).astype(np.float32), np.concatenate(act).astype(np.float32)
 
 
@@ -133,15 +177,17 @@ def labelled_episode(env: gymnasium.Env, policy: Policy, seed: int, track: str, 
 
 
 def dagger_round(env: gymnasium.Env, policy: Policy, args: argparse.Namespace, r: int, steps: int,
-                 rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, list[dict]]:
-    """Round `r`'s labelled pairs, `steps` of them, over the tracks in turn from seeded starts."""
+                 rng: np.random.Generator, shares: dict[str, float]) -> tuple[np.ndarray, np.ndarray, list[dict]]:
+    """Round `r`'s labelled pairs, `steps` of them, from seeded starts over the tracks, each episode's
+    the one furthest below its share of the round's episodes (equal shares: the tracks in turn)."""
     xs: list = []
     ys: list = []
-    episodes = []
+    episodes: list[dict] = []
     step_s = DRIVE_STEP_S * env.unwrapped.action_repeat  # type: ignore[attr-defined]
     while len(xs) < steps:
         i = len(episodes)
-        track = args.tracks[i % len(args.tracks)]
+        driven = {t: sum(e["track"] == t for e in episodes) for t in args.tracks}
+        track = max(args.tracks, key=lambda t: shares[t] / (1 + driven[t]))  # the first of the ties
         max_steps = min(steps - len(xs), int(ROUND_EPISODE_S / step_s))
         ex, ey, about = labelled_episode(env, policy, args.seed * 100_000 + r * 1_000 + i, track,
                                          args.beta ** r, rng, max_steps)
@@ -159,13 +205,16 @@ def dagger(policy: Policy, x: np.ndarray, y: np.ndarray, kwargs: dict,
     --budget labelled steps in all: the pairs, each round's record and the round selected.  With
     --select the policy left is the round's (round 0: the dataset's alone) whose rollouts from the
     grid of --tracks lapped most, then drove furthest."""
-    env = gymnasium.make("boxbox/TORCS-v0", **{**kwargs, "track": args.tracks, "car": kwargs["car"][0],
-                                              "teacher": kwargs.get("teacher") or "boxbox", "grid_position": None,
-                                              "opponents": (), "random_start": True})
+    env = make_env(kwargs, policy.looks_ahead, track=args.tracks, teacher=kwargs.get("teacher") or "boxbox",
+                   grid_position=None, random_start=True)
     rng = np.random.default_rng(args.seed)
     rounds: list[dict] = []
-    best = (selection_score(policy, kwargs, args.tracks), 0, copy.deepcopy(policy.net.state_dict())) \
-        if args.select else None
+    shares = {track: 1.0 for track in args.tracks}
+    best = None
+    if args.select or args.focus:
+        rows = evaluate(policy, kwargs, args.tracks)
+        shares = focus_shares(rows) if args.focus else shares
+        best = (selection_score(rows), 0, copy.deepcopy(policy.net.state_dict())) if args.select else None
     try:
         for r in range(1, args.dagger + 1):
             left = args.budget - len(x)
@@ -173,7 +222,7 @@ def dagger(policy: Policy, x: np.ndarray, y: np.ndarray, kwargs: dict,
             if steps <= 0:
                 break
             started = time.perf_counter()
-            rx, ry, episodes = dagger_round(env, policy, args, r, steps, rng)
+            rx, ry, episodes = dagger_round(env, policy, args, r, steps, rng, shares)
             x, y = np.concatenate([x, rx]), np.concatenate([y, ry])
             loss, columns = train(policy.net, x, y, args.round_epochs, loss_weights(kwargs, args.steer_weight))
             rounds.append({"round": r, "teacher_share": args.beta ** r, "pairs": len(rx), "total_pairs": len(x),
@@ -183,8 +232,11 @@ def dagger(policy: Policy, x: np.ndarray, y: np.ndarray, kwargs: dict,
                            "episodes": episodes})
             print(f"round {r}: {len(rx)} pairs ({len(x)} in all), loss {loss:.5f} {columns}, episodes' mean "
                   f"progress {rounds[-1]['mean_progress_m']:.0f} m, {rounds[-1]['wall_s']:.0f} s", flush=True)
+            if args.select or args.focus:
+                rows = evaluate(policy, kwargs, args.tracks)
+                rounds[-1]["selection_score"] = score = selection_score(rows)
+                shares = focus_shares(rows) if args.focus else shares
             if best is not None:
-                rounds[-1]["selection_score"] = score = selection_score(policy, kwargs, args.tracks)
                 best = max(best, (score, r, copy.deepcopy(policy.net.state_dict())), key=lambda b: (b[0], b[1]))
     finally:
         env.close()
@@ -194,10 +246,16 @@ def dagger(policy: Policy, x: np.ndarray, y: np.ndarray, kwargs: dict,
     return x, y, rounds, best[1] if best is not None else None
 
 
-def selection_score(policy: Policy, kwargs: dict, tracks: list[str]) -> tuple[int, float]:
+def selection_score(rows: list[dict]) -> tuple[int, float]:
     """(laps completed, metres driven) in the rollouts from the grid of the training tracks."""
-    rows = evaluate(policy, kwargs, tracks)
     return sum(row["lap_completed"] for row in rows), round(sum(row["progress_m"] for row in rows), 1)
+
+
+def focus_shares(rows: list[dict]) -> dict[str, float]:
+    """--focus: each track's share of the next round's episodes, the part of a lap its rollout from
+    the grid fell short by (at least FOCUS_FLOOR, so that a lapped track keeps a few episodes)."""
+    return {row["track"]: max(FOCUS_FLOOR, 0.0 if row["lap_completed"] else 1.0 - row["progress_m"] / row["lap_m"])
+            for row in rows}
 
 
 def loss_weights(kwargs: dict, steer_weight: float) -> torch.Tensor:
@@ -210,16 +268,15 @@ def evaluate(policy: Policy, kwargs: dict, tracks: list[str]) -> list[dict]:
     """A deterministic lap from the grid (standing start) on each track: progress, end, lap time."""
     rows = []
     for track in tracks:
-        env = gymnasium.make("boxbox/TORCS-v0", **{**kwargs, "track": track, "car": kwargs["car"][0], "teacher": None,
-                                                  "grid_position": None, "opponents": (), "random_start": False,
-                                                  "laps": 1},
-                             max_episode_steps=int(EVAL_S / (DRIVE_STEP_S * kwargs.get("action_repeat", 5))))
+        env = make_env(kwargs, policy.looks_ahead, track=track, teacher=None, grid_position=None, random_start=False,
+                       laps=1, max_episode_steps=int(EVAL_S / (DRIVE_STEP_S * kwargs.get("action_repeat", 5))))
         try:
             result = rollout(policy, env)
         finally:
             env.close()
         rows.append({"track": track, **{k: result[k] for k in ("lap_completed", "lap_time_s", "progress_m",
-                                                               "termination", "episode_steps")}})
+                                                               "termination", "episode_steps")},
+                     "lap_m": round(float(env.unwrapped.track.length_m), 1)})  # type: ignore[attr-defined]
         print(f"rollout on {track}: {result['progress_m']:.0f} m, {result['termination']}, "
               f"lap {result['lap_time_s']} s", flush=True)
     return rows
@@ -245,7 +302,12 @@ def parse_args() -> argparse.Namespace:
     parser.add_argument("--tracks", default=None, help="DAgger's tracks, comma-separated (default: the dataset's)")
     parser.add_argument("--select", action="store_true",
                         help="keep the round whose rollouts on --tracks lap most (then drive furthest)")
+    parser.add_argument("--focus", action="store_true",
+                        help="share each round's episodes among --tracks by how far short of a lap each one's "
+                             "rollout from the grid fell")
     parser.add_argument("--eval-tracks", default=None, help="the rollouts' tracks (default: --tracks)")
+    parser.add_argument("--look-ahead", action="store_true",
+                        help="observe the track's curvature up to 400 m ahead too (learning.LookAhead)")
     args = parser.parse_args()
     for name in ("dataset_steps", "epochs", "hidden", "dagger", "budget", "round_steps", "round_epochs"):
         if getattr(args, name) < 0 or (name == "hidden" and args.hidden < 1):
@@ -263,10 +325,10 @@ def drive_saved(path: Path, tracks: list[str] | None) -> None:
     saved = torch.load(path)
     net = policy_net(saved["obs_size"], saved["act_size"], saved["hidden"])
     net.load_state_dict(saved["state_dict"])
-    env = gymnasium.make("boxbox/TORCS-v0", **{**saved["env"], "track": saved["trained_on"][0],
-                                              "car": saved["env"]["car"][0], "teacher": None, "opponents": ()})
+    env = make_env(saved["env"], saved.get("look_ahead", False), track=saved["trained_on"][0], teacher=None)
     space = env.observation_space  # the same for every track and car (docs/gym.md, Observations)
     env.close()
+    assert isinstance(space, gymnasium.spaces.Dict)
     for row in evaluate(Policy(net, space), saved["env"], tracks or saved["trained_on"]):
         print(json.dumps({**row, "trained_on": row["track"] in saved["trained_on"]}), flush=True)
 
@@ -283,9 +345,10 @@ def main() -> None:
     kwargs = dict(data.spec.env_spec.kwargs)
     args.tracks = args.tracks.split(",") if args.tracks else list(kwargs["track"])
     eval_tracks = args.eval_tracks.split(",") if args.eval_tracks else args.tracks
-    x, y = pairs(data)
-    first = next(data.iterate_episodes()).observations  # laid out as the rollout's flatten lays it
-    assert np.allclose(x[0], gymnasium.spaces.flatten(data.observation_space, {k: v[0] for k, v in first.items()}))
+    ahead = curvatures_of(kwargs, sorted(set(kwargs["track"]))) if args.look_ahead else None
+    space = ahead.observation_space if ahead is not None else data.observation_space
+    assert isinstance(space, gymnasium.spaces.Dict)
+    x, y = pairs(data, space, ahead)
     if args.dataset_steps:
         x, y = x[:args.dataset_steps], y[:args.dataset_steps]  # its first episodes: they go round the tracks
     if len(x) > args.budget:
@@ -293,19 +356,20 @@ def main() -> None:
               "record fewer (boxbox dataset --steps) or raise --budget", file=sys.stderr)
         sys.exit(2)
     print(f"{args.dataset}: {len(x)} observations of {x.shape[1]} numbers, actions of {y.shape[1]}", flush=True)
-    policy = Policy(policy_net(x.shape[1], y.shape[1], args.hidden), data.observation_space)
+    policy = Policy(policy_net(x.shape[1], y.shape[1], args.hidden), space)
     loss, columns = train(policy.net, x, y, args.epochs, loss_weights(kwargs, args.steer_weight))
     dataset_pairs = len(x)
     x, y, rounds, selected = dagger(policy, x, y, kwargs, args) if args.dagger else (x, y, [], None)
     args.out.mkdir(parents=True, exist_ok=True)
     trained_on = sorted(set(kwargs["track"]) | (set(args.tracks) if rounds else set()))
     torch.save({"state_dict": policy.net.state_dict(), "obs_size": x.shape[1], "act_size": y.shape[1],
-                "hidden": args.hidden, "env": kwargs, "trained_on": trained_on}, args.out / "policy.pt")
+                "hidden": args.hidden, "env": kwargs, "trained_on": trained_on, "look_ahead": args.look_ahead},
+               args.out / "policy.pt")
     trained_s = time.perf_counter() - started
     rows = [{**row, "trained_on": row["track"] in trained_on} for row in evaluate(policy, kwargs, eval_tracks)]
     summary = {"dataset": args.dataset, "dataset_pairs": dataset_pairs, "dagger_pairs": len(x) - dataset_pairs,
                "labelled_steps": len(x), "epochs": args.epochs, "hidden": args.hidden,
-               "steer_weight": args.steer_weight, "beta": args.beta, "seed": args.seed,
+               "steer_weight": args.steer_weight, "beta": args.beta, "seed": args.seed, "look_ahead": args.look_ahead,
                "selected_round": selected, "loss": round(rounds[-1]["loss"] if rounds else loss, 6),
                "column_mse": rounds[-1]["column_mse"] if rounds else columns, "train_wall_s": round(trained_s, 1),
                "wall_s": round(time.perf_counter() - started, 1), "tracks_trained_on": trained_on,

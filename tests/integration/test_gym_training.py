@@ -113,7 +113,8 @@ def test_bc_example_trains_from_a_recorded_dataset_then_dagger_labels_its_own_st
     """examples/train_bc.py on 200 steps `boxbox dataset` recorded, then a DAgger round: the round's
     pairs stop at the budget of labelled steps, a round selected, the policy saved (--drive drives it
     again as it drove), a rollout row per track reported; a dataset larger than the budget is refused
-    with one line."""
+    with one line; --look-ahead adds the track's curvature ahead to the observation, and drives again as
+    it drove."""
     env = {"MINARI_DATASETS_PATH": str(tmp_path / "minari")}
     recorded = run_boxbox("dataset", "boxbox/tiny-v0", "--steps", "200", "--noise", "0.1", env=env)
     assert recorded.returncode == 0, recorded.stderr
@@ -143,3 +144,15 @@ def test_bc_example_trains_from_a_recorded_dataset_then_dagger_labels_its_own_st
     over = subprocess.run([*command, "--budget", "100"], capture_output=True, text=True, timeout=120, cwd=tmp_path,
                           env={**os.environ, **env})
     assert over.returncode == 2 and "201 labelled steps, more than --budget 100" in over.stderr, over.stderr
+    # --look-ahead: the track's curvature in 10 windows up to 400 m ahead joins the observation, the data's
+    # from each step's distance along the lap, the rollout's and --drive's from the env's LookAhead wrapper
+    ahead = subprocess.run([*command, "--look-ahead", "--out", str(tmp_path / "ahead"), "--eval-tracks", "g-track-1"],
+                           capture_output=True, text=True, timeout=300, cwd=tmp_path, env={**os.environ, **env})
+    assert ahead.returncode == 0, ahead.stderr
+    looked = torch.load(tmp_path / "ahead" / "policy.pt")
+    assert looked["look_ahead"] and looked["obs_size"] == saved["obs_size"] + 10, looked["obs_size"]
+    row = json.loads((tmp_path / "ahead" / "summary.json").read_text())["rollouts"][0]
+    drive = subprocess.run([*command[:2], "--drive", str(tmp_path / "ahead" / "policy.pt"), "--eval-tracks",
+                            "g-track-1"], capture_output=True, text=True, timeout=120, cwd=tmp_path,
+                           env={**os.environ, **env})
+    assert drive.returncode == 0 and json.loads(drive.stdout.splitlines()[-1]) == row, drive.stderr
