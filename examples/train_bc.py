@@ -14,7 +14,7 @@ with the robot's action for it (info["teacher_action"]), the pairs join the data
 trains on them all again (--round-epochs). With --beta B, round r drives the robot's own action
 instead of the policy's on a fraction B**r of its steps (drawn per step). Every labelled step counts,
 the dataset's and DAgger's, and DAgger stops at --budget of them. DAgger's policies need not get
-better round by round: with --select the one kept is the round's (round 0: the dataset's alone)
+better round by round: with --select the one kept is the round's (before any DAgger pass: the dataset's alone)
 whose rollouts from the grid of --tracks lapped most, then drove furthest.
 
 With --look-ahead the policy also sees the track's curvature up to 400 m ahead of the car (ten
@@ -203,7 +203,7 @@ def dagger(policy: Policy, x: np.ndarray, y: np.ndarray, kwargs: dict,
            args: argparse.Namespace) -> tuple[np.ndarray, np.ndarray, list[dict], int | None]:
     """--dagger rounds of labelling the policy's own states and training on all the pairs, until
     --budget labelled steps in all: the pairs, each round's record and the round selected.  With
-    --select the policy left is the round's (round 0: the dataset's alone) whose rollouts from the
+    --select the policy left is the round's (before any DAgger pass: the dataset's alone) whose rollouts from the
     grid of --tracks lapped most, then drove furthest."""
     env = make_env(kwargs, policy.looks_ahead, track=args.tracks, teacher=kwargs.get("teacher") or "boxbox",
                    grid_position=None, random_start=True)
