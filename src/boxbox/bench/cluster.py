@@ -318,7 +318,7 @@ def race_on_node(job: RaceJob, laps) -> dict:
 
     # a core of this node's own, not the one this worker's process id picks: two workers of one node
     # met on one core by pid while the other stood idle
-    with claimed_core(cache_dir() / "cores") as core:
+    with claimed_core() as core:
         result, error = race_job(job, _node["overlay"], core, send)
     if error:  # a robot named as the user gave it (job.entries: Python robots first), not by this node's copy
         for on_node, given in zip(job.python_specs, job.entries, strict=False):

@@ -15,7 +15,6 @@ import contextlib
 
 import numpy as np
 
-from boxbox.cache import cache_dir
 from boxbox.errors import UsageError
 from boxbox.gym.bench_gym import _actions, make_env, stepped
 from boxbox.torcs.processes import claimed_core
@@ -26,7 +25,7 @@ class EnvOnNode:
 
     def __init__(self, track: str, episode_steps: int, steps: int, seed: int) -> None:
         self.held = contextlib.ExitStack()  # the core, until `run` ends
-        cpu = self.held.enter_context(claimed_core(cache_dir() / "cores"))
+        cpu = self.held.enter_context(claimed_core())
         self.env = make_env(track, episode_steps, cpu=cpu)
         self.actions = _actions(self.env.action_space, min(steps, 10_000), np.random.default_rng(seed))
         self.env.reset(seed=seed)

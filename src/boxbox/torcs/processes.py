@@ -27,6 +27,7 @@ from pathlib import Path
 
 import psutil
 
+from boxbox.cache import cache_dir
 from boxbox.torcs.signals import STOP_SIGNALS
 
 PR_SET_PDEATHSIG = 1
@@ -68,13 +69,15 @@ def pick_cpu() -> int | None:
 
 
 @contextlib.contextmanager
-def claimed_core(lock_dir: Path) -> Iterator[int | None]:
+def claimed_core(lock_dir: Path | None = None) -> Iterator[int | None]:
     """A core that no other race claiming one on this machine holds, held until the block ends (a
-    lock file per core in lock_dir); None when every core is held (the race then takes pick_cpu's).
+    lock file per core in lock_dir, by default the cache's `cores` folder); None when every core is
+    held (the race then takes pick_cpu's).
 
     For races started by processes that know nothing of each other (a Ray node's workers): by
     process id alone two of them met on one core while the other stood idle half the time."""
     cores = sorted(os.sched_getaffinity(0))
+    lock_dir = lock_dir or cache_dir() / "cores"
     lock_dir.mkdir(parents=True, exist_ok=True)
     first = os.getpid() % len(cores)
     for core in cores[first:] + cores[:first]:
