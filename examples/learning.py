@@ -112,8 +112,7 @@ class LookAhead(gymnasium.ObservationWrapper):
 
 class Curve(BaseCallback):
     """A CSV row per training episode (of every env of a vector env) and per deterministic rollout
-    (every `eval_every` env steps and after a training episode that completed the lap); training
-    stops once a rollout laps."""
+    from the grid (every `eval_every` env steps); training stops once a rollout laps."""
 
     COLUMNS = ["steps", "wall_s", "kind", "episode_return", "progress_m", "lap_completed", "termination",
                "lap_time_s"]
@@ -143,18 +142,16 @@ class Curve(BaseCallback):
         infos, rewards, dones = self.locals["infos"], self.locals["rewards"], self.locals["dones"]
         if not self.returns:
             self.returns, self.progress = [0.0] * len(infos), [0.0] * len(infos)
-        lapped = False
         for i, info in enumerate(infos):
             self.returns[i] += float(rewards[i])
             self.progress[i] += info["progress_m"]
             if dones[i]:
-                lapped = lapped or info["termination"] == "race-end"
                 self.write("train", {"episode_return": round(self.returns[i], 1),
                                      "progress_m": round(self.progress[i], 1),
                                      "lap_completed": info["termination"] == "race-end",
                                      "termination": info["termination"] or "time-limit"})
                 self.returns[i] = self.progress[i] = 0.0
-        if lapped or self.num_timesteps >= self.next_eval:
+        if self.num_timesteps >= self.next_eval:
             self.next_eval = self.num_timesteps + self.eval_every
             result = rollout(self.model, self.eval_env)
             self.best_progress_m = max(self.best_progress_m, result["progress_m"])

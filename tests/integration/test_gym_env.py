@@ -99,7 +99,7 @@ def test_a_lap_ends_the_race_episode(overlay):
         if terminated or truncated:
             break
     env.close()
-    assert info["termination"] == "race-end", info
+    assert info["termination"] == "race-end" and truncated and not terminated, info  # the laps ran out: no MDP end
     assert 1800 < total < 2200  # about one lap of 2058 m of progress (from the grid, behind the line)
 
 

@@ -49,7 +49,7 @@ def test_a_python_opponent_that_fails_is_the_race_line(robot, words):
         assert str(failed.value).startswith(f"robot '{FAULTY}:{robot}") and words in str(failed.value), failed.value
         assert "faulty.py" in str(failed.value)  # its traceback, or where it was stuck
         *_, terminated, truncated, info = env.step(np.float32([0.0, 0.3]))  # the race is over, not hung
-        assert terminated and info["termination"] == "race-end"
+        assert truncated and not terminated and info["termination"] == "race-end"
     finally:
         env.close()
     assert processes_mentioning(folder) == []

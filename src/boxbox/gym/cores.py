@@ -126,8 +126,3 @@ def usable_cpus() -> set[int]:
     return os.sched_getaffinity(0)
 
 
-def pick_cpu() -> int:
-    """A core for a new session, by process id: the sessions of one process share one, and the
-    workers of a vector env spread over the cores."""
-    cpus = sorted(os.sched_getaffinity(0))
-    return cpus[os.getpid() % len(cpus)]

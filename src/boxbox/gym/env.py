@@ -50,7 +50,7 @@ from boxbox.gym.spaces import (
     action_space,
 )
 from boxbox.gym.spare import MAX_SPARES
-from boxbox.gym.start import Start, grid_to_start_m
+from boxbox.gym.start import LapCount, Start, grid_to_start_m, lap_count
 from boxbox.gym.teacher import Teacher, teacher_spec
 from boxbox.model import Car, PitOrder, State, Track
 from boxbox.model.skill import SkillLevel
@@ -142,10 +142,12 @@ def checked_step_timeout_s(step_timeout_s: Any) -> float:
 
 
 def step_ends(reason: str | None) -> tuple[bool, bool]:
-    """(terminated, truncated) for why a car's episode ended: a fault (TORCS died or hung) is no
-    state of the MDP, so it truncates (a learner bootstraps from the last observation) where the
-    race's own endings terminate."""
-    return reason is not None and reason != rw.FAULT, reason == rw.FAULT
+    """(terminated, truncated) for why a car's episode ended.  The car's own endings (out, damage,
+    off the track, stuck) terminate.  A fault (TORCS died or hung) is no state of the MDP, and the
+    race's end is only where the laps it was given ran out (the car could drive on): both truncate,
+    so a learner bootstraps from the last observation (terminated at the line, the states before it
+    would be worth only the metres left to it)."""
+    return reason in rw.CAR_ENDINGS, reason in (rw.FAULT, rw.RACE_END)
 
 
 def checked_reward(reward_fn: Any, reward_weights: Any) -> tuple[rw.RewardFn | None, rw.RewardWeights]:
@@ -161,6 +163,7 @@ class TorcsEnv(gymnasium.Env):
     """One car in a TORCS race, driven by the agent; TORCS's robots as opponents."""
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 50.0}  # render_fps: this env's own (action_repeat)
+    lap_count = LapCount()  # the laps as the episode's start counts them (gym/start.py), set at each reset
 
     def __init__(self, track: str = "g-track-1", car: str = "car1-trb1", opponents=(), laps: int = 1, *,
                  action_repeat: int = DEFAULT_ACTION_REPEAT, actions: tuple[str, ...] = DEFAULT_ACTIONS,
@@ -241,7 +244,8 @@ class TorcsEnv(gymnasium.Env):
             upcoming = [o for o in (self._order(e, learn=False) for e in self._stream.peek(self.spares)) if o]
             started = self._start(order, upcoming)
         self.episode, self.cfg = episode, order.cfg
-        self.watch.reset()
+        self.lap_count = lap_count(order.cfg.laps, order.cfg.grid_to_start_m)
+        self.watch.reset(self.lap_count)
         self.state, self.steer = started.state, 0.0
         self.vector = self._vector(started.state)
         info = self._reset_info(order, started)
@@ -398,7 +402,7 @@ class TorcsEnv(gymnasium.Env):
         ranges, sectors = self.edges.ranges(s), opponent_sectors(s)
         if self.sensor_noise:
             ranges, sectors = add_scr_noise(self.np_random, ranges, sectors)
-        return self.observer.vector(s, ranges, sectors)
+        return self.observer.vector(self.lap_count.observed(s), ranges, sectors)
 
     def _controls(self, s: State, steer: float, throttle: float, brake: float, clutch: float,
                   gear: int) -> tuple[tuple, bool]:

@@ -13,7 +13,8 @@ every car `action_repeat` drive steps: the session (gym/multisession.py) answers
 calls of a simulation step together.  A car whose episode ends leaves `agents`; TORCS keeps it in
 the race, braking, while the others go on.  When the race ends every car left ends with it;
 `max_episode_steps` truncates every car left.  A seeded reset starts the grid anywhere along the lap
-(car_0 at the drawn point) and drives each car's own launch (gym/start.py), as the single env does.
+(car_0 at the drawn point) and drives each car's own launch (gym/start.py), as the single env does,
+and counts the laps as the grid's race (gym/start.py's LapCount).
 """
 
 from __future__ import annotations
@@ -49,7 +50,7 @@ from boxbox.gym.race import STEP_TIMEOUT_S_DEFAULT, TorcsGone
 from boxbox.gym.render import CAR_COLOURS, check_render_mode, render_fps
 from boxbox.gym.sensors import SCR_TRACK_ANGLES_DEG, TrackEdges, opponent_sectors
 from boxbox.gym.spaces import DEFAULT_ACTIONS, ActionReader, ObservationLayout, Observer, RaceScale, action_space
-from boxbox.gym.start import GRID_START, Start, draw_start, grid_to_start_m
+from boxbox.gym.start import GRID_START, LapCount, Start, draw_start, grid_to_start_m, lap_count
 from boxbox.model import Car, State, Track
 from boxbox.model.skill import SkillLevel
 from boxbox.torcs import catalog, setup
@@ -159,6 +160,7 @@ class TorcsParallelEnv(ParallelEnv):
         self.racers: dict[str, Racer] = {}
         self.np_random: np.random.Generator | None = None  # seeded by reset(seed=...), as Gymnasium's envs
         self.length_m: float | None = None  # the track's, from its first race (a start along it needs it)
+        self.lap_count = LapCount()  # the laps as the race's start counts them (gym/start.py)
         self.steps = 0  # env steps of the episode (max_episode_steps)
         self.colour_of: dict[int, tuple[int, int, int]] = {}  # TORCS car index -> colour
 
@@ -185,7 +187,7 @@ class TorcsParallelEnv(ParallelEnv):
         self.agents = list(self.possible_agents)
         self.steps = 0
         for racer in self.racers.values():
-            racer.watch.reset()
+            racer.watch.reset(self.lap_count)
         obs = {name: self._observation(name) for name in self.agents}
         return obs, {name: self._info(name, {"start": self.racers[name].start}) for name in self.agents}
 
@@ -247,6 +249,7 @@ class TorcsParallelEnv(ParallelEnv):
             cfg = replace(cfg, grid_to_start_m=grid_to_start_m(starts[0].fraction, self.length_m, 0,
                                                                len(cfg.robots) + len(cfg.opponents)))
         self._start_race(cfg)
+        self.lap_count = lap_count(cfg.laps, cfg.grid_to_start_m)
         for racer, start in zip(self.racers.values(), starts, strict=True):
             racer.start = start
         self._launch(max(start.launch_steps for start in starts))
@@ -354,7 +357,7 @@ class TorcsParallelEnv(ParallelEnv):
             image = self.drawing.observation(s, racer.car, steer=racer.action[0])
         if self.look.numbers:
             assert self.edges is not None
-            racer.vector = self.observer.vector(s, self.edges.ranges(s), opponent_sectors(s))
+            racer.vector = self.observer.vector(self.lap_count.observed(s), self.edges.ranges(s), opponent_sectors(s))
             numbers = self.observer.observation(racer.vector)
         return self.look.observation(image, numbers)
 

@@ -19,6 +19,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from boxbox import validate
+from boxbox.gym.start import LapCount
 from boxbox.model import State
 from boxbox.model.constants import DRIVE_STEP_S
 from boxbox.model.state import CAR_STATE_DNF, CAR_STATE_FINISH
@@ -28,6 +29,7 @@ STUCK_SPEED_MPS = 1.0  # slower than this counts as stuck
 
 # termination reasons (info["termination"])
 RACE_END, OUT, DAMAGE, OFF_TRACK, STUCK, FAULT = "race-end", "out", "damage", "off-track", "stuck", "fault"
+CAR_ENDINGS = (OUT, DAMAGE, OFF_TRACK, STUCK)  # what the car did: these terminate, the others truncate
 
 
 @dataclass(frozen=True)
@@ -87,15 +89,17 @@ class Watch:
         self.off_steps_max = _steps(limits.off_track_s)
         self.stuck_steps_max = _steps(limits.stuck_s)
         self.off_steps = self.stuck_steps = 0
+        self.lap_count = LapCount()
 
-    def reset(self) -> None:
+    def reset(self, lap_count: LapCount = LapCount()) -> None:  # noqa: B008 (frozen: one shared value is safe)
         self.off_steps = self.stuck_steps = 0
+        self.lap_count = lap_count
 
     def update(self, s: State, excused: bool = False) -> str | None:
         """The reason to end the episode after this drive step, or None.  `excused`: the env drives
         (a pit stop), the car may be in the pit lane or stand still."""
         state = int(s.car_state)
-        if state & CAR_STATE_FINISH:
+        if state & CAR_STATE_FINISH or self.lap_count.over(s):
             return RACE_END
         if state & CAR_STATE_DNF:
             return OUT

@@ -308,7 +308,7 @@ class ScrServer:
             race.focus_deg = action.focus_deg
             obs, _, terminated, truncated, info = self.env.step(action.vector())
             race.dist_raced_m += info["progress_m"]
-            if terminated or truncated:  # truncated: TORCS failed (a fault)
+            if terminated or truncated:  # truncated: the race's end or a fault
                 self.log(f"race over ({info['termination']}" + (f": {info['fault']})" if info["fault"] else ")"))
                 self._send(SHUTDOWN)
                 self.client = None

@@ -13,7 +13,7 @@ import weakref
 from collections.abc import Sequence
 from pathlib import Path
 
-from boxbox.gym.cores import CoreFollow, CorePin, IdleShares, pick_cpu, spare_core, usable_cpus
+from boxbox.gym.cores import CoreFollow, CorePin, IdleShares, spare_core, usable_cpus
 from boxbox.gym.race import (
     FOLDER_PREFIX,
     STEP_TIMEOUT_S_DEFAULT,
@@ -26,6 +26,7 @@ from boxbox.gym.race import (
 )
 from boxbox.model import PitOrder, State
 from boxbox.torcs.launch import remove_stale_sockets, socket_root
+from boxbox.torcs.processes import pick_cpu
 from boxbox.torcs.setup import Overlay
 
 

@@ -10,6 +10,10 @@ braked away during the start countdown: 10 m/s there left the car at rest at 0 s
 so the speed and heading perturbation is a launch: the first drive steps, with a drawn throttle and
 steering, driven in the race's set-up (gym/race.py: a spare race drives them ahead, while the last
 episode runs), and the episode begins after them.
+
+A start along the lap is a point of the race from the grid (`LapCount`): TORCS counts a car on lap 0
+until it first crosses the start line, so a car put down along the lap would be seen on lap 0 where
+the grid's car is on lap 1, and would race a lap more.
 """
 
 from __future__ import annotations
@@ -18,6 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from boxbox.model import State
 from boxbox.torcs.racefile import GRID_TO_START_M, grid_offset_m
 
 # drive steps: up to 1 s; car1-trb1 from rest at full throttle makes 1.6 m/s in 0.5 s, 4.2 m/s in 1 s
@@ -60,3 +65,30 @@ def grid_to_start_m(fraction: float | None, length_m: float, slot_index: int, ca
         return GRID_TO_START_M
     at_m = low + fraction * (high - low)
     return length_m - at_m - ours
+
+
+@dataclass(frozen=True)
+class LapCount:
+    """The laps as the env counts them.  From the grid, TORCS's own.  From a start along the lap
+    (`along`), the car is on lap 1 until it first crosses the line (TORCS says 0) and its race is
+    over at the line that ends its `laps`-th lap (TORCS's a lap later): every start is a point of
+    the grid's race.  Counted as TORCS counts, PPO's deterministic lap from the grid (lap 1 from the
+    line on) met states it had rarely trained in, starts along the lap being on lap 0 until the line
+    (docs/gym.md, Varied episodes)."""
+
+    laps: int = 1
+    along: bool = False
+
+    def observed(self, s: State) -> State:
+        """The state as the env observes it (the lap)."""
+        return s._replace(laps=s.laps + 1.0) if self.along else s
+
+    def over(self, s: State) -> bool:
+        """The race is over for the car at this state as the env counts (TORCS's own end aside)."""
+        return self.along and s.laps >= self.laps
+
+
+def lap_count(laps: int, grid_to_start_m: float) -> LapCount:
+    """The count for a race of `laps` whose grid the race file puts `grid_to_start_m` behind the
+    line (moved from the grid's own place: a start along the lap)."""
+    return LapCount(laps, grid_to_start_m != GRID_TO_START_M)

@@ -62,10 +62,11 @@ def host_address_space(memory_limit_gib: float | None) -> int | None:
     return psutil.Process().memory_info().vms + int(memory_limit_gib * 2**30)
 
 
-def pick_cpu() -> int | None:
-    """A core for a race by the launcher's process id (the workers of one pool spread over the cores)."""
-    cpus = sorted(os.sched_getaffinity(0))
-    return cpus[os.getpid() % len(cpus)] if cpus else None
+def pick_cpu() -> int:
+    """A core for a race by the launcher's process id: the workers of one pool (of a vector env)
+    spread over the cores, and the sessions of one process share one."""
+    cpus = sorted(os.sched_getaffinity(0))  # never empty: the process runs somewhere
+    return cpus[os.getpid() % len(cpus)]
 
 
 @contextlib.contextmanager

@@ -8,7 +8,7 @@ import pytest
 
 from boxbox.errors import UsageError
 from boxbox.gym import reward as rw
-from boxbox.gym.env import DEFAULT_ACTION_REPEAT, TorcsEnv
+from boxbox.gym.env import DEFAULT_ACTION_REPEAT, TorcsEnv, step_ends
 from boxbox.gym.spaces import (
     DEFAULT_ACTIONS,
     ActionReader,
@@ -18,7 +18,7 @@ from boxbox.gym.spaces import (
     action_space,
     pedal_split,
 )
-from boxbox.gym.start import EDGE_MARGIN_M, LAUNCH_MAX_STEPS, draw_start, grid_to_start_m
+from boxbox.gym.start import EDGE_MARGIN_M, LAUNCH_MAX_STEPS, LapCount, draw_start, grid_to_start_m, lap_count
 from boxbox.model import State
 from boxbox.model.constants import DRIVE_STEP_S
 from boxbox.torcs.racefile import GRID_TO_START_M, grid_offset_m
@@ -100,6 +100,35 @@ def test_the_off_track_cost_does_not_make_standing_still_optimal():
     assert sum(rw.default_reward(on, off, 0.0, raw) for _ in range(spell_steps)) == pytest.approx(-100.0)
     assert rw.default_reward(on, off, per_drive_step_m, raw) == pytest.approx(0.4 - 1.0)
     assert rw.default_reward(on, off, 0.4, w, excused=True) == pytest.approx(0.4)  # the pit lane, driven by the env
+
+
+def test_the_car_s_own_endings_terminate_and_the_race_s_end_truncates():
+    """A learner bootstraps past the line: the race's end (its laps ran out) and a fault are no
+    state of the car, so they truncate; what the car did terminates; a step that ends nothing, neither."""
+    for reason in (rw.OUT, rw.DAMAGE, rw.OFF_TRACK, rw.STUCK):
+        assert step_ends(reason) == (True, False), reason
+    for reason in (rw.RACE_END, rw.FAULT):
+        assert step_ends(reason) == (False, True), reason
+    assert step_ends(None) == (False, False)
+
+
+def test_a_start_along_the_lap_counts_the_laps_as_the_grid_s_race_does():
+    """TORCS says lap 0 until the line for a car put down along the lap: the env observes it on lap 1
+    (as the grid's car is there) and ends its race (truncated) at the line that ends its last lap."""
+    assert lap_count(2, GRID_TO_START_M) == LapCount(2, along=False)
+    along = lap_count(2, GRID_TO_START_M + 700.0)
+    assert along == LapCount(2, along=True)
+    before_line, after_line = S0._replace(laps=0.0), S0._replace(laps=1.0)
+    assert along.observed(before_line).laps == 1.0 and along.observed(after_line).laps == 2.0
+    assert LapCount(2).observed(before_line) is before_line  # the grid: TORCS's own count
+    assert not along.over(after_line) and along.over(S0._replace(laps=2.0))
+    assert not LapCount(2).over(S0._replace(laps=2.0))  # the grid: TORCS's own end (its finish flag)
+    watch = rw.Watch(rw.Limits())
+    watch.reset(LapCount(1, along=True))
+    moving = S0._replace(sim_time_s=1.0, to_left_m=3.0, to_right_m=4.0, speed_x_mps=20.0)
+    assert watch.update(moving) is None and watch.update(moving._replace(laps=1.0)) == rw.RACE_END
+    watch.reset()
+    assert watch.update(moving._replace(laps=1.0)) is None
 
 
 def test_a_start_along_the_lap_keeps_every_car_of_the_grid_on_the_track():
