@@ -38,9 +38,10 @@ def rollout(model: Predicts, env: gymnasium.Env) -> dict:
         episode_return, progress_m, steps = episode_return + float(reward), progress_m + info["progress_m"], steps + 1
         done = terminated or truncated
     lap = info["termination"] == "race-end"
+    lap_time_s = info["state"].last_lap_time_s  # 0 where TORCS ended the race before it sent the state past the line
     return {"lap_completed": lap, "episode_return": round(episode_return, 1), "progress_m": round(progress_m, 1),
             "termination": info["termination"] or "time-limit", "episode_steps": steps,
-            "lap_time_s": round(info["state"].last_lap_time_s, 3) if lap else None}
+            "lap_time_s": round(lap_time_s, 3) if lap and lap_time_s > 0 else None}
 
 
 def curvature_by_metre(track: Any) -> np.ndarray:
