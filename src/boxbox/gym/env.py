@@ -402,7 +402,7 @@ class TorcsEnv(gymnasium.Env):
         ranges, sectors = self.edges.ranges(s), opponent_sectors(s)
         if self.sensor_noise:
             ranges, sectors = add_scr_noise(self.np_random, ranges, sectors)
-        return self.observer.vector(self.lap_count.observed(s), ranges, sectors)
+        return self.observer.vector(s, ranges, sectors, self.lap_count.added)  # the lap as the grid's race counts
 
     def _controls(self, s: State, steer: float, throttle: float, brake: float, clutch: float,
                   gear: int) -> tuple[tuple, bool]:

@@ -357,7 +357,7 @@ class TorcsParallelEnv(ParallelEnv):
             image = self.drawing.observation(s, racer.car, steer=racer.action[0])
         if self.look.numbers:
             assert self.edges is not None
-            racer.vector = self.observer.vector(self.lap_count.observed(s), self.edges.ranges(s), opponent_sectors(s))
+            racer.vector = self.observer.vector(s, self.edges.ranges(s), opponent_sectors(s), self.lap_count.added)
             numbers = self.observer.observation(racer.vector)
         return self.look.observation(image, numbers)
 

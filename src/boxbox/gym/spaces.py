@@ -236,14 +236,17 @@ class Observer:
                                   [sl[o.name].start for o in computed])
         sensors = {o.sensor: sl[o.name] for o in OBSERVATIONS.values() if o.sensor}
         self.edges, self.opponents = sensors["edges"], sensors["opponents"]
+        self.lap_at = sl["lap"].start
         self.items = list(sl.items())
         space = layout.flat_space()
         self.low, self.high = space.low, space.high
         self.scaler = Scaler(layout) if scaled else None
 
-    def vector(self, s: State, edges: np.ndarray, opponents: np.ndarray) -> np.ndarray:
+    def vector(self, s: State, edges: np.ndarray, opponents: np.ndarray, laps_added: float = 0.0) -> np.ndarray:
+        """The observation in its units; `laps_added` to TORCS's lap (a start along the lap: gym/start.py)."""
         out = np.empty(self.size, dtype=np.float32)
         out[self.scalar_at] = self.read_state(s) + tuple([compute(s) for compute in self.computes])
+        out[self.lap_at] += laps_added
         out[self.edges] = edges
         out[self.opponents] = opponents
         np.minimum(out, self.high, out=out)  # np.clip's wrapper costs 3 us more a step than the two ufuncs

@@ -79,9 +79,10 @@ class LapCount:
     laps: int = 1
     along: bool = False
 
-    def observed(self, s: State) -> State:
-        """The state as the env observes it (the lap)."""
-        return s._replace(laps=s.laps + 1.0) if self.along else s
+    @property
+    def added(self) -> float:
+        """The laps the env's count adds to TORCS's (the `lap` observation's)."""
+        return 1.0 if self.along else 0.0
 
     def over(self, s: State) -> bool:
         """The race is over for the car at this state as the env counts (TORCS's own end aside)."""
