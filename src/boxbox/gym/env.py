@@ -50,7 +50,7 @@ from boxbox.gym.spaces import (
     action_space,
 )
 from boxbox.gym.spare import MAX_SPARES
-from boxbox.gym.start import LapCount, Start, grid_to_start_m, lap_count
+from boxbox.gym.start import Start, grid_to_start_m, lap_count
 from boxbox.gym.teacher import Teacher, teacher_spec
 from boxbox.model import Car, PitOrder, State, Track
 from boxbox.model.skill import SkillLevel
@@ -163,7 +163,6 @@ class TorcsEnv(gymnasium.Env):
     """One car in a TORCS race, driven by the agent; TORCS's robots as opponents."""
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 50.0}  # render_fps: this env's own (action_repeat)
-    lap_count = LapCount()  # the laps as the episode's start counts them (gym/start.py), set at each reset
 
     def __init__(self, track: str = "g-track-1", car: str = "car1-trb1", opponents=(), laps: int = 1, *,
                  action_repeat: int = DEFAULT_ACTION_REPEAT, actions: tuple[str, ...] = DEFAULT_ACTIONS,
@@ -244,8 +243,7 @@ class TorcsEnv(gymnasium.Env):
             upcoming = [o for o in (self._order(e, learn=False) for e in self._stream.peek(self.spares)) if o]
             started = self._start(order, upcoming)
         self.episode, self.cfg = episode, order.cfg
-        self.lap_count = lap_count(order.cfg.laps, order.cfg.grid_to_start_m)
-        self.watch.reset(self.lap_count)
+        self.watch.reset(lap_count(order.cfg.laps, order.cfg.grid_to_start_m))  # as the start counts (gym/start.py)
         self.state, self.steer = started.state, 0.0
         self.vector = self._vector(started.state)
         info = self._reset_info(order, started)
@@ -402,7 +400,7 @@ class TorcsEnv(gymnasium.Env):
         ranges, sectors = self.edges.ranges(s), opponent_sectors(s)
         if self.sensor_noise:
             ranges, sectors = add_scr_noise(self.np_random, ranges, sectors)
-        return self.observer.vector(s, ranges, sectors, self.lap_count.added)  # the lap as the grid's race counts
+        return self.observer.vector(s, ranges, sectors, self.watch.lap_count.added)  # as the grid's race counts
 
     def _controls(self, s: State, steer: float, throttle: float, brake: float, clutch: float,
                   gear: int) -> tuple[tuple, bool]:

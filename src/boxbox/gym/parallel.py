@@ -160,7 +160,6 @@ class TorcsParallelEnv(ParallelEnv):
         self.racers: dict[str, Racer] = {}
         self.np_random: np.random.Generator | None = None  # seeded by reset(seed=...), as Gymnasium's envs
         self.length_m: float | None = None  # the track's, from its first race (a start along it needs it)
-        self.lap_count = LapCount()  # the laps as the race's start counts them (gym/start.py)
         self.steps = 0  # env steps of the episode (max_episode_steps)
         self.colour_of: dict[int, tuple[int, int, int]] = {}  # TORCS car index -> colour
 
@@ -183,11 +182,11 @@ class TorcsParallelEnv(ParallelEnv):
             self.session = MultiSession(self.cfg, setup.ensure_ready(), cpu=self.cpu,
                                         initial_fuel_l=self.initial_fuel_l, step_timeout_s=self.step_timeout_s)
         with self.session.pin:
-            self._start(starts)
+            laps = self._start(starts)
         self.agents = list(self.possible_agents)
         self.steps = 0
         for racer in self.racers.values():
-            racer.watch.reset(self.lap_count)
+            racer.watch.reset(laps)  # the laps as the race's start counts them (gym/start.py)
         obs = {name: self._observation(name) for name in self.agents}
         return obs, {name: self._info(name, {"start": self.racers[name].start}) for name in self.agents}
 
@@ -238,9 +237,9 @@ class TorcsParallelEnv(ParallelEnv):
         return self.session.pid if self.session is not None else None
 
     # --- pieces --------------------------------------------------------------------------------
-    def _start(self, starts: list[Start]) -> None:
+    def _start(self, starts: list[Start]) -> LapCount:
         """The race with the grid where car_0's start puts it (a track not raced yet raced once on
-        its grid first, to learn its length), then each car's launch."""
+        its grid first, to learn its length), then each car's launch; the laps as that start counts them."""
         cfg = self.cfg
         if starts[0].fraction is not None and not catalog.track_sets_grid(cfg.track):
             if self.length_m is None:
@@ -249,10 +248,10 @@ class TorcsParallelEnv(ParallelEnv):
             cfg = replace(cfg, grid_to_start_m=grid_to_start_m(starts[0].fraction, self.length_m, 0,
                                                                len(cfg.robots) + len(cfg.opponents)))
         self._start_race(cfg)
-        self.lap_count = lap_count(cfg.laps, cfg.grid_to_start_m)
         for racer, start in zip(self.racers.values(), starts, strict=True):
             racer.start = start
         self._launch(max(start.launch_steps for start in starts))
+        return lap_count(cfg.laps, cfg.grid_to_start_m)
 
     def _start_race(self, cfg: RaceConfig) -> None:
         """A fresh race past TORCS's start countdown: its racers at their first states."""
@@ -357,7 +356,8 @@ class TorcsParallelEnv(ParallelEnv):
             image = self.drawing.observation(s, racer.car, steer=racer.action[0])
         if self.look.numbers:
             assert self.edges is not None
-            racer.vector = self.observer.vector(s, self.edges.ranges(s), opponent_sectors(s), self.lap_count.added)
+            racer.vector = self.observer.vector(s, self.edges.ranges(s), opponent_sectors(s),
+                                                racer.watch.lap_count.added)
             numbers = self.observer.observation(racer.vector)
         return self.look.observation(image, numbers)
 

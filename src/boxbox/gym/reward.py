@@ -89,7 +89,7 @@ class Watch:
         self.off_steps_max = _steps(limits.off_track_s)
         self.stuck_steps_max = _steps(limits.stuck_s)
         self.off_steps = self.stuck_steps = 0
-        self.lap_count = LapCount()
+        self.lap_count = LapCount()  # the episode's, from reset(): its race's end and the lap observed
 
     def reset(self, lap_count: LapCount = LapCount()) -> None:  # noqa: B008 (frozen: one shared value is safe)
         self.off_steps = self.stuck_steps = 0
